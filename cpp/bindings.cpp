@@ -1,0 +1,190 @@
+// Python bindings (the only file that includes pybind11): argument checks, GIL release, and
+// zero-copy hand-over of framebuffers to NumPy.
+#include "framebuffer.hpp"
+#include "pipeline.hpp"
+#include "renderer.hpp"
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <cstring>
+#include <string>
+
+namespace py = pybind11;
+using namespace pybind11::literals;
+
+namespace sr {
+namespace {
+
+static_assert(sizeof(vec3) == 3 * sizeof(float) && sizeof(ivec3) == 3 * sizeof(int32_t) &&
+              sizeof(vec4) == 4 * sizeof(float) && sizeof(vec2) == 2 * sizeof(float),
+              "GLM vectors must be tightly packed to be filled from NumPy rows");
+
+// Copies a (n, cols) array of exactly dtype T into a vector of V (V = cols packed T's).
+template <typename T, typename V>
+std::vector<V> rows_from_array(const py::handle& obj, const char* name, int cols) {
+  const std::string arg(name);
+  if (!py::isinstance<py::array>(obj)) throw py::type_error(arg + " must be a numpy array");
+  auto arr = py::reinterpret_borrow<py::array>(obj);
+  if (!arr.dtype().is(py::dtype::of<T>()))
+    throw py::type_error(arg + " must have dtype " + std::string(py::str(py::dtype::of<T>())) +
+                         ", got " + std::string(py::str(arr.dtype())));
+  if (arr.ndim() != 2 || arr.shape(1) != cols)
+    throw py::value_error(arg + " must have shape (n, " + std::to_string(cols) + ")");
+  auto contiguous = py::array_t<T, py::array::c_style>::ensure(arr);
+  std::vector<V> out(std::size_t(arr.shape(0)));
+  if (!out.empty()) std::memcpy(out.data(), contiguous.data(), out.size() * sizeof(V));
+  return out;
+}
+
+dmat4 matrix_from_array(const py::handle& obj, const std::string& name) {
+  if (!py::isinstance<py::array>(obj)) throw py::type_error(name + " must be a numpy array");
+  auto arr = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
+  if (!arr || arr.ndim() != 2 || arr.shape(0) != 4 || arr.shape(1) != 4)
+    throw py::value_error(name + " must be a (4, 4) float64 array");
+  dmat4 m;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) m[c][r] = arr.at(r, c);  // GLM is column-major
+  return m;
+}
+
+std::shared_ptr<MeshData> make_mesh(const py::handle& positions, const py::handle& faces,
+                                    const py::handle& normals, const py::handle& colors,
+                                    const py::handle& uvs) {
+  auto mesh = std::make_shared<MeshData>();
+  mesh->positions = rows_from_array<float, vec3>(positions, "positions", 3);
+  mesh->faces = rows_from_array<int32_t, ivec3>(faces, "faces", 3);
+  if (!normals.is_none()) mesh->normals = rows_from_array<float, vec3>(normals, "normals", 3);
+  if (!colors.is_none()) mesh->colors = rows_from_array<float, vec4>(colors, "colors", 4);
+  if (!uvs.is_none()) mesh->uvs = rows_from_array<float, vec2>(uvs, "uvs", 2);
+  mesh->validate();
+  return mesh;
+}
+
+uint32_t parse_outputs(const std::vector<std::string>& names) {
+  uint32_t bits = 0;
+  for (const std::string& name : names) {
+    int found = -1;
+    for (int i = 0; i < kNumOutputs; ++i)
+      if (name == kOutputLayouts[i].name) found = i;
+    if (found < 0) {
+      std::string known;
+      for (const OutputLayout& l : kOutputLayouts) known += std::string(known.empty() ? "" : ", ") + l.name;
+      throw py::value_error("outputs: unknown output '" + name + "' (known: " + known + ")");
+    }
+    bits |= kOutputLayouts[found].bit;
+  }
+  if (bits == 0) throw py::value_error("outputs: request at least one output");
+  return bits;
+}
+
+Cull parse_cull(const std::string& s) {
+  if (s == "none") return Cull::None;
+  if (s == "back") return Cull::Back;
+  if (s == "front") return Cull::Front;
+  throw py::value_error("cull must be 'none', 'back' or 'front', got '" + s + "'");
+}
+
+Shading parse_shading(const std::string& s) {
+  if (s == "lambert") return Shading::Lambert;
+  if (s == "unlit") return Shading::Unlit;
+  throw py::value_error("shading must be 'lambert' or 'unlit', got '" + s + "'");
+}
+
+// Wraps one framebuffer output as a NumPy array that owns it (via a capsule): no copy.
+py::array hand_over(Framebuffer& fb, int index) {
+  const OutputLayout& layout = kOutputLayouts[index];
+  std::byte* data = fb.release(index);
+  py::capsule owner(data, [](void* p) { delete[] static_cast<std::byte*>(p); });
+  py::dtype dtype;
+  switch (layout.bit) {
+    case kOutColor: dtype = py::dtype::of<uint8_t>(); break;
+    case kOutMask: dtype = py::dtype::of<bool>(); break;
+    case kOutTriangleId:
+    case kOutInstanceId: dtype = py::dtype::of<int32_t>(); break;
+    case kOutCoverage: dtype = py::dtype::of<uint32_t>(); break;
+    default: dtype = py::dtype::of<float>(); break;
+  }
+  std::vector<py::ssize_t> shape = {fb.height, fb.width};
+  if (layout.channels > 1) shape.push_back(layout.channels);
+  return py::array(dtype, shape, {}, data, owner);
+}
+
+py::dict render(Renderer& self, const py::sequence& draws_in, const py::handle& view,
+                const py::handle& proj, bool orthographic, double near, double far,
+                const std::vector<std::string>& outputs, const std::string& cull,
+                const std::string& shading, const std::array<float, 3>& background,
+                float ambient) {
+  std::vector<Draw> draws;
+  for (std::size_t d = 0; d < py::len(draws_in); ++d) {
+    const std::string where = "draws[" + std::to_string(d) + "]";
+    auto item = py::reinterpret_borrow<py::tuple>(draws_in[d]);
+    if (py::len(item) != 4) throw py::value_error(where + " must be (mesh, model, instance_id, rgba)");
+    Draw draw;
+    draw.mesh = item[0].cast<std::shared_ptr<MeshData>>();
+    draw.model = matrix_from_array(item[1], where + " pose");
+    draw.instance_id = item[2].cast<int32_t>();
+    const auto rgba = item[3].cast<std::array<float, 4>>();
+    draw.color = vec4(rgba[0], rgba[1], rgba[2], rgba[3]);
+    draws.push_back(std::move(draw));
+  }
+  CameraParams camera;
+  camera.view = matrix_from_array(view, "view");
+  camera.proj = matrix_from_array(proj, "proj");
+  camera.orthographic = orthographic;
+  camera.near = near;
+  camera.far = far;
+  RenderOptions options;
+  options.outputs = parse_outputs(outputs);
+  options.cull = parse_cull(cull);
+  options.shading = parse_shading(shading);
+  for (int c = 0; c < 3; ++c) {
+    if (!(background[c] >= 0.0f && background[c] <= 1.0f))
+      throw py::value_error("background components must be in [0, 1]");
+    options.background[c] = background[c];
+  }
+  options.ambient = ambient;
+
+  std::unique_ptr<Framebuffer> fb;
+  {
+    py::gil_scoped_release release;  // Python threads may render concurrently
+    fb = self.render(draws, camera, options);
+  }
+  py::dict result;
+  for (int i = 0; i < kNumOutputs; ++i)
+    if (options.outputs & kOutputLayouts[i].bit) result[kOutputLayouts[i].name] = hand_over(*fb, i);
+  return result;
+}
+
+}  // namespace
+}  // namespace sr
+
+PYBIND11_MODULE(_core, m) {
+  using namespace sr;
+  m.doc() = "softrast's C++ core (private: use the softrast package).";
+  m.attr("SUBPIXEL_BITS") = kSubpixelBits;
+  m.attr("TILE_SIZE_PX") = kTileSizePx;
+  m.attr("MAX_IMAGE_SIDE") = kMaxImageSide;
+  m.attr("MAX_FRAMEBUFFER_BYTES") = py::int_(kMaxFramebufferBytes);
+  py::tuple names(kNumOutputs);
+  for (int i = 0; i < kNumOutputs; ++i) names[i] = kOutputLayouts[i].name;
+  m.attr("OUTPUTS") = names;
+
+  py::class_<MeshData, std::shared_ptr<MeshData>>(m, "MeshData")
+      .def(py::init(&make_mesh), "positions"_a, "faces"_a, "normals"_a = py::none(),
+           "colors"_a = py::none(), "uvs"_a = py::none(),
+           "Copies and validates (n,3) float32 positions, (m,3) int32 faces and optional "
+           "(n,3) float32 normals, (n,4) float32 colors, (n,2) float32 uvs.")
+      .def_property_readonly("num_vertices", [](const MeshData& m) { return m.positions.size(); })
+      .def_property_readonly("num_faces", [](const MeshData& m) { return m.faces.size(); });
+
+  py::class_<Renderer>(m, "Renderer")
+      .def(py::init<int, int, int>(), "width"_a, "height"_a, "threads"_a = 0)
+      .def_property_readonly("width", &Renderer::width)
+      .def_property_readonly("height", &Renderer::height)
+      .def_property_readonly("threads", &Renderer::threads)
+      .def("render", &render, "draws"_a, "view"_a, "proj"_a, "orthographic"_a, "near"_a, "far"_a,
+           "outputs"_a, "cull"_a = "back", "shading"_a = "lambert",
+           "background"_a = std::array<float, 3>{0.0f, 0.0f, 0.0f}, "ambient"_a = 0.25f);
+}

@@ -1,0 +1,70 @@
+// Clip stage: Sutherland-Hodgman in homogeneous clip space.
+#include "clip.hpp"
+
+#include <tuple>
+#include <utility>
+
+namespace sr {
+
+ClipPlanes::ClipPlanes(const CameraParams& camera, int width, int height)
+    : near(camera.near),
+      far(camera.far),
+      ndc_x_min(-2.0 * kGuardBandPx / width - 1.0),
+      ndc_x_max(2.0 * kGuardBandPx / width - 1.0),
+      ndc_y_min(1.0 - 2.0 * kGuardBandPx / height),
+      ndc_y_max(1.0 + 2.0 * kGuardBandPx / height) {}
+
+namespace {
+
+bool precedes(const ClipPoint& a, const ClipPoint& b) {
+  return std::tie(a.p_clip.x, a.p_clip.y, a.p_clip.z, a.p_clip.w, a.depth_view) <
+         std::tie(b.p_clip.x, b.p_clip.y, b.p_clip.z, b.p_clip.w, b.depth_view);
+}
+
+// Point where the segment a-b crosses the plane (da, db: signed distances of a and b).
+ClipPoint intersect(const ClipPoint& a_in, const ClipPoint& b_in, double da_in, double db_in) {
+  const bool swap = precedes(b_in, a_in);  // canonical order => same bits from either triangle
+  const ClipPoint& a = swap ? b_in : a_in;
+  const ClipPoint& b = swap ? a_in : b_in;
+  const double da = swap ? db_in : da_in;
+  const double db = swap ? da_in : db_in;
+  const double t = da / (da - db);
+  auto lerp = [t](double u, double v) { return float(u + t * (v - u)); };
+  ClipPoint p;
+  for (int k = 0; k < 4; ++k) p.p_clip[k] = lerp(a.p_clip[k], b.p_clip[k]);
+  p.depth_view = lerp(a.depth_view, b.depth_view);
+  for (int k = 0; k < 3; ++k) p.bary_source[k] = lerp(a.bary_source[k], b.bary_source[k]);
+  return p;
+}
+
+}  // namespace
+
+int clip_triangle(const ClipPoint in[3], uint8_t planes_mask, const ClipPlanes& planes,
+                  ClipPoint out[kMaxClipPoints]) {
+  ClipPoint buffer[2][kMaxClipPoints];
+  ClipPoint* poly = buffer[0];
+  ClipPoint* next = buffer[1];
+  int n = 3;
+  for (int k = 0; k < 3; ++k) poly[k] = in[k];
+
+  for (int plane = 0; plane < kNumClipPlanes && n > 0; ++plane) {
+    if (!(planes_mask & (1u << plane))) continue;
+    int m = 0;
+    for (int i = 0; i < n; ++i) {
+      const ClipPoint& cur = poly[i];
+      const ClipPoint& nxt = poly[(i + 1) % n];
+      const double d_cur = planes.distance(plane, cur.p_clip, cur.depth_view);
+      const double d_nxt = planes.distance(plane, nxt.p_clip, nxt.depth_view);
+      const bool in_cur = d_cur >= 0.0, in_nxt = d_nxt >= 0.0;
+      if (m + 2 > kMaxClipPoints) return 0;  // pathological sliver => drop
+      if (in_cur) next[m++] = cur;
+      if (in_cur != in_nxt) next[m++] = intersect(cur, nxt, d_cur, d_nxt);
+    }
+    std::swap(poly, next);
+    n = m < 3 ? 0 : m;
+  }
+  for (int i = 0; i < n; ++i) out[i] = poly[i];
+  return n;
+}
+
+}  // namespace sr

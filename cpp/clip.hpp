@@ -1,0 +1,56 @@
+// Clip stage: homogeneous clipping against the near and far planes and the guard band.
+#pragma once
+
+#include "pipeline.hpp"
+
+namespace sr {
+
+enum ClipPlaneBit : uint8_t {
+  kClipNear = 1u << 0,
+  kClipFar = 1u << 1,
+  kClipLeft = 1u << 2,  // guard band, x_window >= -kGuardBandPx
+  kClipRight = 1u << 3,
+  kClipTop = 1u << 4,  // guard band, y_window >= -kGuardBandPx (y points down)
+  kClipBottom = 1u << 5,
+};
+constexpr int kNumClipPlanes = 6;
+// A convex polygon gains at most one vertex per plane; rounding can make a sliver non-convex,
+// so the buffers have room to spare and a polygon that would overflow them is dropped.
+constexpr int kMaxClipPoints = 32;
+
+// The six planes as signed distances, inside >= 0.
+struct ClipPlanes {
+  double near, far;
+  double ndc_x_min, ndc_x_max;  // guard band in NDC
+  double ndc_y_min, ndc_y_max;
+
+  ClipPlanes(const CameraParams& camera, int width, int height);
+
+  double distance(int plane, const vec4& p_clip, float depth_view) const {
+    switch (plane) {
+      case 0: return double(depth_view) - near;
+      case 1: return far - double(depth_view);
+      case 2: return double(p_clip.x) - ndc_x_min * p_clip.w;
+      case 3: return ndc_x_max * p_clip.w - double(p_clip.x);
+      case 4: return ndc_y_max * p_clip.w - double(p_clip.y);  // NDC y up = window y down
+      default: return double(p_clip.y) - ndc_y_min * p_clip.w;
+    }
+  }
+
+  // Bit set per plane the point is outside of.
+  uint8_t outcode(const vec4& p_clip, float depth_view) const {
+    uint8_t code = 0;
+    for (int plane = 0; plane < kNumClipPlanes; ++plane)
+      if (!(distance(plane, p_clip, depth_view) >= 0.0)) code |= uint8_t(1u << plane);  // NaN => out
+    return code;
+  }
+};
+
+// Clips the triangle `in` against the planes in `planes_mask` (Sutherland-Hodgman). Returns the
+// number of polygon vertices written to `out` (0 or 3..kMaxClipPoints), in the input's winding.
+// A new vertex on an edge shared by two triangles is computed from the edge's endpoints in a
+// canonical order, so both triangles get bit-identical vertices: clipping keeps meshes watertight.
+int clip_triangle(const ClipPoint in[3], uint8_t planes_mask, const ClipPlanes& planes,
+                  ClipPoint out[kMaxClipPoints]);
+
+}  // namespace sr

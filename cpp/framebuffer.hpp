@@ -1,0 +1,44 @@
+// Framebuffer: one freshly allocated buffer per requested output, handed over without a copy.
+#pragma once
+
+#include "pipeline.hpp"
+
+#include <cstddef>
+#include <memory>
+
+namespace sr {
+
+struct OutputLayout {
+  OutputBit bit;
+  const char* name;
+  int channels;          // 1 => (h, w), else (h, w, channels)
+  std::size_t item_bytes;  // bytes of one channel value
+};
+extern const OutputLayout kOutputLayouts[kNumOutputs];
+
+class Framebuffer {
+ public:
+  // Bytes the requested outputs need; checked against kMaxFramebufferBytes before allocating.
+  static std::size_t bytes_needed(int width, int height, uint32_t outputs);
+
+  Framebuffer(int width, int height, uint32_t outputs);
+
+  // Gives up ownership of one output's buffer (the caller frees it with delete[]).
+  std::byte* release(int layout_index) { return buffers_[layout_index].release(); }
+
+  int width, height;
+  uint32_t outputs;
+  // Row-major, row 0 = top. Null when not requested. Every pixel is written by the render.
+  uint8_t* color = nullptr;
+  float* depth = nullptr;
+  bool* mask = nullptr;
+  float* normal = nullptr;
+  int32_t* triangle_id = nullptr;
+  int32_t* instance_id = nullptr;
+  uint32_t* coverage = nullptr;
+
+ private:
+  std::unique_ptr<std::byte[]> buffers_[kNumOutputs];
+};
+
+}  // namespace sr

@@ -1,0 +1,134 @@
+// Records passed between pipeline stages, the option enums and the numeric limits they rely on.
+#pragma once
+
+#include "math.hpp"
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace sr {
+
+// Window coordinates are snapped to 1/256 px "for sub-pixel positioning" (as Direct3D 11 and
+// llvmpipe do): x_fixed = round(x_window * 2^SUBPIXEL_BITS).
+constexpr int kSubpixelBits = 8;
+constexpr int32_t kSubpixelOne = 1 << kSubpixelBits;
+constexpr int32_t kSubpixelHalf = kSubpixelOne / 2;  // pixel centres sit at j * 256 + 128
+
+// Guard band: vertices within +-2^15 px of the origin are rasterized as they are; triangles
+// reaching beyond it are clipped. Fixed-point coordinates then fit in 24 bits (incl. sign), an
+// edge-function coefficient in 25 bits and an edge-function value, a sum of two 25x25-bit
+// products, in 51 bits: exact in int64.
+constexpr double kGuardBandPx = 32768.0 - 1024.0;
+
+// Largest image side; keeps every pixel index and fixed-point sample position in range.
+constexpr int kMaxImageSide = 16384;
+// Requested outputs needing more than this are refused before anything is allocated.
+constexpr std::size_t kMaxFramebufferBytes = std::size_t(4) << 30;
+
+// Screen tiles: each is rasterized and shaded by one thread at a time, in primitive order, so
+// the result does not depend on the number of threads.
+constexpr int kTileSizePx = 64;
+
+// Triangles are set up and binned in fixed-size chunks: a chunk is the unit of geometry work
+// given to a thread, and its size, not the thread count, decides how records are grouped.
+constexpr int kTriangleChunk = 8192;
+
+enum class Cull : uint8_t { None, Back, Front };
+enum class Shading : uint8_t { Unlit, Lambert };
+
+// Output buffers, as bits of RenderOptions::outputs.
+enum OutputBit : uint32_t {
+  kOutColor = 1u << 0,       // (h, w, 3) uint8
+  kOutDepth = 1u << 1,       // (h, w) float32, -z_view in scene units, 0 = background
+  kOutMask = 1u << 2,        // (h, w) bool
+  kOutNormal = 1u << 3,      // (h, w, 3) float32, world-space unit normal, 0 = background
+  kOutTriangleId = 1u << 4,  // (h, w) int32, face index within its mesh, -1 = background
+  kOutInstanceId = 1u << 5,  // (h, w) int32, -1 = background
+  kOutCoverage = 1u << 6,    // (h, w) uint32, triangles covering the pixel centre (pre depth test)
+};
+constexpr int kNumOutputs = 7;
+extern const char* const kOutputNames[kNumOutputs];
+
+// Geometry uploaded once; validated by its constructor (throws std::invalid_argument).
+struct MeshData {
+  std::vector<vec3> positions;  // model space
+  std::vector<ivec3> faces;     // counter-clockwise = front, indices in [0, positions.size())
+  std::vector<vec3> normals;    // model space, per vertex; empty => flat face normals
+  std::vector<vec4> colors;     // linear RGBA in [0, 1], per vertex; empty => material colour
+  std::vector<vec2> uvs;        // per vertex; kept for the texture stage
+
+  void validate() const;
+};
+
+// One mesh instance in a draw call.
+struct Draw {
+  std::shared_ptr<const MeshData> mesh;
+  dmat4 model{1.0};      // model -> world
+  int32_t instance_id = 0;
+  vec4 color{0.8f, 0.8f, 0.8f, 1.0f};  // material colour, linear RGBA
+};
+
+struct CameraParams {
+  dmat4 view{1.0};  // world -> view (OpenGL: x right, y up, looking down -z)
+  dmat4 proj{1.0};  // view -> clip
+  bool orthographic = false;
+  double near = 0.05;  // > 0, scene units along the view axis
+  double far = 100.0;  // > near
+};
+
+struct RenderOptions {
+  uint32_t outputs = kOutColor | kOutDepth;
+  Cull cull = Cull::Back;
+  Shading shading = Shading::Lambert;
+  vec3 background{0.0f};  // colour of uncovered pixels, [0, 1]
+  float ambient = 0.25f;  // Lambert: ambient + (1 - ambient) * max(0, n . l)
+};
+
+// Per-vertex result of the transform stage (one draw).
+struct ClipVertex {
+  vec4 p_clip;       // clip space
+  float depth_view;  // -z_view: distance along the viewing axis, scene units
+};
+
+// Clip-space vertex carried through clipping with its barycentric weights in the source triangle.
+struct ClipPoint {
+  vec4 p_clip;
+  float depth_view;
+  vec3 bary_source;  // weights of the original triangle's corners (linear in clip space)
+};
+
+// A triangle ready for rasterization: everything per-triangle that the hot loop needs.
+// Vertices are ordered so that `area2 > 0` in y-down window coordinates (a back face in
+// OpenGL's terms keeps its order, a front face has two vertices swapped); edge k runs from
+// vertex k+1 to vertex k+2 and its function is positive inside.
+struct TriangleSetup {
+  int32_t x[3], y[3];  // snapped window coordinates, fixed point (kSubpixelBits)
+  int64_t area2;       // twice the signed area in fixed-point units^2, > 0
+  int32_t bias[3];     // 0 for top/left edges, 1 otherwise: covered iff E_k - bias_k >= 0
+  float key_over_area[3];  // depth key at each vertex / area2 (see depth key below)
+  float inv_w[3];          // 1 / w_clip per vertex (1 for orthographic) for perspective correction
+  int32_t x0, y0, x1, y1;  // inclusive pixel range whose centres lie in the bounding box
+  uint32_t prim;           // face index within the mesh
+  uint32_t draw;           // index of the draw
+  uint32_t clip_ref;       // kNoClip, or index of 3 ClipPoint::bary_source in the clip table
+  uint8_t corner[3];       // unclipped: source corner of each vertex (a permutation of 0, 1, 2)
+  uint8_t back_facing;     // 1 if the triangle faces away from the camera (culling off)
+};
+constexpr uint32_t kNoClip = 0xffffffffu;
+
+// Depth key stored in the z-buffer: larger is closer, affine in window space.
+//   perspective: key = 1 / w_clip = 1 / depth_view   (the "1/w buffer": float32 keeps a relative
+//                precision of 2^-24 at any distance, so near/far ratios of 1e9 are harmless)
+//   orthographic: key = -depth_view                   (w = 1, depth itself is affine)
+// The z-buffer is cleared to -infinity.
+inline float depth_key(float depth_view, float w_clip, bool orthographic) {
+  return orthographic ? -depth_view : 1.0f / w_clip;
+}
+inline float depth_from_key(float key, bool orthographic) {
+  return orthographic ? -key : 1.0f / key;
+}
+
+}  // namespace sr

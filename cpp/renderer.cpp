@@ -1,0 +1,155 @@
+// Renderer: validation, then the three parallel passes.
+#include "renderer.hpp"
+
+#include "clip.hpp"
+#include "shade.hpp"
+#include "transform.hpp"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace sr {
+
+namespace {
+
+constexpr std::size_t kVertexBlock = 16384;  // vertices per work item
+constexpr std::size_t kVertexBatch = 256;    // transformed on the stack, then projected
+
+template <typename M>
+bool all_finite(const M& m) {
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r)
+      if (!std::isfinite(m[c][r])) return false;
+  return true;
+}
+
+}  // namespace
+
+void MeshData::validate() const {
+  const std::size_t n = positions.size();
+  if (n == 0 || faces.empty()) throw std::invalid_argument("mesh is empty (no vertices or faces)");
+  if (n > std::size_t(INT32_MAX)) throw std::invalid_argument("positions: too many vertices");
+  if (faces.size() > std::size_t(INT32_MAX)) throw std::invalid_argument("faces: too many faces");
+  for (std::size_t i = 0; i < n; ++i)
+    if (!std::isfinite(positions[i].x) || !std::isfinite(positions[i].y) || !std::isfinite(positions[i].z))
+      throw std::invalid_argument("positions contains NaN or inf at vertex " + std::to_string(i));
+  for (std::size_t f = 0; f < faces.size(); ++f)
+    for (int k = 0; k < 3; ++k)
+      if (faces[f][k] < 0 || std::size_t(faces[f][k]) >= n)
+        throw std::invalid_argument("faces: index " + std::to_string(faces[f][k]) + " in face " +
+                                    std::to_string(f) + " is outside [0, " + std::to_string(n) + ")");
+  if (!normals.empty() && normals.size() != n)
+    throw std::invalid_argument("normals must have one row per vertex");
+  if (!colors.empty() && colors.size() != n)
+    throw std::invalid_argument("colors must have one row per vertex");
+  if (!uvs.empty() && uvs.size() != n) throw std::invalid_argument("uvs must have one row per vertex");
+}
+
+void validate_camera(const CameraParams& camera) {
+  if (!all_finite(camera.view)) throw std::invalid_argument("camera view matrix is not finite");
+  if (!all_finite(camera.proj)) throw std::invalid_argument("camera projection matrix is not finite");
+  if (!(std::isfinite(camera.near) && camera.near > 0.0))
+    throw std::invalid_argument("near must be finite and > 0");
+  if (!(std::isfinite(camera.far) && camera.far > camera.near))
+    throw std::invalid_argument("far must be finite and > near");
+}
+
+Renderer::Renderer(int width, int height, int threads)
+    : viewport_((width >= 1 && width <= kMaxImageSide && height >= 1 && height <= kMaxImageSide)
+                    ? Viewport(width, height)
+                    : throw std::invalid_argument(
+                          "width and height must be in [1, " + std::to_string(kMaxImageSide) +
+                          "], got " + std::to_string(width) + "x" + std::to_string(height))),
+      pool_(threads) {
+  for (int w = 0; w < pool_.size(); ++w) tile_scratch_.push_back(std::make_unique<TileScratch>());
+}
+
+std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
+                                              const CameraParams& camera,
+                                              const RenderOptions& options) {
+  validate_camera(camera);
+  if (options.outputs == 0 || options.outputs >= (1u << kNumOutputs))
+    throw std::invalid_argument("outputs: request at least one known output");
+  if (!(std::isfinite(options.ambient) && options.ambient >= 0.0f && options.ambient <= 1.0f))
+    throw std::invalid_argument("ambient must be in [0, 1]");
+  for (std::size_t d = 0; d < draws.size(); ++d) {
+    if (!draws[d].mesh) throw std::invalid_argument("draw " + std::to_string(d) + " has no mesh");
+    if (!all_finite(draws[d].model))
+      throw std::invalid_argument("pose of draw " + std::to_string(d) + " is not finite");
+  }
+  const std::size_t bytes = Framebuffer::bytes_needed(width(), height(), options.outputs);
+  if (bytes > kMaxFramebufferBytes)
+    throw std::invalid_argument("requested outputs need " + std::to_string(bytes) +
+                                " bytes, over the limit of " + std::to_string(kMaxFramebufferBytes));
+
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto framebuffer = std::make_unique<Framebuffer>(width(), height(), options.outputs);
+  const ClipPlanes planes(camera, width(), height());
+
+  // Vertices: transform and project, parallel over blocks of every draw.
+  std::vector<DrawTransform> transforms;
+  struct Block { uint32_t draw; std::size_t begin, end; };
+  std::vector<Block> vertex_blocks;
+  vertices_.resize(draws.size());
+  for (std::size_t d = 0; d < draws.size(); ++d) {
+    transforms.push_back(make_draw_transform(draws[d].model, camera));
+    const std::size_t n = draws[d].mesh->positions.size();
+    vertices_[d].resize(n);
+    for (std::size_t b = 0; b < n; b += kVertexBlock)
+      vertex_blocks.push_back({uint32_t(d), b, std::min(n, b + kVertexBlock)});
+  }
+  pool_.parallel_for(vertex_blocks.size(), [&](std::size_t item, int) {
+    const Block& blk = vertex_blocks[item];
+    ClipVertex clip[kVertexBatch];
+    for (std::size_t b = blk.begin; b < blk.end; b += kVertexBatch) {
+      const std::size_t e = std::min(blk.end, b + kVertexBatch);
+      transform_vertices(*draws[blk.draw].mesh, transforms[blk.draw], b, e, clip);
+      project_vertices(clip, b, e, planes, viewport_, camera.orthographic,
+                       vertices_[blk.draw].data());
+    }
+  });
+
+  // Setup and binning, parallel over fixed-size triangle chunks (primitive order is kept).
+  std::vector<Block> chunk_ranges;
+  for (std::size_t d = 0; d < draws.size(); ++d) {
+    const std::size_t m = draws[d].mesh->faces.size();
+    for (std::size_t b = 0; b < m; b += kTriangleChunk)
+      chunk_ranges.push_back({uint32_t(d), b, std::min(m, b + kTriangleChunk)});
+  }
+  if (chunks_.size() < chunk_ranges.size()) chunks_.resize(chunk_ranges.size());
+  pool_.parallel_for(chunk_ranges.size(), [&](std::size_t item, int) {
+    const Block& blk = chunk_ranges[item];
+    SetupParams params{draws[blk.draw].mesh.get(), vertices_[blk.draw].data(), blk.draw,
+                       transforms[blk.draw].mirrored, camera.orthographic, options.cull,
+                       &planes, viewport_};
+    setup_chunk(params, blk.begin, blk.end, chunks_[item]);
+  });
+
+  // Tiles: rasterize, then shade, each tile by one thread.
+  std::vector<ShadeDraw> shade_draws;
+  for (std::size_t d = 0; d < draws.size(); ++d)
+    shade_draws.push_back({draws[d].mesh.get(), transforms[d].normal_to_world, draws[d].color,
+                           draws[d].instance_id});
+  ShadeParams shade{};
+  shade.draws = shade_draws.data();
+  shade.shading = options.shading;
+  // Headlight: the light sits at the camera and shines along its viewing axis.
+  const dvec3 to_camera = glm::normalize(dvec3(glm::inverse(camera.view) * dvec4(0, 0, 1, 0)));
+  shade.to_light_world = vec3(to_camera);
+  shade.ambient = options.ambient;
+  for (int c = 0; c < 3; ++c)
+    shade.background[c] = uint8_t(std::clamp(options.background[c], 0.0f, 1.0f) * 255.0f + 0.5f);
+  shade.orthographic = camera.orthographic;
+  shade.framebuffer = framebuffer.get();
+  const bool want_coverage = options.outputs & kOutCoverage;
+  const std::size_t num_chunks = chunk_ranges.size();
+  pool_.parallel_for(viewport_.num_tiles(), [&](std::size_t tile, int worker) {
+    TileScratch& scratch = *tile_scratch_[worker];
+    rasterize_tile(viewport_, int(tile), chunks_, num_chunks, want_coverage, scratch);
+    shade_tile(shade, viewport_, int(tile), scratch);
+  });
+  return framebuffer;
+}
+
+}  // namespace sr

@@ -1,0 +1,45 @@
+// Renderer: orchestrates the stages over a persistent thread pool.
+//   vertices (parallel over vertex blocks) -> setup + binning (parallel over triangle chunks)
+//   -> rasterize + shade (parallel over screen tiles, each owned by one thread)
+#pragma once
+
+#include "framebuffer.hpp"
+#include "pipeline.hpp"
+#include "rasterize.hpp"
+#include "setup.hpp"
+#include "thread_pool.hpp"
+
+#include <memory>
+#include <mutex>
+#include <vector>
+
+namespace sr {
+
+class Renderer {
+ public:
+  // Throws std::invalid_argument for sizes outside [1, kMaxImageSide].
+  Renderer(int width, int height, int threads);
+
+  int width() const { return viewport_.width; }
+  int height() const { return viewport_.height; }
+  int threads() const { return pool_.size(); }
+
+  // Renders the draws in order into a new framebuffer holding only options.outputs.
+  // Thread-safe: concurrent calls on one Renderer run one after the other.
+  // Throws std::invalid_argument for an invalid camera, options or draw.
+  std::unique_ptr<Framebuffer> render(const std::vector<Draw>& draws, const CameraParams& camera,
+                                      const RenderOptions& options);
+
+ private:
+  Viewport viewport_;
+  ThreadPool pool_;
+  std::mutex mutex_;
+  // Scratch reused across renders: no per-frame allocation once sizes settle.
+  std::vector<std::vector<ProjectedVertex>> vertices_;  // per draw
+  std::vector<SetupChunk> chunks_;
+  std::vector<std::unique_ptr<TileScratch>> tile_scratch_;  // per worker
+};
+
+void validate_camera(const CameraParams& camera);
+
+}  // namespace sr

@@ -1,0 +1,60 @@
+// Setup stage: snap to the fixed-point grid, cull, orient, build edge and depth equations, bin.
+#pragma once
+
+#include "clip.hpp"
+#include "pipeline.hpp"
+#include "transform.hpp"
+
+namespace sr {
+
+// Image size and tiling; the scissor is the whole image.
+struct Viewport {
+  int width = 0, height = 0;
+  int tiles_x = 0, tiles_y = 0;
+  Viewport() = default;
+  Viewport(int w, int h)
+      : width(w), height(h),
+        tiles_x((w + kTileSizePx - 1) / kTileSizePx),
+        tiles_y((h + kTileSizePx - 1) / kTileSizePx) {}
+  int num_tiles() const { return tiles_x * tiles_y; }
+};
+
+// A vertex in window space, snapped; computed once per mesh vertex (and per clipping vertex).
+struct ProjectedVertex {
+  vec4 p_clip;
+  float depth_view;
+  int32_t x, y;     // window coordinates, fixed point, valid when outcode == 0
+  float key;        // depth key (pipeline.hpp)
+  float inv_w;      // 1 / w_clip
+  uint8_t outcode;  // ClipPlaneBit set; kInvalidVertex if not finite
+};
+constexpr uint8_t kInvalidVertex = 0x80;
+
+// Fills out[begin, end) from the clip-space vertices in[0 .. end - begin).
+void project_vertices(const ClipVertex* in, std::size_t begin, std::size_t end,
+                      const ClipPlanes& planes, const Viewport& viewport, bool orthographic,
+                      ProjectedVertex* out);
+
+// The triangles one chunk of a draw produced, binned to tiles. Records keep primitive order.
+struct SetupChunk {
+  std::vector<TriangleSetup> records;
+  std::vector<vec3> clip_bary;           // 3 per clipped record: source weights of its vertices
+  std::vector<uint32_t> tile_begin;      // num_tiles + 1 offsets into tile_records
+  std::vector<uint32_t> tile_records;    // record indices, grouped by tile, ascending
+};
+
+struct SetupParams {
+  const MeshData* mesh;
+  const ProjectedVertex* vertices;  // of this draw
+  uint32_t draw;
+  bool mirrored;
+  bool orthographic;
+  Cull cull;
+  const ClipPlanes* planes;
+  Viewport viewport;
+};
+
+// Sets up faces [begin, end) of one draw and bins them (out is cleared first).
+void setup_chunk(const SetupParams& params, std::size_t begin, std::size_t end, SetupChunk& out);
+
+}  // namespace sr

@@ -1,0 +1,32 @@
+// Transform stage: per-vertex model -> clip.
+#include "transform.hpp"
+
+#include <cmath>
+
+namespace sr {
+
+DrawTransform make_draw_transform(const dmat4& model, const CameraParams& camera) {
+  DrawTransform xf;
+  const dmat4 model_view = camera.view * model;  // double: large translations cancel here
+  xf.model_view = mat4(model_view);
+  xf.proj = mat4(camera.proj);
+  const dmat3 m3(model);
+  const double det = glm::determinant(m3);
+  xf.mirrored = det < 0.0;
+  // A mirroring model matrix turns counter-clockwise faces clockwise; like most engines we flip
+  // the facing test with it, so the outside of a mirrored closed mesh stays its front.
+  xf.normal_to_world = mat3(glm::inverseTranspose(m3));
+  return xf;
+}
+
+void transform_vertices(const MeshData& mesh, const DrawTransform& xf, std::size_t begin,
+                        std::size_t end, ClipVertex* out) {
+  const vec3* positions = mesh.positions.data();
+  for (std::size_t i = begin; i < end; ++i) {
+    const vec4 p_view = xf.model_view * vec4(positions[i], 1.0f);
+    out[i - begin].p_clip = xf.proj * p_view;
+    out[i - begin].depth_view = -p_view.z;
+  }
+}
+
+}  // namespace sr

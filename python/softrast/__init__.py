@@ -1,0 +1,32 @@
+"""softrast: a fast, exact, deterministic CPU software rasterizer.
+
+Conventions (see README): world and view space are right-handed; cameras look down -z (OpenGL)
+unless an IntrinsicsCamera uses convention="opencv"; image row 0 is the top; depth is the
+distance along the camera's viewing axis in scene units, 0 where nothing was hit.
+"""
+from ._core import MAX_IMAGE_SIDE, OUTPUTS, SUBPIXEL_BITS, TILE_SIZE_PX
+from .camera import Camera, IntrinsicsCamera, OrthographicCamera, PerspectiveCamera
+from .io import imread, imwrite
+from .mesh import Mesh, load_mesh
+from .render import Frame, Renderer
+from .scene import Scene
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Camera",
+    "Frame",
+    "IntrinsicsCamera",
+    "MAX_IMAGE_SIDE",
+    "Mesh",
+    "OUTPUTS",
+    "OrthographicCamera",
+    "PerspectiveCamera",
+    "Renderer",
+    "SUBPIXEL_BITS",
+    "Scene",
+    "TILE_SIZE_PX",
+    "imread",
+    "imwrite",
+    "load_mesh",
+]

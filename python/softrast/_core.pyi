@@ -1,0 +1,85 @@
+"""Type stub for the private compiled module ``softrast._core`` (cpp/bindings.cpp).
+
+Users do not call this module directly: ``softrast.Renderer`` and ``softrast.Mesh`` wrap it.
+
+Conventions shared with the Python layer
+----------------------------------------
+* view space is OpenGL's: x right, y up, the camera looks down -z.
+* ``proj`` maps view space to clip space; NDC = clip.xyz / clip.w with x right, y up.
+* window (pixel) space: x_win = (ndc_x + 1) / 2 * width, y_win = (1 - ndc_y) / 2 * height,
+  so row 0 is the top of the image and the centre of pixel (row i, col j) is (j + 0.5, i + 0.5).
+* depth output = distance along the camera's viewing axis (-z_view) in scene units; 0 = background.
+"""
+from typing import Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+SUBPIXEL_BITS: int  # fixed-point precision of snapped window coordinates (8 => 1/256 px)
+TILE_SIZE_PX: int  # side of the square screen tiles owned by one thread at a time
+MAX_IMAGE_SIDE: int  # largest width or height accepted
+MAX_FRAMEBUFFER_BYTES: int  # refuse a render whose requested outputs need more than this
+OUTPUTS: tuple[str, ...]  # every output name render() accepts
+
+class MeshData:
+    """Geometry uploaded once into C++ memory (the arrays are copied and validated).
+
+    positions : (n, 3) float32, C-contiguous, finite
+    faces     : (m, 3) int32, every index in [0, n)
+    normals   : (n, 3) float32 or None (per-vertex; None => flat face normals when lit)
+    colors    : (n, 4) float32 in [0, 1] or None (per-vertex RGBA)
+    uvs       : (n, 2) float32 or None (kept for the texture stage)
+    """
+
+    def __init__(
+        self,
+        positions: npt.NDArray[np.float32],
+        faces: npt.NDArray[np.int32],
+        normals: npt.NDArray[np.float32] | None = None,
+        colors: npt.NDArray[np.float32] | None = None,
+        uvs: npt.NDArray[np.float32] | None = None,
+    ) -> None: ...
+    @property
+    def num_vertices(self) -> int: ...
+    @property
+    def num_faces(self) -> int: ...
+
+class Renderer:
+    def __init__(self, width: int, height: int, threads: int = 0) -> None:
+        """threads = 0 => one worker per hardware core."""
+    @property
+    def width(self) -> int: ...
+    @property
+    def height(self) -> int: ...
+    @property
+    def threads(self) -> int: ...
+    def render(
+        self,
+        draws: Sequence[tuple[MeshData, npt.NDArray[np.float64], int, Sequence[float]]],
+        view: npt.NDArray[np.float64],
+        proj: npt.NDArray[np.float64],
+        orthographic: bool,
+        near: float,
+        far: float,
+        outputs: Sequence[str],
+        cull: str = "back",
+        shading: str = "lambert",
+        background: Sequence[float] = (0.0, 0.0, 0.0),
+        ambient: float = 0.25,
+    ) -> dict[str, np.ndarray]:
+        """Render ``draws`` = [(mesh, model (4, 4) float64 model-to-world, instance_id, rgba)].
+
+        view : (4, 4) float64 world-to-view; proj : (4, 4) float64 view-to-clip.
+        outputs: any of OUTPUTS; only these buffers are allocated and written:
+          "color"       (h, w, 3) uint8
+          "depth"       (h, w) float32, -z_view, 0 = background
+          "mask"        (h, w) bool
+          "normal"      (h, w, 3) float32 world-space unit normal, 0 = background
+          "triangle_id" (h, w) int32 face index within its mesh, -1 = background
+          "instance_id" (h, w) int32, -1 = background
+          "coverage"    (h, w) uint32 number of rasterized triangles covering each pixel
+                        centre before the depth test (for watertightness checks)
+        Each array views C++ memory owned by its ``base`` (no copy). The GIL is released.
+        cull: "none" | "back" | "front" (front = counter-clockwise in NDC, OpenGL's default).
+        shading: "lambert" (headlight: directional light along the view axis) | "unlit".
+        """

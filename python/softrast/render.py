@@ -1,0 +1,168 @@
+"""Renderer and Frame: the public face of the C++ pipeline (``softrast._core``)."""
+from __future__ import annotations
+
+import operator
+from typing import Any, Iterable, Sequence
+
+import numpy as np
+
+from . import _core
+from .camera import Camera
+from .scene import Scene
+
+__all__ = ["Frame", "Renderer"]
+
+_CULL = ("none", "back", "front")
+_SHADING = ("lambert", "unlit")
+
+
+class Frame:
+    """The buffers of one render. Outputs that were not requested are ``None``.
+
+    color       : (h, w, 3) uint8, row 0 = top of the image
+    depth       : (h, w) float32, distance along the camera's viewing axis (-z_view) in scene
+                  units, 0 where nothing was hit (orthographic cameras included)
+    mask        : (h, w) bool, True where a triangle covers the pixel centre
+    normal      : (h, w, 3) float32, world-space unit normal of the visible side, 0 = background
+    triangle_id : (h, w) int32, face index within its mesh, -1 = background
+    instance_id : (h, w) int32, the instance's id from ``Scene.add``, -1 = background
+    coverage    : (h, w) uint32, number of rasterized triangles covering the pixel centre before
+                  the depth test (a closed convex mesh with back-face culling gives exactly 1)
+
+    Every array views memory the C++ renderer allocated for this frame alone (``arr.base`` owns
+    it; nothing is copied). Later renders never write into it.
+    """
+
+    __slots__ = ("color", "depth", "mask", "normal", "triangle_id", "instance_id", "coverage")
+
+    def __init__(self, buffers: dict[str, np.ndarray]) -> None:
+        for name in self.__slots__:
+            setattr(self, name, buffers.get(name))
+
+    @property
+    def outputs(self) -> tuple[str, ...]:
+        """Names of the outputs this frame holds."""
+        return tuple(n for n in self.__slots__ if getattr(self, n) is not None)
+
+    def as_dict(self) -> dict[str, np.ndarray]:
+        return {n: getattr(self, n) for n in self.outputs}
+
+    def __repr__(self) -> str:
+        shapes = ", ".join(f"{n}={getattr(self, n).shape}" for n in self.outputs)
+        return f"Frame({shapes})"
+
+
+def _image_side(value: Any, name: str) -> int:
+    if isinstance(value, bool):
+        raise TypeError(f"{name} must be an int, got bool")
+    try:
+        side = operator.index(value)
+    except TypeError:
+        raise TypeError(f"{name} must be an int, got {type(value).__name__}") from None
+    if not 1 <= side <= _core.MAX_IMAGE_SIDE:
+        raise ValueError(f"{name} must be in [1, {_core.MAX_IMAGE_SIDE}], got {side}")
+    return side
+
+
+def _output_names(outputs: str | Iterable[str]) -> list[str]:
+    names = [outputs] if isinstance(outputs, str) else list(outputs)
+    if not names:
+        raise ValueError("outputs must name at least one output")
+    for name in names:
+        if name not in _core.OUTPUTS:
+            raise ValueError(f"outputs: unknown output {name!r}; choose from {', '.join(_core.OUTPUTS)}")
+    return names
+
+
+class Renderer:
+    """An offscreen renderer of a fixed image size (like pyrender's OffscreenRenderer).
+
+    Parameters
+    ----------
+    width, height : image size in pixels, each in [1, softrast.MAX_IMAGE_SIDE].
+    threads : worker threads (0 = one per core). The images are bit-identical for any count.
+
+    The GIL is released while rendering, so Python threads may render concurrently (calls on one
+    Renderer are serialised; use one Renderer per thread for parallelism).
+    """
+
+    def __init__(self, width: int, height: int, threads: int = 0) -> None:
+        w = _image_side(width, "width")
+        h = _image_side(height, "height")
+        if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 0:
+            raise ValueError(f"threads must be an int >= 0, got {threads!r}")
+        self._core = _core.Renderer(w, h, int(threads))
+
+    @property
+    def width(self) -> int:
+        return self._core.width
+
+    @property
+    def height(self) -> int:
+        return self._core.height
+
+    @property
+    def threads(self) -> int:
+        return self._core.threads
+
+    def render(
+        self,
+        scene: Scene,
+        camera: Camera,
+        outputs: str | Sequence[str] = ("color", "depth"),
+        cull: str = "back",
+        shading: str = "lambert",
+        background: Sequence[float] = (0.0, 0.0, 0.0),
+        ambient: float = 0.25,
+    ) -> Frame:
+        """Render ``scene`` seen by ``camera``; only ``outputs`` are allocated and written.
+
+        outputs : any of "color", "depth", "mask", "normal", "triangle_id", "instance_id",
+                  "coverage" (see Frame for shapes, dtypes and units).
+        cull : "back" (default), "front" or "none". Front faces are counter-clockwise in the
+               image as OpenGL defines it; a mirroring pose flips the winding, and the test.
+        shading : "lambert" — base colour * (ambient + (1 - ambient) * max(0, n . l)) with a
+                  headlight (a directional light along the camera's viewing axis), two-sided;
+                  or "unlit" — the base colour. The base colour is the mesh's per-vertex colours
+                  if it has them, else the instance's material colour. Colours are written as
+                  given (no gamma curve), rounded to 8 bits.
+        background : RGB in [0, 1] for pixels nothing covers.
+        """
+        if not isinstance(scene, Scene):
+            raise TypeError(f"scene must be a softrast.Scene, got {type(scene).__name__}")
+        if not isinstance(camera, Camera):
+            raise TypeError(f"camera must be a softrast camera, got {type(camera).__name__}")
+        for name, size in (("width", camera.width), ("height", camera.height)):
+            if size is not None and size != getattr(self, name):
+                raise ValueError(
+                    f"camera {name} {size} differs from the renderer's {getattr(self, name)}")
+        names = _output_names(outputs)
+        if cull not in _CULL:
+            raise ValueError(f"cull must be one of {_CULL}, got {cull!r}")
+        if shading not in _SHADING:
+            raise ValueError(f"shading must be one of {_SHADING}, got {shading!r}")
+        bg = tuple(float(c) for c in background)
+        if len(bg) != 3 or not all(0.0 <= c <= 1.0 for c in bg):
+            raise ValueError(f"background must be 3 floats in [0, 1], got {background!r}")
+        if not 0.0 <= float(ambient) <= 1.0:
+            raise ValueError(f"ambient must be in [0, 1], got {ambient!r}")
+
+        draws = [(inst.mesh._core_data(), inst.pose, inst.instance_id, inst.color)
+                 for inst in scene.instances]
+        buffers = self._core.render(
+            draws,
+            camera.view_matrix(),
+            camera.projection_matrix(self.width, self.height),
+            camera.orthographic,
+            camera.near,
+            camera.far,
+            names,
+            cull,
+            shading,
+            bg,
+            float(ambient),
+        )
+        return Frame(buffers)
+
+    def __repr__(self) -> str:
+        return f"Renderer({self.width}x{self.height}, threads={self.threads})"
