@@ -8,6 +8,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <cstring>
 #include <string>
 
@@ -92,30 +93,52 @@ Shading parse_shading(const std::string& s) {
   throw py::value_error("shading must be 'lambert' or 'unlit', got '" + s + "'");
 }
 
+py::dtype output_dtype(const OutputLayout& layout) {
+  switch (layout.bit) {
+    case kOutColor: return py::dtype::of<uint8_t>();
+    case kOutMask: return py::dtype::of<bool>();
+    case kOutTriangleId:
+    case kOutInstanceId: return py::dtype::of<int32_t>();
+    case kOutCoverage: return py::dtype::of<uint32_t>();
+    default: return py::dtype::of<float>();
+  }
+}
+
+std::vector<py::ssize_t> output_shape(const OutputLayout& layout, int width, int height) {
+  std::vector<py::ssize_t> shape = {height, width};
+  if (layout.channels > 1) shape.push_back(layout.channels);
+  return shape;
+}
+
 // Wraps one framebuffer output as a NumPy array that owns it (via a capsule): no copy.
 py::array hand_over(Framebuffer& fb, int index) {
   const OutputLayout& layout = kOutputLayouts[index];
   std::byte* data = fb.release(index);
   py::capsule owner(data, [](void* p) { delete[] static_cast<std::byte*>(p); });
-  py::dtype dtype;
-  switch (layout.bit) {
-    case kOutColor: dtype = py::dtype::of<uint8_t>(); break;
-    case kOutMask: dtype = py::dtype::of<bool>(); break;
-    case kOutTriangleId:
-    case kOutInstanceId: dtype = py::dtype::of<int32_t>(); break;
-    case kOutCoverage: dtype = py::dtype::of<uint32_t>(); break;
-    default: dtype = py::dtype::of<float>(); break;
-  }
-  std::vector<py::ssize_t> shape = {fb.height, fb.width};
-  if (layout.channels > 1) shape.push_back(layout.channels);
-  return py::array(dtype, shape, {}, data, owner);
+  return py::array(output_dtype(layout), output_shape(layout, fb.width, fb.height), {}, data, owner);
+}
+
+// Checks a caller-supplied output array: exact dtype and shape, C-contiguous, writeable.
+std::byte* external_buffer(const py::handle& obj, const OutputLayout& layout, int width, int height) {
+  const std::string name = std::string("out['") + layout.name + "']";
+  if (!py::isinstance<py::array>(obj)) throw py::type_error(name + " must be a numpy array");
+  auto arr = py::reinterpret_borrow<py::array>(obj);
+  const auto shape = output_shape(layout, width, height);
+  const bool shape_ok = arr.ndim() == py::ssize_t(shape.size()) &&
+                        std::equal(shape.begin(), shape.end(), arr.shape());
+  if (!arr.dtype().is(output_dtype(layout)) || !shape_ok)
+    throw py::value_error(name + " must be a " + std::string(py::str(output_dtype(layout))) +
+                          " array of shape " + std::string(py::str(py::tuple(py::cast(shape)))));
+  if (!(arr.flags() & py::array::c_style)) throw py::value_error(name + " must be C-contiguous");
+  if (!arr.writeable()) throw py::value_error(name + " must be writeable");
+  return static_cast<std::byte*>(arr.mutable_data());
 }
 
 py::dict render(Renderer& self, const py::sequence& draws_in, const py::handle& view,
                 const py::handle& proj, bool orthographic, double near, double far,
                 const std::vector<std::string>& outputs, const std::string& cull,
                 const std::string& shading, const std::array<float, 3>& background,
-                float ambient) {
+                float ambient, const py::object& out) {
   std::vector<Draw> draws;
   for (std::size_t d = 0; d < py::len(draws_in); ++d) {
     const std::string where = "draws[" + std::to_string(d) + "]";
@@ -146,14 +169,26 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::handle& 
   }
   options.ambient = ambient;
 
+  // Caller-supplied arrays (out=) are written in place; `out` keeps them alive meanwhile.
+  std::byte* external[kNumOutputs] = {};
+  py::dict out_dict = out.is_none() ? py::dict() : py::dict(out);
+  for (int i = 0; i < kNumOutputs; ++i) {
+    const OutputLayout& layout = kOutputLayouts[i];
+    if ((options.outputs & layout.bit) && out_dict.contains(layout.name))
+      external[i] = external_buffer(out_dict[layout.name], layout, self.width(), self.height());
+  }
+
   std::unique_ptr<Framebuffer> fb;
   {
     py::gil_scoped_release release;  // Python threads may render concurrently
-    fb = self.render(draws, camera, options);
+    fb = self.render(draws, camera, options, external);
   }
   py::dict result;
-  for (int i = 0; i < kNumOutputs; ++i)
-    if (options.outputs & kOutputLayouts[i].bit) result[kOutputLayouts[i].name] = hand_over(*fb, i);
+  for (int i = 0; i < kNumOutputs; ++i) {
+    const OutputLayout& layout = kOutputLayouts[i];
+    if (!(options.outputs & layout.bit)) continue;
+    result[layout.name] = external[i] ? out_dict[layout.name] : hand_over(*fb, i);
+  }
   return result;
 }
 
@@ -186,5 +221,6 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("threads", &Renderer::threads)
       .def("render", &render, "draws"_a, "view"_a, "proj"_a, "orthographic"_a, "near"_a, "far"_a,
            "outputs"_a, "cull"_a = "back", "shading"_a = "lambert",
-           "background"_a = std::array<float, 3>{0.0f, 0.0f, 0.0f}, "ambient"_a = 0.25f);
+           "background"_a = std::array<float, 3>{0.0f, 0.0f, 0.0f}, "ambient"_a = 0.25f,
+           "out"_a = py::none());
 }

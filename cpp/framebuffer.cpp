@@ -20,20 +20,27 @@ std::size_t Framebuffer::bytes_needed(int width, int height, uint32_t outputs) {
   return total;
 }
 
-Framebuffer::Framebuffer(int w, int h, uint32_t out) : width(w), height(h), outputs(out) {
+Framebuffer::Framebuffer(int w, int h, uint32_t out, std::byte* const* external)
+    : width(w), height(h), outputs(out) {
+  std::byte* data[kNumOutputs] = {};
   for (int i = 0; i < kNumOutputs; ++i) {
     const OutputLayout& layout = kOutputLayouts[i];
     if (!(outputs & layout.bit)) continue;
+    if (external && external[i]) {
+      data[i] = external[i];
+      continue;
+    }
     const std::size_t bytes = std::size_t(w) * h * layout.channels * layout.item_bytes;
-    buffers_[i].reset(new std::byte[bytes > 0 ? bytes : 1]);  // default-init: no clearing pass
+    buffers_[i].reset(new std::byte[bytes]);  // default-init: no clearing pass
+    data[i] = buffers_[i].get();
   }
-  color = reinterpret_cast<uint8_t*>(buffers_[0].get());
-  depth = reinterpret_cast<float*>(buffers_[1].get());
-  mask = reinterpret_cast<bool*>(buffers_[2].get());
-  normal = reinterpret_cast<float*>(buffers_[3].get());
-  triangle_id = reinterpret_cast<int32_t*>(buffers_[4].get());
-  instance_id = reinterpret_cast<int32_t*>(buffers_[5].get());
-  coverage = reinterpret_cast<uint32_t*>(buffers_[6].get());
+  color = reinterpret_cast<uint8_t*>(data[0]);
+  depth = reinterpret_cast<float*>(data[1]);
+  mask = reinterpret_cast<bool*>(data[2]);
+  normal = reinterpret_cast<float*>(data[3]);
+  triangle_id = reinterpret_cast<int32_t*>(data[4]);
+  instance_id = reinterpret_cast<int32_t*>(data[5]);
+  coverage = reinterpret_cast<uint32_t*>(data[6]);
 }
 
 }  // namespace sr

@@ -21,9 +21,12 @@ class Framebuffer {
   // Bytes the requested outputs need; checked against kMaxFramebufferBytes before allocating.
   static std::size_t bytes_needed(int width, int height, uint32_t outputs);
 
-  Framebuffer(int width, int height, uint32_t outputs);
+  // Allocates a buffer for each requested output, except where `external[i]` (indexed like
+  // kOutputLayouts) supplies the caller's own memory of the right size, which it writes into.
+  Framebuffer(int width, int height, uint32_t outputs, std::byte* const* external = nullptr);
 
-  // Gives up ownership of one output's buffer (the caller frees it with delete[]).
+  // Gives up ownership of one output's allocated buffer (the caller frees it with delete[]);
+  // nullptr for an output written into external memory.
   std::byte* release(int layout_index) { return buffers_[layout_index].release(); }
 
   int width, height;

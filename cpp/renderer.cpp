@@ -67,7 +67,8 @@ Renderer::Renderer(int width, int height, int threads)
 
 std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
                                               const CameraParams& camera,
-                                              const RenderOptions& options) {
+                                              const RenderOptions& options,
+                                              std::byte* const* external) {
   validate_camera(camera);
   if (options.outputs == 0 || options.outputs >= (1u << kNumOutputs))
     throw std::invalid_argument("outputs: request at least one known output");
@@ -84,7 +85,7 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
                                 " bytes, over the limit of " + std::to_string(kMaxFramebufferBytes));
 
   std::lock_guard<std::mutex> lock(mutex_);
-  auto framebuffer = std::make_unique<Framebuffer>(width(), height(), options.outputs);
+  auto framebuffer = std::make_unique<Framebuffer>(width(), height(), options.outputs, external);
   const ClipPlanes planes(camera, width(), height());
 
   // Vertices: transform and project, parallel over blocks of every draw.

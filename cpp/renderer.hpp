@@ -27,8 +27,10 @@ class Renderer {
   // Renders the draws in order into a new framebuffer holding only options.outputs.
   // Thread-safe: concurrent calls on one Renderer run one after the other.
   // Throws std::invalid_argument for an invalid camera, options or draw.
+  // `external` (optional, indexed like kOutputLayouts) supplies caller memory for some outputs.
   std::unique_ptr<Framebuffer> render(const std::vector<Draw>& draws, const CameraParams& camera,
-                                      const RenderOptions& options);
+                                      const RenderOptions& options,
+                                      std::byte* const* external = nullptr);
 
  private:
   Viewport viewport_;

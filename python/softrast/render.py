@@ -74,6 +74,22 @@ def _output_names(outputs: str | Iterable[str]) -> list[str]:
     return names
 
 
+def _out_arrays(out: Frame | dict[str, np.ndarray] | None, names: list[str]) -> dict[str, np.ndarray] | None:
+    if out is None:
+        return None
+    if isinstance(out, Frame):
+        out = out.as_dict()
+    if not isinstance(out, dict):
+        raise TypeError(f"out must be a Frame or a dict of arrays, got {type(out).__name__}")
+    arrays = {n: out[n] for n in names if out.get(n) is not None}
+    items = list(arrays.items())
+    for i, (a_name, a) in enumerate(items):  # overlapping outputs would corrupt each other
+        for b_name, b in items[i + 1:]:
+            if np.may_share_memory(a, b):
+                raise ValueError(f"out[{a_name!r}] and out[{b_name!r}] share memory")
+    return arrays
+
+
 class Renderer:
     """An offscreen renderer of a fixed image size (like pyrender's OffscreenRenderer).
 
@@ -114,6 +130,7 @@ class Renderer:
         shading: str = "lambert",
         background: Sequence[float] = (0.0, 0.0, 0.0),
         ambient: float = 0.25,
+        out: Frame | dict[str, np.ndarray] | None = None,
     ) -> Frame:
         """Render ``scene`` seen by ``camera``; only ``outputs`` are allocated and written.
 
@@ -127,6 +144,10 @@ class Renderer:
                   if it has them, else the instance's material colour. Colours are written as
                   given (no gamma curve), rounded to 8 bits.
         background : RGB in [0, 1] for pixels nothing covers.
+        out : a Frame from an earlier render, or a dict of arrays, to render into in place
+              (no allocation). Each array must have exactly its output's dtype and shape, be
+              C-contiguous and writeable. Requested outputs missing from ``out`` are allocated.
+              Without ``out`` every render returns new arrays and never touches earlier ones.
         """
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a softrast.Scene, got {type(scene).__name__}")
@@ -147,6 +168,8 @@ class Renderer:
         if not 0.0 <= float(ambient) <= 1.0:
             raise ValueError(f"ambient must be in [0, 1], got {ambient!r}")
 
+        out_arrays = _out_arrays(out, names)
+
         draws = [(inst.mesh._core_data(), inst.pose, inst.instance_id, inst.color)
                  for inst in scene.instances]
         buffers = self._core.render(
@@ -161,6 +184,7 @@ class Renderer:
             shading,
             bg,
             float(ambient),
+            out_arrays,
         )
         return Frame(buffers)
 
