@@ -39,6 +39,8 @@ ProjectedVertex project(const vec4& p_clip, float depth_view, const ClipPlanes& 
     v.outcode = kInvalidVertex;
     return v;
   }
+  v.x_window = x_window;
+  v.y_window = y_window;
   v.x = int32_t(std::lround(x_window * kSubpixelOne));
   v.y = int32_t(std::lround(y_window * kSubpixelOne));
   v.key = orthographic ? -depth_view : float(1.0 / double(depth_view));
@@ -49,6 +51,37 @@ ProjectedVertex project(const vec4& p_clip, float depth_view, const ClipPlanes& 
 // First and last pixel whose centre (j * 256 + 128) lies in [lo, hi] (fixed point).
 inline int32_t first_sample(int32_t lo) { return (lo - kSubpixelHalf + kSubpixelOne - 1) >> kSubpixelBits; }
 inline int32_t last_sample(int32_t hi) { return (hi - kSubpixelHalf) >> kSubpixelBits; }
+
+// Depth keys for the snapped vertices that reproduce the unsnapped triangle's depth plane.
+//
+// Coverage must use the snapped triangle (exact edge functions => watertight), but its keys need
+// not: snapping moves a vertex by up to 1/512 px, and where depth changes fast across the screen
+// (grazing planes) interpolating the original keys over the moved triangle is off by that shift
+// times the depth gradient (3e-3 relative seen on a floor near the horizon). The key is affine in
+// window space, so evaluating the true plane at the snapped vertices makes the interpolated key
+// exact (to rounding) at every sample. Slivers, whose true plane is ill-conditioned, keep the
+// original keys.
+void true_plane_keys(const ProjectedVertex* const o[3], const TriangleSetup& t, float keys[3]) {
+  for (int k = 0; k < 3; ++k) keys[k] = o[k]->key;
+  const double x0 = o[0]->x_window, y0 = o[0]->y_window;
+  const double ex1 = o[1]->x_window - x0, ey1 = o[1]->y_window - y0;
+  const double ex2 = o[2]->x_window - x0, ey2 = o[2]->y_window - y0;
+  const double area = ex1 * ey2 - ey1 * ex2;
+  if (!(std::fabs(area) > 1e-6)) return;
+  double fitted[3];
+  for (int k = 0; k < 3; ++k) {
+    const double dx = t.x[k] * (1.0 / kSubpixelOne) - x0, dy = t.y[k] * (1.0 / kSubpixelOne) - y0;
+    const double mu1 = (dx * ey2 - dy * ex2) / area, mu2 = (ex1 * dy - ey1 * dx) / area;
+    const double mu0 = 1.0 - mu1 - mu2;
+    // A well-shaped triangle has mu ~ the unit vector of vertex k; far from it => sliver.
+    if (std::fabs(mu0 - (k == 0)) > 0.25 || std::fabs(mu1 - (k == 1)) > 0.25 ||
+        std::fabs(mu2 - (k == 2)) > 0.25)
+      return;
+    fitted[k] = mu0 * o[0]->key + mu1 * o[1]->key + mu2 * o[2]->key;
+    if ((fitted[k] > 0.0) != (o[k]->key > 0.0f)) return;  // the key's sign is its camera type
+  }
+  for (int k = 0; k < 3; ++k) keys[k] = float(fitted[k]);
+}
 
 // Builds the record for one snapped triangle. Returns false if it is culled, degenerate or
 // covers no sample centre.
@@ -79,6 +112,8 @@ bool setup_triangle(const ProjectedVertex* v[3], const SetupParams& params, uint
   if (t.x0 > t.x1 || t.y0 > t.y1) return false;  // No sample centre in the bounding box => cull.
 
   t.area2 = swapped ? -area2 : area2;
+  float keys[3];
+  true_plane_keys(o, t, keys);
   for (int k = 0; k < 3; ++k) {
     // Edge k runs from vertex k+1 to k+2. Direct3D's top-left rule in y-down window space: with
     // this winding, a top edge runs exactly horizontally to the right (dy == 0, dx > 0) and a
@@ -87,7 +122,7 @@ bool setup_triangle(const ProjectedVertex* v[3], const SetupParams& params, uint
     const int32_t dx = t.x[b] - t.x[a], dy = t.y[b] - t.y[a];
     const bool top_left = dy < 0 || (dy == 0 && dx > 0);
     t.bias[k] = top_left ? 0 : 1;
-    t.key_over_area[k] = float(double(o[k]->key) / double(t.area2));
+    t.key_over_area[k] = float(double(keys[k]) / double(t.area2));
     t.inv_w[k] = o[k]->inv_w;
   }
   t.prim = prim;

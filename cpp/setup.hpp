@@ -23,6 +23,7 @@ struct Viewport {
 struct ProjectedVertex {
   vec4 p_clip;
   float depth_view;
+  double x_window, y_window;  // window coordinates before snapping, px
   int32_t x, y;     // window coordinates, fixed point, valid when outcode == 0
   float key;        // depth key (pipeline.hpp)
   float inv_w;      // 1 / w_clip
