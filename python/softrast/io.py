@@ -1,0 +1,154 @@
+"""Image files through OpenImageIO: lossless round trips, atomic writes, no silent quantization.
+
+Arrays are (h, w) or (h, w, c), row 0 at the top of the image (the layout of every render output).
+"""
+from __future__ import annotations
+
+import errno
+import os
+import uuid
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = ["imread", "imwrite"]
+
+_U8, _U16, _F32 = np.dtype(np.uint8), np.dtype(np.uint16), np.dtype(np.float32)
+
+# Pixel types each format stores exactly. Anything else would be converted silently by
+# OpenImageIO (float -> 8 bit in PNG, uint8 -> half in EXR), so we refuse it instead.
+# Extensions not listed are passed to OpenImageIO unchecked.
+_FORMAT_DTYPES: dict[str, frozenset[np.dtype]] = {
+    ".png": frozenset({_U8, _U16}),
+    ".jpg": frozenset({_U8}),
+    ".jpeg": frozenset({_U8}),
+    ".bmp": frozenset({_U8}),
+    ".tga": frozenset({_U8}),
+    ".webp": frozenset({_U8}),
+    ".gif": frozenset({_U8}),
+    ".ppm": frozenset({_U8, _U16}),
+    ".pgm": frozenset({_U8, _U16}),
+    ".pnm": frozenset({_U8, _U16}),
+    ".exr": frozenset({_F32}),
+    ".hdr": frozenset({_F32}),
+    ".tif": frozenset({_U8, _U16, _F32}),
+    ".tiff": frozenset({_U8, _U16, _F32}),
+}
+# JPEG has no alpha (OpenImageIO drops it silently); Radiance HDR is RGB only.
+_FORMAT_CHANNELS: dict[str, frozenset[int]] = {
+    ".jpg": frozenset({1, 3}),
+    ".jpeg": frozenset({1, 3}),
+    ".hdr": frozenset({3}),
+}
+_OIIO_TYPE = {_U8: "uint8", _U16: "uint16", _F32: "float"}
+
+
+def _suggest(dtype: np.dtype) -> str:
+    if dtype == _F32:
+        return "use .exr or .tif for float data"
+    return "use .png or .tif for uint8/uint16 data (or convert to float32 for .exr)"
+
+
+def imwrite(path: str | os.PathLike[str], array: npt.ArrayLike) -> None:
+    """Write ``array`` to ``path`` atomically; the format follows the file extension.
+
+    array : (h, w), (h, w, 1), (h, w, 3) or (h, w, 4); row 0 is the top of the image.
+        dtype uint8, uint16, float32, float64 (stored as float32) or bool (stored as uint8 0/255).
+        Channels are stored as given (gray, RGB, RGBA); RGBA is not premultiplied on the way.
+
+    Formats are never asked to quantize: float data to an 8-bit format such as PNG raises
+    ValueError (use .exr or .tif). The file is written under a temporary name in the same
+    directory and renamed into place, so an interrupted write never leaves a partial file.
+    """
+    import OpenImageIO as oiio
+
+    path_str = os.fspath(path)
+    arr = np.asarray(array)
+    if arr.dtype == np.bool_:
+        arr = arr.astype(np.uint8) * np.uint8(255)
+    elif arr.dtype == np.float64:
+        arr = arr.astype(np.float32)
+    if arr.dtype not in _OIIO_TYPE:
+        raise TypeError(f"array dtype must be uint8, uint16, float32, float64 or bool, got {arr.dtype}")
+    if arr.ndim == 2:
+        arr = arr[:, :, np.newaxis]  # OpenImageIO mis-writes 2-D arrays => always pass (h, w, c)
+    if arr.ndim != 3 or arr.shape[2] not in (1, 3, 4):
+        raise ValueError(
+            f"array must have shape (h, w), (h, w, 1), (h, w, 3) or (h, w, 4), got {np.shape(array)}")
+    h, w, c = arr.shape
+    if h == 0 or w == 0:
+        raise ValueError(f"array is empty: shape {np.shape(array)}")
+
+    directory, name = os.path.split(os.path.abspath(path_str))
+    ext = os.path.splitext(name)[1].lower()
+    if not ext:
+        raise ValueError(f"path {path_str!r} has no file extension to choose an image format")
+    allowed = _FORMAT_DTYPES.get(ext)
+    if allowed is not None and arr.dtype not in allowed:
+        raise ValueError(
+            f"cannot store {arr.dtype} data in a {ext} file without converting it; {_suggest(arr.dtype)}")
+    channels = _FORMAT_CHANNELS.get(ext)
+    if channels is not None and c not in channels:
+        raise ValueError(f"a {ext} file cannot store {c} channels (allowed: {sorted(channels)}); "
+                         "use .png, .tif or .exr")
+    out = oiio.ImageOutput.create(path_str)
+    if out is None:
+        msg = oiio.geterror()  # always retrieve, or OpenImageIO prints it at exit
+        raise ValueError(f"path {path_str!r}: unknown image format {ext!r} ({msg})")
+    if not os.path.isdir(directory):
+        raise FileNotFoundError(errno.ENOENT, "directory does not exist", directory)
+
+    arr = np.ascontiguousarray(arr)
+    # Same directory => os.replace is an atomic rename on the same filesystem.
+    # A fresh name rather than mkstemp: the file then gets the usual permissions, not 0600.
+    tmp_path = os.path.join(directory, f".{name}.{os.getpid()}-{uuid.uuid4().hex[:12]}.tmp{ext}")
+    try:
+        spec = oiio.ImageSpec(w, h, c, _OIIO_TYPE[arr.dtype])
+        # Store pixels as given: without this, PNG writers divide colour by alpha (unpremultiply).
+        spec.attribute("oiio:UnassociatedAlpha", 1)
+        if not out.open(tmp_path, spec):
+            raise OSError(f"could not open {path_str!r} for writing: {out.geterror()}")
+        ok = out.write_image(arr)
+        err = out.geterror()
+        closed = out.close()
+        if not ok or not closed:
+            raise OSError(f"could not write {path_str!r}: {err or out.geterror()}")
+        os.replace(tmp_path, path_str)
+    except BaseException:
+        try:
+            os.remove(tmp_path)
+        except FileNotFoundError:
+            pass
+        raise
+
+
+def imread(path: str | os.PathLike[str]) -> np.ndarray:
+    """Read an image file in its stored pixel type.
+
+    Returns (h, w, c) with the file's own dtype (uint8, uint16, float32, ...), or (h, w) when the
+    file has one channel; row 0 is the top of the image. Values are as stored (colour is not
+    premultiplied by alpha). Multi-part files: the first part.
+
+    Raises FileNotFoundError if ``path`` does not exist, ValueError if it cannot be decoded.
+    """
+    import OpenImageIO as oiio
+
+    path_str = os.fspath(path)
+    if not os.path.isfile(path_str):
+        raise FileNotFoundError(errno.ENOENT, "image file not found", path_str)
+    config = oiio.ImageSpec()
+    config.attribute("oiio:UnassociatedAlpha", 1)  # return stored values, not premultiplied by alpha
+    inp = oiio.ImageInput.open(path_str, config)
+    if inp is None:
+        raise ValueError(f"could not read image {path_str!r}: {oiio.geterror()}")
+    try:
+        pixels: Any = inp.read_image(format="unknown")  # "unknown" => keep the native pixel type
+        err = inp.geterror()
+    finally:
+        inp.close()
+    if pixels is None or not isinstance(pixels, np.ndarray):
+        raise ValueError(f"could not read image {path_str!r}: {err or 'no pixel data'}")
+    if pixels.ndim == 2:  # defensive: OpenImageIO returns (h, w, c), but be explicit
+        return pixels
+    return pixels[:, :, 0] if pixels.shape[2] == 1 else pixels

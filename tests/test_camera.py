@@ -1,0 +1,322 @@
+"""Cameras, checked against cv2.projectPoints, the gluPerspective / pyrender formulas and geometry."""
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from softrast.camera import IntrinsicsCamera, OrthographicCamera, PerspectiveCamera
+
+
+def to_window(camera, points_world, width, height):
+    """The core's pipeline in float64: clip = P @ view @ [X, 1], NDC, window (row 0 at top)."""
+    p_h = np.c_[points_world, np.ones(len(points_world))]
+    p_clip = p_h @ (camera.projection_matrix(width, height) @ camera.view_matrix()).T
+    p_ndc = p_clip[:, :3] / p_clip[:, 3:]
+    x_win = (p_ndc[:, 0] + 1.0) / 2.0 * width
+    y_win = (1.0 - p_ndc[:, 1]) / 2.0 * height
+    return np.c_[x_win, y_win], p_ndc[:, 2], p_clip[:, 3]
+
+
+def random_pose(rng):
+    """A random rigid camera-to-world transform (rotation from a Rodrigues vector)."""
+    rot, _ = cv2.Rodrigues(rng.normal(size=3) * 2.0)
+    pose = np.eye(4)
+    pose[:3, :3] = rot
+    pose[:3, 3] = rng.normal(size=3) * 3.0
+    return pose
+
+
+def points_in_front(rng, n, pose, opencv):
+    """World points that lie 0.5..20 units in front of a camera with ``pose``."""
+    depth = rng.uniform(0.5, 20.0, n)
+    xy = rng.uniform(-0.6, 0.6, (n, 2)) * depth[:, None]
+    z_cam = depth if opencv else -depth  # OpenCV looks down +z, OpenGL down -z
+    p_cam = np.c_[xy, z_cam, np.ones(n)]
+    return (p_cam @ pose.T)[:, :3], depth
+
+
+# -- IntrinsicsCamera, OpenCV convention --------------------------------------------------------
+
+@pytest.mark.parametrize("size", [(640, 480), (123, 457), (1000, 37)])
+def test_opencv_intrinsics_match_cv2_project_points(rng, size):
+    width, height = size
+    for _ in range(5):
+        fx, fy = rng.uniform(50.0, 900.0, 2)
+        cx = rng.uniform(0.2, 0.8) * width  # off-centre principal point
+        cy = rng.uniform(0.2, 0.8) * height
+        cam = IntrinsicsCamera(fx, fy, cx, cy, width, height, near=0.1, far=50.0)
+        pose = random_pose(rng)
+        cam.pose = pose
+        points, _ = points_in_front(rng, 50, pose, opencv=True)
+
+        world_to_cam = np.linalg.inv(pose)  # cv2 wants world-to-camera, i.e. inverse of the pose
+        rvec, _ = cv2.Rodrigues(world_to_cam[:3, :3])
+        object_points = np.ascontiguousarray(points).reshape(-1, 1, 3)
+        uv, _ = cv2.projectPoints(object_points, rvec, world_to_cam[:3, 3], cam.K, None)
+        uv = uv.reshape(-1, 2)
+
+        p_win, _, _ = to_window(cam, points, width, height)
+        np.testing.assert_allclose(p_win - 0.5, uv, rtol=0, atol=1e-6)
+        # Which pixel a point falls in: (row, col) = (round(v), round(u)) both ways.
+        np.testing.assert_array_equal(np.floor(p_win), np.round(uv))
+
+
+def test_opencv_intrinsics_depth_is_distance_along_axis(rng):
+    cam = IntrinsicsCamera(500, 520, 300, 200, 640, 400, near=0.1, far=50.0)
+    pose = random_pose(rng)
+    cam.pose = pose
+    points, depth = points_in_front(rng, 20, pose, opencv=True)
+    _, z_ndc, w_clip = to_window(cam, points, 640, 400)
+    np.testing.assert_allclose(w_clip, depth, rtol=1e-12)
+    assert np.all(np.abs(z_ndc) < 1.0)  # inside [near, far]
+
+
+def test_opencv_view_matrix_flips_y_and_z(rng):
+    cam = IntrinsicsCamera(500, 500, 320, 240, 640, 480)
+    pose = random_pose(rng)
+    cam.pose = pose
+    np.testing.assert_allclose(cam.view_matrix(), np.diag([1.0, -1.0, -1.0, 1.0]) @ np.linalg.inv(pose), atol=1e-12)
+
+
+def test_opencv_principal_pixel_centre():
+    # A point on the optical axis projects to (u, v) = (cx, cy): the centre of pixel (cy, cx).
+    cam = IntrinsicsCamera(400, 400, 10, 20, 64, 48, convention="opencv")
+    p_win, _, _ = to_window(cam, np.array([[0.0, 0.0, 5.0]]), 64, 48)  # +z is forward for opencv
+    np.testing.assert_allclose(p_win[0], [10.5, 20.5], atol=1e-12)
+
+
+# -- IntrinsicsCamera, OpenGL convention (pyrender) ----------------------------------------------
+
+def test_opengl_intrinsics_equals_pyrender_formula():
+    fx, fy, cx, cy, w, h, n, f = 410.0, 395.0, 300.5, 170.25, 640, 360, 0.2, 30.0
+    cam = IntrinsicsCamera(fx, fy, cx, cy, w, h, near=n, far=f, convention="opengl")
+    expected = np.array([
+        [2 * fx / w, 0, 1 - 2 * cx / w, 0],  # pyrender IntrinsicsCamera.get_projection_matrix
+        [0, 2 * fy / h, 2 * cy / h - 1, 0],
+        [0, 0, (f + n) / (n - f), 2 * f * n / (n - f)],
+        [0, 0, -1, 0],
+    ])
+    np.testing.assert_allclose(cam.projection_matrix(w, h), expected, rtol=1e-15, atol=0)
+    assert cam.convention == "opengl"
+
+
+def test_opengl_intrinsics_projects_from_top_left_corner(rng):
+    fx, fy, cx, cy, w, h = 300.0, 310.0, 50.0, 30.0, 100, 80
+    cam = IntrinsicsCamera(fx, fy, cx, cy, w, h, convention="opengl")
+    pose = random_pose(rng)
+    cam.pose = pose
+    points, depth = points_in_front(rng, 30, pose, opencv=False)
+    p_cam = (np.c_[points, np.ones(30)] @ np.linalg.inv(pose).T)[:, :3]  # OpenGL camera axes
+    p_win, _, w_clip = to_window(cam, points, w, h)
+    np.testing.assert_allclose(p_win[:, 0], fx * p_cam[:, 0] / depth + cx, atol=1e-9)
+    np.testing.assert_allclose(p_win[:, 1], cy - fy * p_cam[:, 1] / depth, atol=1e-9)  # y up => rows down
+    np.testing.assert_allclose(w_clip, depth, rtol=1e-12)
+
+
+def test_intrinsics_K():
+    cam = IntrinsicsCamera(1, 2, 3, 4, 10, 10)
+    np.testing.assert_array_equal(cam.K, [[1, 0, 3], [0, 2, 4], [0, 0, 1]])
+
+
+# -- PerspectiveCamera --------------------------------------------------------------------------
+
+def test_perspective_matches_glu_perspective():
+    fov, n, f, w, h = 60.0, 0.1, 25.0, 320, 200
+    cam = PerspectiveCamera(fov_y=fov, near=n, far=f)
+    t = 1.0 / math.tan(math.radians(fov) / 2)
+    expected = np.array([
+        [t / (w / h), 0, 0, 0],
+        [0, t, 0, 0],
+        [0, 0, (f + n) / (n - f), 2 * f * n / (n - f)],
+        [0, 0, -1, 0],
+    ])
+    np.testing.assert_allclose(cam.projection_matrix(w, h), expected, rtol=1e-15)
+    assert cam.projection_matrix(w, h).dtype == np.float64
+
+
+def test_perspective_aspect_override():
+    cam = PerspectiveCamera(fov_y=90.0, aspect=2.0)
+    proj = cam.projection_matrix(100, 100)
+    assert proj[0, 0] == pytest.approx(0.5)
+    assert proj[1, 1] == pytest.approx(1.0)
+
+
+def test_perspective_fov_reaches_image_edges():
+    # A point at half the vertical fov above the axis lands on the top edge of the image.
+    cam = PerspectiveCamera(fov_y=50.0)
+    half = math.radians(25.0)
+    pts = np.array([[0.0, math.tan(half) * 4.0, -4.0], [0.0, -math.tan(half) * 4.0, -4.0]])
+    p_win, _, _ = to_window(cam, pts, 80, 60)
+    np.testing.assert_allclose(p_win[:, 1], [0.0, 60.0], atol=1e-12)
+    np.testing.assert_allclose(p_win[:, 0], [40.0, 40.0], atol=1e-12)
+
+
+def test_perspective_depth_and_near_far_planes(rng):
+    cam = PerspectiveCamera(fov_y=45.0, near=0.5, far=40.0)
+    cam.pose = random_pose(rng)
+    forward = -cam.pose[:3, 2]  # OpenGL camera looks down its -z axis
+    eye = cam.pose[:3, 3]
+    points = eye + forward * np.array([[0.5], [3.0], [40.0]])
+    _, z_ndc, w_clip = to_window(cam, points, 64, 48)
+    np.testing.assert_allclose(w_clip, [0.5, 3.0, 40.0], rtol=1e-12)  # w_clip = -z_view = depth
+    np.testing.assert_allclose(z_ndc[[0, 2]], [-1.0, 1.0], atol=1e-12)
+
+
+def test_perspective_needs_an_image_size():
+    with pytest.raises(ValueError, match="width and height"):
+        PerspectiveCamera().projection_matrix()
+    cam = PerspectiveCamera(width=40, height=20)
+    assert cam.projection_matrix()[0, 0] == pytest.approx(cam.projection_matrix(40, 20)[0, 0])
+
+
+# -- OrthographicCamera -------------------------------------------------------------------------
+
+def test_orthographic_matrix_and_extent():
+    n, f = 0.5, 10.0
+    cam = OrthographicCamera(xmag=2.0, ymag=1.5, near=n, far=f)
+    expected = np.array([
+        [0.5, 0, 0, 0], [0, 1 / 1.5, 0, 0],
+        [0, 0, -2 / (f - n), -(f + n) / (f - n)], [0, 0, 0, 1],
+    ])
+    np.testing.assert_allclose(cam.projection_matrix(64, 48), expected, rtol=1e-15)
+    assert cam.orthographic
+    # xmag / ymag are half-extents: (2, 1.5) in view space is the top-right corner.
+    p_win, z_ndc, w_clip = to_window(cam, np.array([[2.0, 1.5, -n], [-2.0, -1.5, -f]]), 64, 48)
+    np.testing.assert_allclose(p_win, [[64.0, 0.0], [0.0, 48.0]], atol=1e-12)
+    np.testing.assert_allclose(z_ndc, [-1.0, 1.0], atol=1e-12)
+    np.testing.assert_array_equal(w_clip, [1.0, 1.0])
+
+
+# -- look_at and pose ---------------------------------------------------------------------------
+
+CAMERAS = [
+    lambda: PerspectiveCamera(fov_y=40.0),
+    lambda: OrthographicCamera(xmag=3.0, ymag=2.0),
+    lambda: IntrinsicsCamera(300, 300, 31.5, 23.5, 64, 48, convention="opencv"),  # cx = (W-1)/2
+    lambda: IntrinsicsCamera(300, 300, 32.0, 24.0, 64, 48, convention="opengl"),  # cx = W/2
+]
+
+
+@pytest.mark.parametrize("make", CAMERAS)
+def test_look_at_centres_target_and_keeps_up_up(rng, make):
+    for _ in range(5):
+        cam = make()
+        eye, target = rng.normal(size=3) * 5.0, rng.normal(size=3)
+        up = np.array([0.0, 0.0, 1.0])
+        assert cam.look_at(eye, target, up) is cam
+        p_win, _, w_clip = to_window(cam, np.array([target, target + 0.1 * up]), 64, 48)
+        np.testing.assert_allclose(p_win[0], [32.0, 24.0], atol=1e-9)
+        assert p_win[1, 1] < p_win[0, 1]  # a point above the target is higher in the image
+        if not cam.orthographic:
+            np.testing.assert_allclose(w_clip[0], np.linalg.norm(target - eye), rtol=1e-12)
+
+
+def test_look_at_opencv_axes():
+    cam = IntrinsicsCamera(100, 100, 50, 50, 100, 100).look_at((0, 0, 5), (0, 0, 0))
+    np.testing.assert_allclose(cam.pose[:3, 2], [0, 0, -1], atol=1e-15)  # z toward the target
+    np.testing.assert_allclose(cam.pose[:3, 1], [0, -1, 0], atol=1e-15)  # y down
+    np.testing.assert_allclose(cam.pose[:3, 0], [1, 0, 0], atol=1e-15)
+    gl = PerspectiveCamera().look_at((0, 0, 5), (0, 0, 0))
+    np.testing.assert_allclose(gl.pose[:3, :3], np.eye(3), atol=1e-15)
+    np.testing.assert_allclose(gl.view_matrix() @ gl.pose, np.eye(4), atol=1e-15)
+
+
+def test_default_pose_is_identity():
+    for make in CAMERAS:
+        np.testing.assert_array_equal(make().pose, np.eye(4))
+
+
+def test_pose_is_copied_and_read_only():
+    cam = PerspectiveCamera()
+    pose = np.eye(4)
+    cam.pose = pose
+    pose[0, 3] = 5.0
+    assert cam.pose[0, 3] == 0.0
+    with pytest.raises(ValueError):
+        cam.pose[0, 3] = 1.0
+
+
+# -- bad inputs ---------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("pose", [
+    np.eye(3),
+    np.diag([2.0, 1.0, 1.0, 1.0]),  # scale
+    np.diag([-1.0, 1.0, 1.0, 1.0]),  # reflection
+    np.full((4, 4), np.nan),
+    np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 1, 1.0]]),  # projective last row
+])
+def test_bad_pose(pose):
+    with pytest.raises(ValueError, match="pose"):
+        PerspectiveCamera().pose = pose
+
+
+def test_bad_look_at():
+    cam = PerspectiveCamera()
+    with pytest.raises(ValueError, match="eye and target"):
+        cam.look_at((1, 2, 3), (1, 2, 3))
+    with pytest.raises(ValueError, match="up"):
+        cam.look_at((0, 5, 0), (0, 0, 0), up=(0, 1, 0))
+    with pytest.raises(ValueError, match="up"):
+        cam.look_at((0, 0, 5), (0, 0, 0), up=(0, 0, 0))
+    with pytest.raises(ValueError, match="eye"):
+        cam.look_at((0, np.nan, 5), (0, 0, 0))
+    with pytest.raises(ValueError, match="target"):
+        cam.look_at((0, 0, 5), (0, np.inf, 0))
+    with pytest.raises(ValueError, match="eye"):
+        cam.look_at((0, 5), (0, 0, 0))
+    np.testing.assert_array_equal(cam.pose, np.eye(4))  # failed calls left the pose alone
+
+
+@pytest.mark.parametrize("kwargs, name", [
+    ({"near": 0.0}, "near"),
+    ({"near": -1.0}, "near"),
+    ({"near": np.nan}, "near"),
+    ({"far": 0.01}, "far"),
+    ({"near": 1.0, "far": 1.0}, "far"),
+    ({"far": np.inf}, "far"),
+    ({"fov_y": 0.0}, "fov_y"),
+    ({"fov_y": 180.0}, "fov_y"),
+    ({"fov_y": np.nan}, "fov_y"),
+    ({"aspect": 0.0}, "aspect"),
+    ({"width": 0}, "width"),
+    ({"height": -3}, "height"),
+])
+def test_bad_perspective(kwargs, name):
+    with pytest.raises(ValueError, match=name):
+        PerspectiveCamera(**kwargs)
+
+
+@pytest.mark.parametrize("kwargs, name", [
+    ({"xmag": 0.0}, "xmag"), ({"ymag": -1.0}, "ymag"), ({"xmag": np.inf}, "xmag"),
+    ({"near": 0.0}, "near"), ({"near": 2.0, "far": 1.0}, "far"),
+])
+def test_bad_orthographic(kwargs, name):
+    with pytest.raises(ValueError, match=name):
+        OrthographicCamera(**kwargs)
+
+
+@pytest.mark.parametrize("kwargs, name, error", [
+    ({"fx": 0.0}, "fx", ValueError),
+    ({"fy": -5.0}, "fy", ValueError),
+    ({"fx": np.nan}, "fx", ValueError),
+    ({"cx": np.inf}, "cx", ValueError),
+    ({"width": 0}, "width", ValueError),
+    ({"height": None}, "height", ValueError),
+    ({"width": 64.5}, "width", TypeError),
+    ({"convention": "directx"}, "convention", ValueError),
+    ({"near": -0.1}, "near", ValueError),
+])
+def test_bad_intrinsics(kwargs, name, error):
+    args = {"fx": 100.0, "fy": 100.0, "cx": 32.0, "cy": 24.0, "width": 64, "height": 48, **kwargs}
+    with pytest.raises(error, match=name):
+        IntrinsicsCamera(**args)
+
+
+def test_intrinsics_refuses_other_image_size():
+    cam = IntrinsicsCamera(100, 100, 32, 24, 64, 48)
+    with pytest.raises(ValueError, match="64x48"):
+        cam.projection_matrix(128, 96)
+    np.testing.assert_array_equal(cam.projection_matrix(), cam.projection_matrix(64, 48))

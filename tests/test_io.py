@@ -1,0 +1,139 @@
+"""imread / imwrite: exact round trips for every lossless format, refusals, atomic writes."""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+from softrast.io import imread, imwrite
+
+H, W = 7, 11  # non-square, odd sizes catch transposed / 2-D mis-writes
+
+
+def random_image(rng, dtype, channels):
+    shape = (H, W) if channels is None else (H, W, channels)
+    if dtype == np.float32:
+        return (rng.normal(size=shape) * 100.0).astype(np.float32)  # negative and > 1 too
+    info = np.iinfo(dtype)
+    return rng.integers(info.min, info.max, size=shape, endpoint=True).astype(dtype)
+
+
+@pytest.mark.parametrize("ext, dtype, channels", [
+    (".png", np.uint8, 1), (".png", np.uint8, 3), (".png", np.uint8, 4), (".png", np.uint8, None),
+    (".png", np.uint16, 1), (".png", np.uint16, 3), (".png", np.uint16, 4),
+    (".exr", np.float32, 1), (".exr", np.float32, 3), (".exr", np.float32, 4), (".exr", np.float32, None),
+    (".tif", np.float32, 1), (".tif", np.float32, 3), (".tif", np.float32, None),
+    (".tif", np.uint8, 3), (".tif", np.uint16, 4),
+])
+def test_lossless_round_trip(tmp_path, rng, ext, dtype, channels):
+    image = random_image(rng, dtype, channels)
+    path = tmp_path / f"image{ext}"
+    imwrite(path, image)
+    back = imread(path)
+    assert back.dtype == dtype
+    expected = image if channels != 1 else image[:, :, 0]  # one channel comes back as (h, w)
+    assert back.shape == expected.shape
+    np.testing.assert_array_equal(back, expected)
+
+
+def test_two_dimensional_image_keeps_orientation(tmp_path):
+    # Distinct values per pixel: a transposed or strided mis-write cannot pass.
+    image = np.arange(H * W, dtype=np.uint16).reshape(H, W) * 300
+    imwrite(tmp_path / "ramp.png", image)
+    np.testing.assert_array_equal(imread(tmp_path / "ramp.png"), image)
+
+
+def test_jpeg_is_close(tmp_path):
+    yy, xx = np.mgrid[0:64, 0:96]
+    smooth = np.stack([xx * 2, yy * 3, (xx + yy)], axis=-1).astype(np.uint8)  # JPEG-friendly ramp
+    imwrite(tmp_path / "ramp.jpg", smooth)
+    back = imread(tmp_path / "ramp.jpg")
+    assert back.shape == smooth.shape and back.dtype == np.uint8
+    assert np.abs(back.astype(int) - smooth).mean() < 3.0
+    imwrite(tmp_path / "gray.jpg", smooth[:, :, 0])
+    assert imread(tmp_path / "gray.jpg").shape == (64, 96)
+
+
+def test_bool_and_float64_are_converted(tmp_path, rng):
+    mask = rng.random((H, W)) > 0.5
+    imwrite(tmp_path / "mask.png", mask)
+    back = imread(tmp_path / "mask.png")
+    assert back.dtype == np.uint8
+    np.testing.assert_array_equal(back, mask.astype(np.uint8) * 255)
+
+    depth = rng.random((H, W)) * 10.0
+    imwrite(tmp_path / "depth.exr", depth)
+    back = imread(tmp_path / "depth.exr")
+    assert back.dtype == np.float32
+    np.testing.assert_array_equal(back, depth.astype(np.float32))
+
+
+def test_overwrite_and_no_temporary_files_left(tmp_path, rng):
+    for k in range(3):
+        imwrite(tmp_path / "a.png", random_image(rng, np.uint8, 3))
+        imwrite(tmp_path / "b.exr", random_image(rng, np.float32, 3))
+    assert sorted(os.listdir(tmp_path)) == ["a.png", "b.exr"]
+
+
+def test_interrupted_write_keeps_old_file_and_leaves_no_temporary(tmp_path, monkeypatch):
+    old = np.zeros((H, W, 3), np.uint8)
+    imwrite(tmp_path / "a.png", old)
+
+    def fail(src, dst):
+        raise KeyboardInterrupt  # interrupted between writing the data and renaming it
+
+    monkeypatch.setattr(os, "replace", fail)
+    with pytest.raises(KeyboardInterrupt):
+        imwrite(tmp_path / "a.png", np.full((H, W, 3), 200, np.uint8))
+    monkeypatch.undo()
+    assert os.listdir(tmp_path) == ["a.png"]
+    np.testing.assert_array_equal(imread(tmp_path / "a.png"), old)
+
+
+@pytest.mark.parametrize("name, array, error, match", [
+    ("f.png", np.zeros((H, W, 3), np.float32), ValueError, r"\.exr or \.tif"),
+    ("f.jpg", np.zeros((H, W, 3), np.float32), ValueError, r"\.exr"),
+    ("f.png", np.zeros((H, W, 3), np.float64), ValueError, r"\.exr"),
+    ("f.jpg", np.zeros((H, W, 3), np.uint16), ValueError, "uint16"),
+    ("f.exr", np.zeros((H, W, 3), np.uint8), ValueError, "uint8"),
+    ("f.jpg", np.zeros((H, W, 4), np.uint8), ValueError, "4 channels"),
+    ("f.png", np.zeros((H, W, 2), np.uint8), ValueError, "array"),
+    ("f.png", np.zeros((H, W, 3, 1), np.uint8), ValueError, "array"),
+    ("f.png", np.zeros(W, np.uint8), ValueError, "array"),
+    ("f.png", np.zeros((0, W, 3), np.uint8), ValueError, "array is empty"),
+    ("f.png", np.zeros((H, W, 3), np.int64), TypeError, "array dtype"),
+    ("f.tif", np.zeros((H, W, 3), np.complex64), TypeError, "array dtype"),
+    ("f.qqq", np.zeros((H, W, 3), np.uint8), ValueError, "path"),
+    ("noext", np.zeros((H, W, 3), np.uint8), ValueError, "extension"),
+])
+def test_imwrite_refuses(tmp_path, name, array, error, match):
+    with pytest.raises(error, match=match):
+        imwrite(tmp_path / name, array)
+    assert os.listdir(tmp_path) == []  # nothing written, no temporary left
+
+
+def test_imwrite_missing_directory(tmp_path):
+    with pytest.raises(FileNotFoundError, match="nowhere"):
+        imwrite(tmp_path / "nowhere" / "a.png", np.zeros((H, W), np.uint8))
+
+
+def test_imread_missing(tmp_path):
+    with pytest.raises(FileNotFoundError, match="missing.png"):
+        imread(tmp_path / "missing.png")
+
+
+@pytest.mark.parametrize("name", ["corrupt.png", "corrupt.exr", "corrupt.unknownext"])
+def test_imread_corrupt(tmp_path, name):
+    path = tmp_path / name
+    path.write_bytes(b"this is not an image\x00\x01\x02")
+    with pytest.raises(ValueError, match=name):
+        imread(path)
+
+
+def test_imread_truncated_png(tmp_path, rng):
+    imwrite(tmp_path / "full.png", random_image(rng, np.uint8, 3))
+    data = (tmp_path / "full.png").read_bytes()
+    (tmp_path / "cut.png").write_bytes(data[: len(data) // 2])
+    with pytest.raises(ValueError, match="cut.png"):
+        imread(tmp_path / "cut.png")

@@ -1,0 +1,264 @@
+"""Mesh validation, trimesh conversion and file loading (checked against an independent OBJ parse)."""
+from __future__ import annotations
+
+import pathlib
+import sys
+import types
+
+import numpy as np
+import pytest
+import trimesh
+
+from softrast.mesh import Mesh, load_mesh
+
+SPOT_PATH = pathlib.Path(__file__).resolve().parents[1] / "assets" / "meshes" / "spot.obj"
+TRI_POS = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+TRI_FACES = [[0, 1, 2], [0, 2, 3]]
+
+
+def test_stores_float32_int32_read_only_copies():
+    pos = np.array(TRI_POS, dtype=np.float64)
+    faces = np.array(TRI_FACES, dtype=np.int64)
+    mesh = Mesh(pos, faces)
+    assert mesh.positions.dtype == np.float32 and mesh.positions.flags.c_contiguous
+    assert mesh.faces.dtype == np.int32 and mesh.faces.flags.c_contiguous
+    np.testing.assert_array_equal(mesh.positions, pos)
+    np.testing.assert_array_equal(mesh.faces, faces)
+    assert (mesh.num_vertices, mesh.num_faces) == (4, 2)
+    assert mesh.normals is None and mesh.uvs is None and mesh.colors is None
+    assert mesh.color == (0.8, 0.8, 0.8, 1.0)
+    with pytest.raises(ValueError):
+        mesh.positions[0, 0] = 5.0  # read-only: the cached C++ upload can never go stale
+    with pytest.raises(ValueError):
+        mesh.faces[0, 0] = 1
+
+
+def test_copies_even_float32_input():
+    pos = np.array(TRI_POS, dtype=np.float32)
+    mesh = Mesh(pos, TRI_FACES)
+    pos[0, 0] = 9.0
+    assert mesh.positions[0, 0] == 0.0
+    assert pos.flags.writeable  # the caller's array is untouched
+
+
+def test_non_contiguous_input():
+    pos = np.asfortranarray(np.array(TRI_POS))[:, [2, 1, 0]]
+    faces = np.array(TRI_FACES, dtype=np.uint16)
+    mesh = Mesh(pos, faces)
+    assert mesh.positions.flags.c_contiguous
+    np.testing.assert_array_equal(mesh.positions, pos)
+
+
+def test_bounds():
+    mesh = Mesh([[1, -2, 3], [4, 5, -6], [0, 0, 0]], [[0, 1, 2]])
+    np.testing.assert_array_equal(mesh.bounds, [[0, -2, -6], [4, 5, 3]])
+    assert mesh.bounds.dtype == np.float64 and mesh.bounds.shape == (2, 3)
+
+
+def test_vertex_attributes():
+    n = len(TRI_POS)
+    normals = np.tile([0.0, 0.0, 1.0], (n, 1))
+    uvs = np.linspace(0, 1, 2 * n).reshape(n, 2)
+    mesh = Mesh(TRI_POS, TRI_FACES, normals=normals, uvs=uvs)
+    assert mesh.normals.dtype == np.float32 and mesh.uvs.dtype == np.float32
+    np.testing.assert_allclose(mesh.uvs, uvs, rtol=1e-7)
+
+
+def test_colors_uint8_divided_by_255_and_alpha_added():
+    rgb = np.array([[255, 0, 0], [0, 51, 0], [0, 0, 102], [255, 255, 255]], dtype=np.uint8)
+    mesh = Mesh(TRI_POS, TRI_FACES, colors=rgb)
+    assert mesh.colors.shape == (4, 4) and mesh.colors.dtype == np.float32
+    np.testing.assert_allclose(mesh.colors[:, :3], rgb / 255.0, rtol=1e-6)
+    np.testing.assert_array_equal(mesh.colors[:, 3], 1.0)
+
+
+def test_colors_float_rgba_kept():
+    rgba = np.random.default_rng(0).random((4, 4))
+    mesh = Mesh(TRI_POS, TRI_FACES, colors=rgba)
+    np.testing.assert_allclose(mesh.colors, rgba, rtol=1e-6)
+
+
+def test_color_three_or_four_components():
+    assert Mesh(TRI_POS, TRI_FACES, color=(1, 0, 0.5)).color == (1.0, 0.0, 0.5, 1.0)
+    color = Mesh(TRI_POS, TRI_FACES, color=np.array([0.1, 0.2, 0.3, 0.4])).color
+    assert color == (0.1, 0.2, 0.3, 0.4) and all(type(c) is float for c in color)
+
+
+GOOD = {"positions": TRI_POS, "faces": TRI_FACES}
+
+
+@pytest.mark.parametrize("kwargs, error, match", [
+    ({"positions": [[0, 0], [1, 0], [0, 1], [1, 1]]}, ValueError, "positions"),
+    ({"positions": np.zeros((4, 3, 1))}, ValueError, "positions"),
+    ({"positions": [[0, 0, 0], [1, 0, 0], [0, 1]]}, ValueError, "positions"),  # ragged
+    ({"positions": np.array([["a", "b", "c"]] * 4)}, TypeError, "positions"),
+    ({"positions": np.ones((4, 3), dtype=bool)}, TypeError, "positions"),
+    ({"positions": np.ones((4, 3), dtype=complex)}, TypeError, "positions"),
+    ({"positions": None}, TypeError, "positions"),
+    ({"positions": "abc"}, TypeError, "positions"),
+    ({"positions": [[0, 0, 0], [1, 0, 0], [0, np.nan, 0], [0, 0, 1]]}, ValueError,
+     "positions contains NaN or inf at vertex 2"),
+    ({"positions": [[0, 0, 0], [1, 0, np.inf], [0, 1, 0], [0, 0, 1]]}, ValueError, "at vertex 1"),
+    ({"faces": np.array(TRI_FACES, dtype=np.float64)}, TypeError, "faces"),
+    ({"faces": np.ones((2, 3), dtype=bool)}, TypeError, "faces"),
+    ({"faces": [[0, 1], [1, 2]]}, ValueError, "faces"),
+    ({"faces": [[0, 1, -1]]}, ValueError, "faces.*-1"),
+    ({"faces": [[0, 1, 4]]}, ValueError, "faces.*4"),
+    ({"faces": np.zeros((0, 3), dtype=np.int32)}, ValueError, "mesh is empty"),
+    ({"positions": np.zeros((0, 3)), "faces": np.zeros((0, 3), dtype=np.int32)}, ValueError, "mesh is empty"),
+    ({"normals": np.zeros((3, 3))}, ValueError, "normals"),
+    ({"normals": np.full((4, 3), np.nan)}, ValueError, "normals contains NaN"),
+    ({"uvs": np.zeros((4, 3))}, ValueError, "uvs"),
+    ({"uvs": np.full((4, 2), np.inf)}, ValueError, "uvs"),
+    ({"colors": np.zeros((4, 2))}, ValueError, "colors"),
+    ({"colors": np.zeros((3, 4))}, ValueError, "colors"),
+    ({"colors": np.full((4, 3), 1.5)}, ValueError, "colors"),
+    ({"colors": np.full((4, 3), -0.1)}, ValueError, "colors"),
+    ({"colors": np.full((4, 3), np.nan)}, ValueError, "colors"),
+    ({"colors": np.full((4, 3), 255, dtype=np.int64)}, TypeError, "colors"),
+    ({"color": (1.0, 0.0)}, ValueError, "color"),
+    ({"color": (1.0, 0.0, 2.0)}, ValueError, "color"),
+    ({"color": (1.0, 0.0, np.nan)}, ValueError, "color"),
+    ({"color": "red"}, TypeError, "color"),
+])
+def test_bad_inputs(kwargs, error, match):
+    with pytest.raises(error, match=match):
+        Mesh(**{**GOOD, **kwargs})
+
+
+def test_counts_above_int32_refused():
+    # Broadcast views have 2**31 rows without allocating them; the count check comes first.
+    huge_pos = np.broadcast_to(np.zeros(3, np.float32), (2**31, 3))
+    with pytest.raises(ValueError, match="positions.*2\\*\\*31"):
+        Mesh(huge_pos, TRI_FACES)
+    huge_faces = np.broadcast_to(np.zeros(3, np.int32), (2**31, 3))
+    with pytest.raises(ValueError, match="faces.*2\\*\\*31"):
+        Mesh(TRI_POS, huge_faces)
+
+
+def test_core_data_is_built_once_with_contract_arguments(monkeypatch):
+    # A stand-in for the compiled module records the call (argument order of MeshData in _core.pyi).
+    calls = []
+    fake = types.ModuleType("softrast._core")
+    fake.MeshData = lambda *args: calls.append(args) or object()
+    monkeypatch.setitem(sys.modules, "softrast._core", fake)
+    import softrast
+    monkeypatch.setattr(softrast, "_core", fake, raising=False)
+
+    colors = np.full((4, 3), 128, np.uint8)
+    mesh = Mesh(TRI_POS, TRI_FACES, colors=colors, uvs=np.zeros((4, 2)))
+    first = mesh._core_data()
+    assert mesh._core_data() is first and len(calls) == 1
+    positions, faces, normals, rgba, uvs = calls[0]
+    assert positions is mesh.positions and faces is mesh.faces
+    assert normals is None and rgba is mesh.colors and uvs is mesh.uvs
+
+
+def test_core_data_with_compiled_core():
+    from softrast import _core
+
+    mesh = Mesh(TRI_POS, TRI_FACES)
+    data = mesh._core_data()
+    assert isinstance(data, _core.MeshData)
+    assert (data.num_vertices, data.num_faces) == (4, 2)
+
+
+# -- trimesh ------------------------------------------------------------------------------------
+
+def test_from_trimesh_icosphere():
+    tm = trimesh.creation.icosphere(subdivisions=2)
+    mesh = Mesh.from_trimesh(tm)
+    np.testing.assert_allclose(mesh.positions, tm.vertices, rtol=1e-6)
+    np.testing.assert_array_equal(mesh.faces, tm.faces)
+    # Vertex normals of a unit sphere are the positions themselves.
+    np.testing.assert_allclose(mesh.normals, tm.vertices, atol=0.05)
+    np.testing.assert_allclose(np.linalg.norm(mesh.normals, axis=1), 1.0, rtol=1e-5)
+    assert mesh.uvs is None and mesh.colors is None
+    flat = Mesh.from_trimesh(tm, smooth=False, color=(1, 0, 0))
+    assert flat.normals is None and flat.color == (1.0, 0.0, 0.0, 1.0)
+
+
+def test_from_trimesh_vertex_colors():
+    tm = trimesh.creation.icosphere(subdivisions=1)
+    rgba = np.random.default_rng(1).integers(0, 256, (len(tm.vertices), 4), dtype=np.uint8)
+    tm.visual.vertex_colors = rgba
+    mesh = Mesh.from_trimesh(tm)
+    np.testing.assert_allclose(mesh.colors, rgba / 255.0, rtol=1e-6)
+
+
+def test_from_trimesh_uvs():
+    tm = trimesh.creation.box()
+    uv = np.random.default_rng(2).random((len(tm.vertices), 2))
+    tm.visual = trimesh.visual.TextureVisuals(uv=uv)
+    mesh = Mesh.from_trimesh(tm)
+    np.testing.assert_allclose(mesh.uvs, uv, rtol=1e-6)
+
+
+def test_from_trimesh_scene_concatenates_with_transforms():
+    box = trimesh.creation.box()
+    sphere = trimesh.creation.icosphere(subdivisions=1)
+    scene = trimesh.Scene()
+    scene.add_geometry(box)
+    scene.add_geometry(sphere, transform=trimesh.transformations.translation_matrix([10.0, 0, 0]))
+    mesh = Mesh.from_trimesh(scene)
+    assert mesh.num_faces == len(box.faces) + len(sphere.faces)
+    assert mesh.num_vertices == len(box.vertices) + len(sphere.vertices)
+    np.testing.assert_allclose(mesh.bounds, [[-0.5, -1, -1], [11, 1, 1]], atol=1e-6)
+
+
+def test_from_trimesh_rejects_other_types():
+    with pytest.raises(TypeError, match="tm"):
+        Mesh.from_trimesh(trimesh.PointCloud(np.zeros((3, 3))))
+    with pytest.raises(ValueError, match="tm"):
+        Mesh.from_trimesh(trimesh.Scene())
+
+
+def parse_obj(path):
+    """Independent minimal OBJ reader: 'v' positions and the position index of each 'f' corner."""
+    verts, faces = [], []
+    with open(path) as f:
+        for line in f:
+            parts = line.split()
+            if not parts:
+                continue
+            if parts[0] == "v":
+                verts.append([float(x) for x in parts[1:4]])
+            elif parts[0] == "f":
+                faces.append([int(c.split("/")[0]) - 1 for c in parts[1:]])
+    return np.array(verts), np.array(faces)
+
+
+def test_load_mesh_spot():
+    mesh = load_mesh(SPOT_PATH)
+    verts, faces = parse_obj(SPOT_PATH)
+    assert mesh.num_faces == 5856 == len(faces)
+    # trimesh splits vertices at uv seams, but every triangle keeps its corners and order.
+    np.testing.assert_allclose(mesh.positions[mesh.faces], verts[faces], rtol=0, atol=1e-6)
+    assert mesh.uvs is not None and mesh.uvs.shape == (mesh.num_vertices, 2)
+    np.testing.assert_allclose(np.linalg.norm(mesh.normals, axis=1), 1.0, rtol=1e-4)
+    assert load_mesh(str(SPOT_PATH), smooth=False).normals is None
+
+
+def test_load_mesh_missing(tmp_path):
+    path = tmp_path / "nope.obj"
+    with pytest.raises(FileNotFoundError, match="nope.obj"):
+        load_mesh(path)
+
+
+def test_load_mesh_corrupt(tmp_path):
+    path = tmp_path / "bad.ply"
+    path.write_bytes(b"garbage\x00\x01")
+    with pytest.raises(ValueError, match="could not load mesh.*bad.ply") as info:
+        load_mesh(path)
+    assert info.value.__cause__ is not None
+
+
+@pytest.mark.parametrize("name, text", [
+    ("points.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n"),
+    ("empty.stl", "solid x\nendsolid x\n"),
+])
+def test_load_mesh_without_triangles(tmp_path, name, text):
+    path = tmp_path / name
+    path.write_text(text)
+    with pytest.raises(ValueError, match=name):
+        load_mesh(path)
