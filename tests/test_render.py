@@ -1,0 +1,571 @@
+"""Renderer outputs checked against analytic geometry: depth, ids, shading, buffers, determinism
+and argument validation."""
+from __future__ import annotations
+
+import gc
+import inspect
+import math
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+import softrast as sr
+from conftest import (
+    ALL_OUTPUTS,
+    icosphere,
+    look_at_gl,
+    pixel_rays_view,
+    render,
+    scene_of,
+    view_to_window_persp,
+    window_to_view_persp,
+)
+
+_DTYPES = {"color": (np.uint8, 3), "depth": (np.float32, 0), "mask": (np.bool_, 0),
+           "normal": (np.float32, 3), "triangle_id": (np.int32, 0), "instance_id": (np.int32, 0),
+           "coverage": (np.uint32, 0)}
+
+
+def _plane_through_window_points(xy_window, plane_n, plane_d, w, h, fov):
+    """View-space points on the plane n . p = d whose projections are exactly ``xy_window``."""
+    rays = window_to_view_persp(xy_window, 1.0, w, h, fov)  # depth-1 points = rays with z = -1
+    t = plane_d / (rays @ plane_n)
+    assert (t > 0).all()
+    return rays * t[:, None]
+
+
+# --------------------------------------------------------------------------------------------
+# 3. Analytic depth
+# --------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("normal", [(0.0, 0.0, 1.0), (0.2, -0.3, 0.9), (-0.35, 0.15, 0.9)])
+def test_perspective_plane_depth_is_exact(normal):
+    w, h, fov, d = 64, 48, 55.0, 3.7
+    n = np.asarray(normal) / np.linalg.norm(normal)
+    plane_d = n @ np.array([0.0, 0.0, -d])  # plane through (0, 0, -d)
+    # Corners at window positions that are multiples of 1/256 px => snapping moves nothing.
+    corners = np.array([[-8.0, -6.0], [w + 8.0, -6.0], [w + 8.0, h + 6.0], [-8.0, h + 6.0]])
+    pos = _plane_through_window_points(corners, n, plane_d, w, h, fov)
+    cam = sr.PerspectiveCamera(fov_y=fov, near=0.05, far=100.0)
+    cam.pose = np.eye(4)
+    faces = np.array([[0, 3, 2], [0, 2, 1]])  # counter-clockwise on screen (y up)
+    frame = render(scene_of(sr.Mesh(pos, faces)), cam, w, h, cull="back")
+    assert frame.mask.all()
+    rays = pixel_rays_view(w, h, fov)
+    expected = plane_d / (rays @ n)  # ray p = t * dir with dir_z = -1 => depth = t
+    rtol = 1e-6 if normal[:2] == (0.0, 0.0) else 1e-5
+    np.testing.assert_allclose(frame.depth, expected, rtol=rtol)
+    if normal[:2] == (0.0, 0.0):
+        np.testing.assert_allclose(frame.depth, d, rtol=1e-6)
+
+
+def test_perspective_plane_depth_exact_with_unsnapped_vertices():
+    # Vertices at arbitrary (not 1/256 px) positions: the contract still promises the exact ray
+    # depth of the surface, not of a plane through the snapped vertices.
+    w, h, fov, d = 64, 48, 60.0, 3.7
+    n = np.array([0.2, -0.3, 0.9]) / np.linalg.norm([0.2, -0.3, 0.9])
+    plane_d = n @ np.array([0.0, 0.0, -d])
+    xy = np.array([[-3.1234, -2.3456], [3.3456, -2.1111], [3.2222, 2.4567], [-3.0101, 2.3333]])
+    z = (plane_d - xy @ n[:2]) / n[2]
+    mesh = sr.Mesh(np.c_[xy, z], [[0, 1, 2], [0, 2, 3]])
+    mesh_pos = mesh.positions.astype(np.float64)  # the float32 vertices define the true plane
+    n32 = np.cross(mesh_pos[1] - mesh_pos[0], mesh_pos[2] - mesh_pos[0])
+    n32 /= np.linalg.norm(n32)
+    cam = sr.PerspectiveCamera(fov_y=fov, near=0.05, far=100.0)
+    cam.pose = np.eye(4)
+    frame = render(scene_of(mesh), cam, w, h, cull="back")
+    m = frame.mask
+    assert m.sum() > 0.5 * w * h
+    rays = pixel_rays_view(w, h, fov)
+    expected = (n32 @ mesh_pos[0]) / (rays @ n32)
+    np.testing.assert_allclose(frame.depth[m], expected[m], rtol=1e-5)
+
+
+def _ray_sphere_depth(rays, centre, radius):
+    """Depth (-z_view) of the first hit of rays p = t * dir (dir_z = -1) with a sphere, or nan."""
+    b = rays @ centre
+    a = np.einsum("...k,...k", rays, rays)
+    disc = b * b - a * (centre @ centre - radius * radius)
+    with np.errstate(invalid="ignore"):
+        t = (b - np.sqrt(disc)) / a
+    return np.where(disc >= 0, t, np.nan)
+
+
+def test_tessellated_sphere_depth_within_chord_error():
+    w, h, fov = 96, 80, 45.0
+    radius, centre = 1.0, np.array([0.2, -0.1, -4.0])
+    mesh = icosphere(5, radius)
+    p = mesh.positions.astype(np.float64)
+    f = mesh.faces
+    # Largest radial gap of the inscribed polyhedron: r - min distance from centre to a face plane.
+    nrm = np.cross(p[f[:, 1]] - p[f[:, 0]], p[f[:, 2]] - p[f[:, 0]])
+    nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
+    inner = np.min(np.einsum("ij,ij->i", nrm, p[f[:, 0]]))
+    delta = radius - inner
+    assert 0 < delta < 1e-3  # subdivision 5: sagitta ~ r (1 - cos(edge/sqrt 3)) ~ 2e-4 r
+    cam = sr.PerspectiveCamera(fov_y=fov, near=0.05, far=100.0)
+    cam.pose = np.eye(4)
+    pose = np.eye(4)
+    pose[:3, 3] = centre
+    scene = sr.Scene()
+    scene.add(mesh, pose=pose)
+    frame = render(scene, cam, w, h, cull="back")
+
+    rays = pixel_rays_view(w, h, fov)
+    d_outer = _ray_sphere_depth(rays, centre, radius)
+    d_inner = _ray_sphere_depth(rays, centre, inner)
+    # Convex hull containing ball(inner) and inside ball(r) => entry depth in [d_outer, d_inner].
+    # Snapping (<= 1/512 px per axis) adds |grad_px depth| * sqrt(2)/512; restrict to hits with
+    # incidence cos >= 0.3 so that gradient stays moderate, and compute it from the sphere.
+    hit_point = rays * d_outer[..., None]
+    normal = (hit_point - centre) / radius
+    cos_inc = -np.einsum("...k,...k", normal, rays / np.linalg.norm(rays, axis=-1, keepdims=True))
+    grad = np.hypot(*np.gradient(d_outer))  # depth change per pixel
+    ok = (cos_inc >= 0.3) & np.isfinite(d_inner) & np.isfinite(grad)
+    assert ok.sum() > 1500
+    tol = 2 * grad * math.sqrt(2) / 512 + 2e-6 * d_outer
+    got = frame.depth.astype(np.float64)
+    assert (got[ok] >= d_outer[ok] - tol[ok]).all(), np.max(d_outer[ok] - got[ok])
+    assert (got[ok] <= d_inner[ok] + tol[ok]).all(), np.max(got[ok] - d_inner[ok])
+
+    # Mask: True wherever the ray hits ball(inner), False wherever it misses ball(r), up to the
+    # snapping margin (0.01 px measured as ray distance to the centre, in scene units).
+    dist_ray = np.linalg.norm(np.cross(rays, centre), axis=-1) / np.linalg.norm(rays, axis=-1)
+    px_size = 2 * np.linalg.norm(centre) * math.tan(math.radians(fov) / 2) / h
+    assert frame.mask[dist_ray < inner - 0.01 * px_size].all()
+    assert not frame.mask[dist_ray > radius + 0.01 * px_size].any()
+
+
+def test_orthographic_depth_is_linear_view_z():
+    w, h = 64, 48
+    xmag, ymag = 2.0, 1.5
+    cam = sr.OrthographicCamera(xmag=xmag, ymag=ymag, near=0.5, far=20.0)
+    cam.pose = look_at_gl([0.4, 0.3, 5.0], [0.4, 0.3, 0.0])  # pure translation (0.4, 0.3, 5)
+    # Tilted plane z_world = 0.3 x - 0.5 y - 1 over a quad larger than the view.
+    xy = np.array([[-4.0, -4.0], [4.0, -4.0], [4.0, 4.0], [-4.0, 4.0]]) + [0.4, 0.3]
+    z = 0.3 * xy[:, 0] - 0.5 * xy[:, 1] - 1.0
+    mesh = sr.Mesh(np.c_[xy, z], [[0, 1, 2], [0, 2, 3]])
+    frame = render(scene_of(mesh), cam, w, h, cull="back")
+    assert frame.mask.all()
+    jj, ii = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
+    x_view = (2 * jj / w - 1) * xmag
+    y_view = (1 - 2 * ii / h) * ymag
+    x_world, y_world = x_view + 0.4, y_view + 0.3
+    depth = 5.0 - (0.3 * x_world - 0.5 * y_world - 1.0)
+    np.testing.assert_allclose(frame.depth, depth, rtol=2e-6)
+
+
+def _facing_quad(size):
+    return sr.Mesh(np.array([[-size, -size, 0], [size, -size, 0], [size, size, 0], [-size, size, 0.0]]),
+                   [[0, 1, 2], [0, 2, 3]])
+
+
+@pytest.mark.parametrize("dist", [(1000.0, 1000.5), (1e5, 1.0001e5)])
+@pytest.mark.parametrize("near_first", [True, False])
+def test_extreme_near_far_ratio_keeps_depth_order(dist, near_first):
+    w, h = 48, 40
+    cam = sr.PerspectiveCamera(fov_y=45.0, near=1e-3, far=1e6)
+    cam.pose = np.eye(4)
+    quad = _facing_quad(2.0 * dist[1])
+    scene = sr.Scene()
+    order = [(dist[0], 11), (dist[1], 22)] if near_first else [(dist[1], 22), (dist[0], 11)]
+    for d, iid in order:
+        pose = np.eye(4)
+        pose[2, 3] = -d
+        scene.add(quad, pose=pose, instance_id=iid)
+    frame = render(scene, cam, w, h, outputs=("depth", "instance_id", "coverage"))
+    assert (frame.coverage == 2).all()
+    assert (frame.instance_id == 11).all()
+    np.testing.assert_allclose(frame.depth, dist[0], rtol=1e-6)
+
+
+def test_far_from_origin_renders_like_origin():
+    w, h = 64, 48
+    mesh = icosphere(3, 0.8)
+    results = []
+    for offset in (np.zeros(3), np.array([1e6, -1e6, 1e6])):
+        pose = np.eye(4)
+        pose[:3, 3] = offset
+        scene = sr.Scene()
+        scene.add(mesh, pose=pose)
+        cam = sr.PerspectiveCamera(fov_y=50.0, near=0.05, far=100.0)
+        cam.look_at(offset + [0.7, 0.5, 2.5], offset + [0.05, -0.02, 0.0])
+        results.append(render(scene, cam, w, h, outputs=("depth", "mask", "coverage")))
+    a, b = results
+    assert a.mask.sum() > 300
+    np.testing.assert_array_equal(a.coverage, b.coverage)
+    np.testing.assert_array_equal(a.mask, b.mask)
+    np.testing.assert_allclose(b.depth, a.depth, rtol=1e-5)
+
+
+# --------------------------------------------------------------------------------------------
+# 6. Buffers: zero-copy, ownership, independence
+# --------------------------------------------------------------------------------------------
+
+def _sphere_scene():
+    scene = sr.Scene()
+    pose = np.eye(4)
+    pose[:3, 3] = [0.1, 0.0, -3.0]
+    scene.add(icosphere(2), pose=pose, instance_id=5)
+    return scene
+
+
+def _origin_cam(fov=50.0):
+    cam = sr.PerspectiveCamera(fov_y=fov, near=0.05, far=100.0)
+    cam.pose = np.eye(4)
+    return cam
+
+
+def test_output_arrays_shapes_dtypes_and_ownership():
+    w, h = 40, 30
+    r = sr.Renderer(w, h)
+    frame = r.render(_sphere_scene(), _origin_cam(), outputs=ALL_OUTPUTS)
+    arrays = {name: getattr(frame, name) for name in ALL_OUTPUTS}
+    for name, arr in arrays.items():
+        dtype, ch = _DTYPES[name]
+        assert arr.dtype == dtype, name
+        assert arr.shape == ((h, w, ch) if ch else (h, w)), name
+        assert arr.flags.c_contiguous and arr.flags.writeable, name
+        assert arr.base is not None, name  # a view of C++ memory, not a copy
+    names = list(arrays)
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            assert not np.shares_memory(arrays[a], arrays[b]), (a, b)
+    saved = {k: v.copy() for k, v in arrays.items()}
+    del r, frame
+    gc.collect()
+    for k in arrays:
+        np.testing.assert_array_equal(arrays[k], saved[k])
+    arrays["depth"][:] = 7.0  # writeable and really ours
+    assert (arrays["depth"] == 7.0).all()
+
+
+def test_second_render_does_not_touch_first():
+    w, h = 40, 30
+    r = sr.Renderer(w, h)
+    first = r.render(_sphere_scene(), _origin_cam(), outputs=ALL_OUTPUTS)
+    saved = {k: getattr(first, k).copy() for k in ALL_OUTPUTS}
+    second = r.render(scene_of(_facing_quad(50.0)), _origin_cam(70.0), outputs=ALL_OUTPUTS,
+                      cull="none", background=(1.0, 1.0, 1.0))
+    for k in ALL_OUTPUTS:
+        np.testing.assert_array_equal(getattr(first, k), saved[k], err_msg=k)
+        assert not np.shares_memory(getattr(first, k), getattr(second, k)), k
+
+
+@pytest.mark.parametrize("outputs", [("depth",), ("mask", "coverage"), ("color", "triangle_id", "normal")])
+def test_only_requested_outputs_exist(outputs):
+    frame = render(_sphere_scene(), _origin_cam(), 32, 24, outputs=outputs)
+    for name in ALL_OUTPUTS:
+        assert (getattr(frame, name) is None) == (name not in outputs), name
+
+
+# --------------------------------------------------------------------------------------------
+# 7. Determinism
+# --------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("which", ["spot", "sphere"])
+def test_deterministic_across_runs_and_thread_counts(which, spot):
+    w, h = 150, 110  # several 64 px tiles, partial tiles at the borders
+    scene = sr.Scene()
+    if which == "spot":
+        scene.add(spot, instance_id=3)
+        cam = sr.PerspectiveCamera(fov_y=40.0, near=0.05, far=100.0)
+        cam.look_at([1.6, 0.9, 2.2], [0.0, 0.2, 0.0])
+    else:
+        scene.add(icosphere(4), instance_id=1)
+        pose = np.eye(4)
+        pose[:3, 3] = [0.8, 0.3, 0.5]
+        scene.add(icosphere(3, 0.7), pose=pose, instance_id=2)  # intersects the first sphere
+        cam = sr.PerspectiveCamera(fov_y=50.0, near=0.05, far=100.0)
+        cam.look_at([0.5, 0.4, 3.0], [0.0, 0.0, 0.0])
+    reference = None
+    for threads in (1, 2, 3, 8, 1):
+        for _ in range(2):
+            frame = render(scene, cam, w, h, threads=threads, cull="none")
+            got = {k: getattr(frame, k).tobytes() for k in ALL_OUTPUTS}
+            if reference is None:
+                reference = got
+                assert np.frombuffer(got["mask"], bool).any()
+            for k in ALL_OUTPUTS:
+                assert got[k] == reference[k], f"{k} differs with threads={threads}"
+
+
+# --------------------------------------------------------------------------------------------
+# 8. Bad input
+# --------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("w,h,name", [(0, 10, "width"), (10, 0, "height"), (-5, 10, "width"),
+                                      (10, -1, "height"), (100000, 100000, "width|height"),
+                                      (10, 10**12, "height")])
+def test_bad_image_size(w, h, name):
+    with pytest.raises(ValueError, match=name):
+        sr.Renderer(w, h)
+
+
+def test_bad_image_size_types():
+    with pytest.raises(TypeError):
+        sr.Renderer(10.5, 10)
+    with pytest.raises(TypeError):
+        sr.Renderer("10", 10)
+
+
+@pytest.mark.parametrize("kwargs,name", [
+    ({"outputs": ("color", "albedo")}, "output"),
+    ({"cull": "sideways"}, "cull"),
+    ({"cull": "BACK "}, "cull"),
+    ({"shading": "phong"}, "shading"),
+])
+def test_bad_render_options(kwargs, name):
+    with pytest.raises(ValueError, match=name):
+        render(_sphere_scene(), _origin_cam(), 16, 16, **kwargs)
+
+
+def test_bad_render_argument_types():
+    r = sr.Renderer(16, 16)
+    with pytest.raises(TypeError):
+        r.render("scene", _origin_cam())
+    with pytest.raises(TypeError):
+        r.render(_sphere_scene(), np.eye(4))
+    with pytest.raises(TypeError):
+        r.render(_origin_cam(), _sphere_scene())
+
+
+def test_nan_and_inf_poses_rejected():
+    for bad in (np.nan, np.inf):
+        pose = np.eye(4)
+        pose[0, 3] = bad
+        with pytest.raises(ValueError):
+            scene = sr.Scene()
+            scene.add(icosphere(1), pose=pose)
+            render(scene, _origin_cam(), 16, 16)
+        with pytest.raises(ValueError):
+            cam = _origin_cam()
+            cam.pose = pose
+            render(_sphere_scene(), cam, 16, 16)
+
+
+def test_empty_scene_renders_background():
+    frame = render(sr.Scene(), _origin_cam(), 20, 10, background=(0.2, 0.6, 0.8))
+    assert not frame.mask.any() and (frame.depth == 0).all() and (frame.coverage == 0).all()
+    assert (frame.triangle_id == -1).all() and (frame.instance_id == -1).all()
+    assert (frame.color == [51, 153, 204]).all()
+
+
+_TRI = np.array([[0, 0, -2.0], [1, 0, -2.0], [0, 1, -2.0]])
+
+
+@pytest.mark.parametrize("positions,faces,error,name", [
+    (np.array([[0, 0, np.nan], [1, 0, 0], [0, 1, 0]]), [[0, 1, 2]], ValueError, "positions"),
+    (np.array([[0, 0, np.inf], [1, 0, 0], [0, 1, 0]]), [[0, 1, 2]], ValueError, "positions"),
+    (_TRI, [[0, 1, 3]], ValueError, "faces|index"),
+    (_TRI, [[0, -1, 2]], ValueError, "faces|index"),
+    (_TRI, np.array([[0.0, 1.0, 2.0]]), TypeError, "faces"),
+    (_TRI[:, :2], [[0, 1, 2]], ValueError, "positions"),
+    (_TRI, [[0, 1, 2, 0]], ValueError, "faces"),
+    (_TRI, [0, 1, 2], ValueError, "faces"),
+    (np.zeros((0, 3)), np.zeros((0, 3), int), ValueError, "empty|positions"),
+    (_TRI, np.zeros((0, 3), int), ValueError, "empty|faces"),
+    (_TRI, np.array([[0, 1, 2**32 + 2]], np.int64), ValueError, "faces|index"),  # no int32 wrap
+    (_TRI, np.array([[0, 1, 2**31]], np.int64), ValueError, "faces|index"),
+])
+def test_bad_mesh_never_reaches_the_renderer(positions, faces, error, name):
+    with pytest.raises(error, match=name):
+        mesh = sr.Mesh(positions, faces)
+        render(scene_of(mesh), _origin_cam(), 16, 16)
+
+
+@pytest.mark.parametrize("make", [
+    lambda: sr.PerspectiveCamera(near=0.0),
+    lambda: sr.PerspectiveCamera(near=-1.0),
+    lambda: sr.PerspectiveCamera(near=1.0, far=1.0),
+    lambda: sr.PerspectiveCamera(near=2.0, far=1.0),
+    lambda: sr.OrthographicCamera(near=0.0),
+    lambda: sr.OrthographicCamera(near=1.0, far=0.5),
+    lambda: sr.PerspectiveCamera().look_at([1, 2, 3], [1, 2, 3]),
+    lambda: sr.OrthographicCamera().look_at([0, 0, 0], [0, 0, 0]),
+])
+def test_bad_camera(make):
+    with pytest.raises(ValueError):
+        make()
+
+
+def test_dangerous_inputs_do_not_crash_the_interpreter():
+    # In a subprocess with a 3 GB address-space cap: a crash shows up as a signal, not as a
+    # killed test run; a framebuffer over MAX_FRAMEBUFFER_BYTES must be refused before allocation.
+    code = textwrap.dedent("""
+        import resource, numpy as np, softrast as sr
+        resource.setrlimit(resource.RLIMIT_AS, (3 << 30, 3 << 30))
+        tri = np.array([[0, 0, -2.0], [1, 0, -2.0], [0, 1, -2.0]])
+        cam = sr.PerspectiveCamera(); cam.pose = np.eye(4)
+        outcomes = []
+        for faces in ([[0, 1, 2**31 - 1]], [[0, 1, 2**40]], [[0, 1, -2**31]], [[2**63 - 1, 0, 1]]):
+            try:
+                sr.Mesh(tri, np.array(faces, np.int64))
+                outcomes.append("accepted")
+            except ValueError:
+                outcomes.append("ValueError")
+        side = sr.MAX_IMAGE_SIDE
+        try:
+            r = sr.Renderer(side, side)
+            r.render(sr.Scene(), cam, outputs=("color", "depth", "mask", "normal", "triangle_id",
+                                                "instance_id", "coverage"))
+            outcomes.append("allocated")
+        except ValueError as exc:
+            outcomes.append("ValueError")
+        print(outcomes)
+    """)
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == str(["ValueError"] * 5), proc.stdout + proc.stderr
+
+
+# --------------------------------------------------------------------------------------------
+# 9. ids and mask consistency
+# --------------------------------------------------------------------------------------------
+
+def _ray_cast(rays, tris):
+    """Möller-Trumbore: for rays from the origin (view space), first hit per ray over triangles
+    (m, 3, 3). Returns (t (h, w) with inf for misses, face index (h, w) or -1)."""
+    d = rays.reshape(-1, 3)
+    v0, e1, e2 = tris[:, 0], tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]
+    best_t = np.full(len(d), np.inf)
+    best_f = np.full(len(d), -1)
+    for start in range(0, len(tris), 256):
+        sl = slice(start, start + 256)
+        pvec = np.cross(d[:, None, :], e2[None, sl])
+        det = np.einsum("rfk,fk->rf", pvec, e1[sl])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = 1.0 / det
+            tvec = -v0[None, sl]
+            u = np.einsum("fk,rfk->rf", tvec[0], pvec) * inv
+            qvec = np.cross(tvec, e1[None, sl])
+            v = np.einsum("rk,rfk->rf", d, np.broadcast_to(qvec, pvec.shape)) * inv
+            t = np.einsum("fk,fk->f", e2[sl], qvec[0])[None, :] * inv
+        hit = (det > 0) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0)  # det = -d . n > 0: front
+        t = np.where(hit, t, np.inf)
+        k = np.argmin(t, axis=1)
+        tk = t[np.arange(len(d)), k]
+        better = tk < best_t
+        best_t[better] = tk[better]
+        best_f[better] = k[better] + start
+    return best_t.reshape(rays.shape[:2]), best_f.reshape(rays.shape[:2])
+
+
+def test_triangle_and_instance_ids_match_ray_cast():
+    w, h, fov = 64, 48, 50.0
+    meshes = [(icosphere(2, 1.0), [0.5, 0.2, -4.0], 7), (icosphere(2, 1.2), [-0.7, -0.1, -5.0], 3)]
+    scene = sr.Scene()
+    tris, owner, local, ids = [], [], [], []
+    for mesh, centre, iid in meshes:
+        pose = np.eye(4)
+        pose[:3, 3] = centre
+        scene.add(mesh, pose=pose, instance_id=iid)
+        p = mesh.positions.astype(np.float64) + centre
+        tris.append(p[mesh.faces])
+        local.append(np.arange(mesh.num_faces))
+        ids.append(np.full(mesh.num_faces, iid))
+    tris, local, ids = np.concatenate(tris), np.concatenate(local), np.concatenate(ids)
+    frame = render(scene, _origin_cam(fov), w, h, cull="back")
+    rays = pixel_rays_view(w, h, fov)
+    t, face = _ray_cast(rays, tris)
+    hit = face >= 0
+    # Ignore centres within 0.01 px of an edge of the hit triangle (snapping may flip those).
+    win = view_to_window_persp(tris.reshape(-1, 3), w, h, fov).reshape(-1, 3, 2)
+    jj, ii = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
+    sample = np.stack([jj, ii], -1)
+    fw = win[np.where(hit, face, 0)]
+    dist = np.full((h, w), np.inf)
+    for k in range(3):
+        a, b = fw[..., k, :], fw[..., (k + 1) % 3, :]
+        e = b - a
+        cross = e[..., 0] * (sample[..., 1] - a[..., 1]) - e[..., 1] * (sample[..., 0] - a[..., 0])
+        dist = np.minimum(dist, np.abs(cross) / np.linalg.norm(e, axis=-1))
+    sure = ~hit | (dist > 0.01)
+    assert hit.sum() > 400 and (hit & sure).sum() > 0.9 * hit.sum()
+    assert len(np.unique(ids[face[hit & sure]])) == 2  # both instances visible
+    np.testing.assert_array_equal(frame.mask[sure], hit[sure])
+    np.testing.assert_array_equal(frame.triangle_id[sure & hit], local[face[sure & hit]])
+    np.testing.assert_array_equal(frame.instance_id[sure & hit], ids[face[sure & hit]])
+    np.testing.assert_allclose(frame.depth[sure & hit], t[sure & hit], rtol=1e-4)
+    # Consistency of all the "is something here" signals.
+    m = frame.mask
+    np.testing.assert_array_equal(m, frame.depth > 0)
+    np.testing.assert_array_equal(m, frame.triangle_id >= 0)
+    np.testing.assert_array_equal(m, frame.instance_id >= 0)
+    np.testing.assert_array_equal(m, frame.coverage > 0)
+    np.testing.assert_array_equal(frame.instance_id[~m], -1)
+    np.testing.assert_array_equal(frame.normal[~m], 0.0)
+
+
+def test_mirrored_pose_keeps_outside_as_front_and_normals_follow_the_sphere():
+    w, h, fov = 64, 48, 50.0
+    centre = np.array([0.0, 0.0, -4.0])
+    mesh = icosphere(3)
+    for diag in ([1.0, 1.0, 1.0], [-1.0, 1.0, 1.0], [1.0, -1.0, -1.0]):  # the last is a rotation
+        pose = np.diag(diag + [1.0])
+        pose[:3, 3] = centre
+        scene = sr.Scene()
+        scene.add(mesh, pose=pose)
+        frame = render(scene, _origin_cam(fov), w, h, cull="back")
+        m = frame.mask
+        assert m.sum() > 300
+        np.testing.assert_array_equal(frame.coverage, m.astype(np.uint32))
+        # The visible surface is the near half of the sphere (depth < 4), not the far half.
+        assert (frame.depth[m] < 4.0).all()
+        # Flat face normals are unit and within the face's angular size of the sphere's normal.
+        n = frame.normal[m].astype(np.float64)
+        np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-5)
+        rays = pixel_rays_view(w, h, fov)[m]
+        p = rays * frame.depth[m][:, None].astype(np.float64)
+        true_n = (p - centre) / np.linalg.norm(p - centre, axis=1, keepdims=True)
+        max_edge_angle = 1.2 * 1.1071 / 2**3  # icosahedron edge angle / 2^subdivisions, with margin
+        assert (np.einsum("ij,ij->i", n, true_n) > math.cos(max_edge_angle)).all()
+
+
+# --------------------------------------------------------------------------------------------
+# 10. Shading
+# --------------------------------------------------------------------------------------------
+
+def _ambient_default():
+    p = inspect.signature(sr.Renderer.render).parameters.get("ambient")
+    return 0.25 if p is None else float(p.default)
+
+
+def test_unlit_flat_colour_and_background():
+    color = (0.2, 0.45, 0.93)  # *255 = 51, 114.75, 237.15 (no rounding ties)
+    scene = sr.Scene()
+    pose = np.eye(4)
+    pose[:3, 3] = [0.0, 0.0, -3.0]
+    scene.add(icosphere(3), pose=pose, color=color)
+    frame = render(scene, _origin_cam(), 48, 40, shading="unlit", background=(0.2, 0.6, 0.8))
+    assert 0 < frame.mask.sum() < frame.mask.size
+    assert (frame.color[frame.mask] == [51, 115, 237]).all()
+    assert (frame.color[~frame.mask] == [51, 153, 204]).all()
+
+
+@pytest.mark.parametrize("tilt_deg", [60.0, 30.0, 85.0])
+def test_lambert_headlight_follows_cosine(tilt_deg):
+    w, h = 32, 32
+    ambient = _ambient_default()
+    cam = sr.OrthographicCamera(xmag=1.0, ymag=1.0, near=0.5, far=100.0)
+    cam.pose = np.eye(4)
+    base = np.array([0.9, 0.6, 0.3])
+    results = {}
+    for angle in (0.0, tilt_deg):
+        a = math.radians(angle)
+        rot = np.array([[1, 0, 0], [0, math.cos(a), -math.sin(a)], [0, math.sin(a), math.cos(a)]])
+        pose = np.eye(4)
+        pose[:3, :3] = rot
+        pose[:3, 3] = [0.0, 0.0, -30.0]  # the 15-unit quad stays within near/far at any tilt
+        scene = sr.Scene()
+        scene.add(_facing_quad(15.0), pose=pose, color=tuple(base))
+        frame = render(scene, cam, w, h, shading="lambert", cull="none")
+        assert frame.mask.all()
+        np.testing.assert_allclose(frame.normal, np.broadcast_to(rot[:, 2], (h, w, 3)), atol=1e-6)
+        results[angle] = frame.color.astype(np.float64)
+        expected = 255 * base * (ambient + (1 - ambient) * math.cos(a))
+        assert np.abs(frame.color - expected).max() <= 0.5 + 1e-3, (angle, frame.color[0, 0], expected)
+    assert (results[0.0] > results[tilt_deg]).all()
