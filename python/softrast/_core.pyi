@@ -66,6 +66,7 @@ class Renderer:
         shading: str = "lambert",
         background: Sequence[float] = (0.0, 0.0, 0.0),
         ambient: float = 0.25,
+        out: dict[str, np.ndarray] | None = None,
     ) -> dict[str, np.ndarray]:
         """Render ``draws`` = [(mesh, model (4, 4) float64 model-to-world, instance_id, rgba)].
 
@@ -79,7 +80,9 @@ class Renderer:
           "instance_id" (h, w) int32, -1 = background
           "coverage"    (h, w) uint32 number of rasterized triangles covering each pixel
                         centre before the depth test (for watertightness checks)
-        Each array views C++ memory owned by its ``base`` (no copy). The GIL is released.
+        Each array views C++ memory owned by its ``base`` (no copy), except outputs named in
+        ``out``, which are written into the given arrays (exact dtype and shape, C-contiguous,
+        writeable) and returned as they are. The GIL is released.
         cull: "none" | "back" | "front" (front = counter-clockwise in NDC, OpenGL's default).
         shading: "lambert" (headlight: directional light along the view axis) | "unlit".
         """
