@@ -20,6 +20,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from ._checks import affine_pose
+
 __all__ = ["Camera", "PerspectiveCamera", "OrthographicCamera", "IntrinsicsCamera"]
 
 _ORTHONORMAL_TOL = 1e-4  # float32-sourced rotations are orthonormal to ~1e-7; 1e-4 catches scale/shear
@@ -75,22 +77,12 @@ def _vec3(value: Any, name: str) -> npt.NDArray[np.float64]:
 
 
 def _check_pose(pose: Any) -> npt.NDArray[np.float64]:
-    try:
-        m = np.array(pose, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"pose must be a (4, 4) array of numbers: {exc}") from exc
-    if m.shape != (4, 4):
-        raise ValueError(f"pose must have shape (4, 4), got {m.shape}")
-    if not np.isfinite(m).all():
-        raise ValueError("pose contains NaN or inf")
-    if not np.allclose(m[3], [0.0, 0.0, 0.0, 1.0], rtol=0.0, atol=1e-12):
-        raise ValueError(f"pose last row must be [0, 0, 0, 1], got {m[3].tolist()}")
+    m = affine_pose(pose)
     r = m[:3, :3]
     if np.abs(r.T @ r - np.eye(3)).max() > _ORTHONORMAL_TOL:
         raise ValueError("pose rotation part (pose[:3, :3]) must be orthonormal (no scale or shear)")
     if np.linalg.det(r) < 0.0:  # a mirror would silently swap front and back faces
         raise ValueError("pose rotation part must be a proper rotation (determinant +1), not a reflection")
-    m.setflags(write=False)
     return m
 
 

@@ -8,6 +8,7 @@ from typing import Any, Iterator, Sequence
 import numpy as np
 import numpy.typing as npt
 
+from ._checks import affine_pose
 from .mesh import Mesh, _rgba
 
 __all__ = ["Instance", "Scene"]
@@ -32,21 +33,7 @@ class Instance:
 
 
 def _check_model_pose(pose: Any) -> npt.NDArray[np.float64]:
-    if pose is None:
-        m = np.eye(4)
-    else:
-        try:
-            m = np.array(pose, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise TypeError(f"pose must be a (4, 4) array of numbers: {exc}") from exc
-        if m.shape != (4, 4):
-            raise ValueError(f"pose must have shape (4, 4), got {m.shape}")
-        if not np.isfinite(m).all():
-            raise ValueError("pose contains NaN or inf")
-        if not np.array_equal(m[3], [0.0, 0.0, 0.0, 1.0]):  # projective model matrices are not supported
-            raise ValueError(f"pose last row must be [0, 0, 0, 1], got {m[3].tolist()}")
-    m.setflags(write=False)
-    return m
+    return affine_pose(np.eye(4) if pose is None else pose)
 
 
 class Scene:
