@@ -37,12 +37,14 @@ struct ClipPlanes {
     }
   }
 
-  // Bit set per plane the point is outside of.
+  // Bit set per plane the point is outside of (the same tests as distance() >= 0; NaN => out).
   uint8_t outcode(const vec4& p_clip, float depth_view) const {
-    uint8_t code = 0;
-    for (int plane = 0; plane < kNumClipPlanes; ++plane)
-      if (!(distance(plane, p_clip, depth_view) >= 0.0)) code |= uint8_t(1u << plane);  // NaN => out
-    return code;
+    const double x = p_clip.x, y = p_clip.y, w = p_clip.w, d = depth_view;
+    return uint8_t((!(d - near >= 0.0) ? kClipNear : 0) | (!(far - d >= 0.0) ? kClipFar : 0) |
+                   (!(x - ndc_x_min * w >= 0.0) ? kClipLeft : 0) |
+                   (!(ndc_x_max * w - x >= 0.0) ? kClipRight : 0) |
+                   (!(ndc_y_max * w - y >= 0.0) ? kClipTop : 0) |
+                   (!(y - ndc_y_min * w >= 0.0) ? kClipBottom : 0));
   }
 };
 

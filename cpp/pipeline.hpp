@@ -118,6 +118,9 @@ struct TriangleSetup {
   uint8_t back_facing;     // 1 if the triangle faces away from the camera (culling off)
 };
 constexpr uint32_t kNoClip = 0xffffffffu;
+// Edge k of a TriangleSetup runs from vertex kEdgeStart[k] to vertex kEdgeEnd[k].
+constexpr int kEdgeStart[3] = {1, 2, 0};
+constexpr int kEdgeEnd[3] = {2, 0, 1};
 
 // Depth key stored in the z-buffer: larger is closer, affine in window space.
 //   perspective: key = 1 / w_clip = 1 / depth_view   (the "1/w buffer": float32 keeps a relative

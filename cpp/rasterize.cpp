@@ -20,7 +20,7 @@ void rasterize_triangle(const TriangleSetup& t, const TileRect& rect, uint32_t i
   const int64_t px = int64_t(x0) * kSubpixelOne + kSubpixelHalf;
   const int64_t py = int64_t(y0) * kSubpixelOne + kSubpixelHalf;
   for (int k = 0; k < 3; ++k) {
-    const int a = (k + 1) % 3, b = (k + 2) % 3;
+    const int a = kEdgeStart[k], b = kEdgeEnd[k];
     const int64_t dx = t.x[b] - t.x[a], dy = t.y[b] - t.y[a];
     step_x[k] = -dy * kSubpixelOne;
     step_y[k] = dx * kSubpixelOne;

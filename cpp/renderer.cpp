@@ -63,6 +63,7 @@ Renderer::Renderer(int width, int height, int threads)
                           "], got " + std::to_string(width) + "x" + std::to_string(height))),
       pool_(threads) {
   for (int w = 0; w < pool_.size(); ++w) tile_scratch_.push_back(std::make_unique<TileScratch>());
+  shade_scratch_.resize(pool_.size());
 }
 
 std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
@@ -148,7 +149,7 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   pool_.parallel_for(viewport_.num_tiles(), [&](std::size_t tile, int worker) {
     TileScratch& scratch = *tile_scratch_[worker];
     rasterize_tile(viewport_, int(tile), chunks_, num_chunks, want_coverage, scratch);
-    shade_tile(shade, viewport_, int(tile), scratch);
+    shade_tile(shade, viewport_, int(tile), scratch, shade_scratch_[worker]);
   });
   return framebuffer;
 }

@@ -7,6 +7,7 @@
 #include "pipeline.hpp"
 #include "rasterize.hpp"
 #include "setup.hpp"
+#include "shade.hpp"
 #include "thread_pool.hpp"
 
 #include <memory>
@@ -40,6 +41,7 @@ class Renderer {
   std::vector<std::vector<ProjectedVertex>> vertices_;  // per draw
   std::vector<SetupChunk> chunks_;
   std::vector<std::unique_ptr<TileScratch>> tile_scratch_;  // per worker
+  std::vector<ShadeScratch> shade_scratch_;                 // per worker
 };
 
 void validate_camera(const CameraParams& camera);

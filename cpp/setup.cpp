@@ -8,6 +8,12 @@ namespace sr {
 
 namespace {
 
+// Round half away from zero (as lround) by truncation: one instruction instead of a libm call.
+inline int32_t round_to_fixed(double window) {
+  const double scaled = window * kSubpixelOne;
+  return int32_t(scaled + (scaled >= 0.0 ? 0.5 : -0.5));
+}
+
 // Snaps one vertex. With `snap_outside`, a vertex outside some plane is snapped too (clipping
 // output that rounding left a hair outside the plane it was clipped to: the guard band's margin
 // keeps it representable).
@@ -41,8 +47,8 @@ ProjectedVertex project(const vec4& p_clip, float depth_view, const ClipPlanes& 
   }
   v.x_window = x_window;
   v.y_window = y_window;
-  v.x = int32_t(std::lround(x_window * kSubpixelOne));
-  v.y = int32_t(std::lround(y_window * kSubpixelOne));
+  v.x = round_to_fixed(x_window);
+  v.y = round_to_fixed(y_window);
   v.key = orthographic ? -depth_view : float(1.0 / double(depth_view));
   v.inv_w = float(inv_w);
   return v;
@@ -68,10 +74,11 @@ void true_plane_keys(const ProjectedVertex* const o[3], const TriangleSetup& t, 
   const double ex2 = o[2]->x_window - x0, ey2 = o[2]->y_window - y0;
   const double area = ex1 * ey2 - ey1 * ex2;
   if (!(std::fabs(area) > 1e-6)) return;
+  const double inv_area = 1.0 / area;
   double fitted[3];
   for (int k = 0; k < 3; ++k) {
     const double dx = t.x[k] * (1.0 / kSubpixelOne) - x0, dy = t.y[k] * (1.0 / kSubpixelOne) - y0;
-    const double mu1 = (dx * ey2 - dy * ex2) / area, mu2 = (ex1 * dy - ey1 * dx) / area;
+    const double mu1 = (dx * ey2 - dy * ex2) * inv_area, mu2 = (ex1 * dy - ey1 * dx) * inv_area;
     const double mu0 = 1.0 - mu1 - mu2;
     // A well-shaped triangle has mu ~ the unit vector of vertex k; far from it => sliver.
     if (std::fabs(mu0 - (k == 0)) > 0.25 || std::fabs(mu1 - (k == 1)) > 0.25 ||
@@ -114,15 +121,16 @@ bool setup_triangle(const ProjectedVertex* v[3], const SetupParams& params, uint
   t.area2 = swapped ? -area2 : area2;
   float keys[3];
   true_plane_keys(o, t, keys);
+  const double inv_area2 = 1.0 / double(t.area2);
   for (int k = 0; k < 3; ++k) {
     // Edge k runs from vertex k+1 to k+2. Direct3D's top-left rule in y-down window space: with
     // this winding, a top edge runs exactly horizontally to the right (dy == 0, dx > 0) and a
     // left edge runs upwards (dy < 0). Samples exactly on other edges are left to the neighbour.
-    const int a = (k + 1) % 3, b = (k + 2) % 3;
+    const int a = kEdgeStart[k], b = kEdgeEnd[k];
     const int32_t dx = t.x[b] - t.x[a], dy = t.y[b] - t.y[a];
     const bool top_left = dy < 0 || (dy == 0 && dx > 0);
     t.bias[k] = top_left ? 0 : 1;
-    t.key_over_area[k] = float(double(keys[k]) / double(t.area2));
+    t.key_over_area[k] = float(double(keys[k]) * inv_area2);
     t.inv_w[k] = o[k]->inv_w;
   }
   t.prim = prim;

@@ -24,8 +24,24 @@ struct ShadeParams {
   Framebuffer* framebuffer;
 };
 
+// A triangle visible in the tile being shaded, prepared once for all its pixels.
+struct ShadeTriangle {
+  int64_t edge_origin[3];  // E_k at the tile's first pixel centre (exact, fixed-point units^2)
+  int64_t edge_step_x[3], edge_step_y[3];  // E_k change per pixel
+  float persp[3];          // 1 / (w_k * area2): E_k * persp[k] ~ perspective-correct weight
+  vec3 normal[3];          // world-space normal at each vertex (the face normal if flat), facing
+                           // the camera's side for back faces
+  vec3 color[3];           // base colour at each vertex
+};
+
+// Per-thread scratch for shade_tile.
+struct ShadeScratch {
+  std::vector<uint32_t> slot;  // binned-triangle index -> index in `triangles`, or kNoTriangle
+  std::vector<ShadeTriangle> triangles;
+};
+
 // Writes every pixel of `tile` in each requested output. Each visible pixel is shaded once.
 void shade_tile(const ShadeParams& params, const Viewport& viewport, int tile,
-                const TileScratch& scratch);
+                const TileScratch& raster, ShadeScratch& scratch);
 
 }  // namespace sr
