@@ -13,6 +13,7 @@ Conventions (shared with the C++ core, see ``_core.pyi``):
 """
 from __future__ import annotations
 
+import abc
 import math
 import operator
 from typing import Any
@@ -94,7 +95,7 @@ def _rigid_inverse(m: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
     return inv
 
 
-class Camera:
+class Camera(abc.ABC):
     """Base class: near/far planes, pose, look_at and the view matrix.
 
     Subclasses implement ``projection_matrix(width, height)``.
@@ -180,9 +181,9 @@ class Camera:
         view = _rigid_inverse(self._pose)
         return _GL_FROM_CV @ view if self._convention == "opencv" else view
 
+    @abc.abstractmethod
     def projection_matrix(self, width: int | None = None, height: int | None = None) -> npt.NDArray[np.float64]:
         """(4, 4) float64 view-to-clip (OpenGL) for a ``width`` x ``height`` pixel image."""
-        raise NotImplementedError
 
     def _render_size(self, width: Any, height: Any) -> tuple[int, int]:
         """The image size to project for: the arguments, else the camera's own width/height."""
