@@ -248,8 +248,12 @@ def test_load_mesh_missing(tmp_path):
 def test_load_mesh_corrupt(tmp_path):
     path = tmp_path / "bad.ply"
     path.write_bytes(b"garbage\x00\x01")
-    with pytest.raises(ValueError, match="could not load mesh.*bad.ply") as info:
+    with pytest.raises(ValueError, match="could not load mesh.*bad.ply.*not a PLY file"):
         load_mesh(path)
+    obj = tmp_path / "bad.obj"  # no header to check => trimesh's own error, chained
+    obj.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n")
+    with pytest.raises(ValueError, match="could not load mesh.*bad.obj") as info:
+        load_mesh(obj)
     assert info.value.__cause__ is not None
 
 

@@ -7,6 +7,7 @@ distance along the camera's viewing axis in scene units, 0 where nothing was hit
 from ._core import MAX_IMAGE_SIDE, OUTPUTS, SUBPIXEL_BITS, TILE_SIZE_PX
 from .camera import Camera, IntrinsicsCamera, OrthographicCamera, PerspectiveCamera
 from .io import imread, imwrite
+from .limits import get_memory_budget, set_memory_budget
 from .mesh import Mesh, load_mesh
 from .render import Frame, Renderer
 from .scene import Scene
@@ -26,7 +27,9 @@ __all__ = [
     "SUBPIXEL_BITS",
     "Scene",
     "TILE_SIZE_PX",
+    "get_memory_budget",
     "imread",
     "imwrite",
     "load_mesh",
+    "set_memory_budget",
 ]

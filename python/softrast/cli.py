@@ -6,7 +6,7 @@
                     [--threads N]
 
 Without --eye the camera frames the whole mesh from the front (+z) and slightly above (+y).
-Errors print one line to stderr and exit with status 2.
+Errors print one line to stderr and exit with status 2; Ctrl-C prints one line and exits 130.
 """
 from __future__ import annotations
 
@@ -157,7 +157,7 @@ def _render(args: argparse.Namespace) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line; returns the exit status (0 ok, 2 error)."""
+    """Run the command line; returns the exit status (0 ok, 2 error, 130 interrupted)."""
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
@@ -172,4 +172,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (CliError, OSError, ValueError, TypeError) as exc:
         print(f"softrast: error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # files are written atomically => nothing partial is left behind
+        print("softrast: interrupted", file=sys.stderr)
+        return 130  # 128 + SIGINT, as shells report it
     return 0

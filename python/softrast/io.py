@@ -12,6 +12,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from .limits import check_budget
+
 __all__ = ["imread", "imwrite"]
 
 _U8, _U16, _F32 = np.dtype(np.uint8), np.dtype(np.uint16), np.dtype(np.float32)
@@ -42,6 +44,9 @@ _FORMAT_CHANNELS: dict[str, frozenset[int]] = {
     ".hdr": frozenset({3}),
 }
 _OIIO_TYPE = {_U8: "uint8", _U16: "uint16", _F32: "float"}
+# Deflate expands at most 1032:1, so a PNG of n bytes decodes to at most ~1032 n bytes (plus one
+# filter byte per row). A header claiming more is corrupt => refuse before allocating pixels.
+_PNG_MAX_RATIO = 1032
 
 
 def _suggest(dtype: np.dtype) -> str:
@@ -123,6 +128,31 @@ def imwrite(path: str | os.PathLike[str], array: npt.ArrayLike) -> None:
         raise
 
 
+def _check_png_size(path_str: str) -> None:
+    """Refuse a PNG whose IHDR claims more pixel data than its compressed size can hold."""
+    with open(path_str, "rb") as f:
+        head = f.read(29)  # signature (8), IHDR length + type (8), width, height, depth, colour
+        file_size = os.fstat(f.fileno()).st_size
+    if len(head) < 29 or head[12:16] != b"IHDR":
+        return  # OpenImageIO parsed it, so let it decode (and report) whatever this is
+    width, height = int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big")
+    samples = {0: 1, 2: 3, 3: 1, 4: 2, 6: 4}.get(head[25], 4)  # per pixel, by colour type
+    # Pixel data alone (no filter bytes) is a lower bound on the inflated stream, interlaced or not.
+    data = height * ((width * samples * head[24] + 7) // 8)
+    if data > _PNG_MAX_RATIO * file_size:
+        raise ValueError(
+            f"image {path_str!r}: the header claims {width}x{height} pixels ({data} bytes of "
+            f"pixel data), more than a {file_size}-byte PNG can hold: corrupt or truncated")
+
+
+def _decoded_bytes(spec: Any) -> int:
+    """Bytes ``read_image(format="unknown")`` allocates for the first subimage of ``spec``."""
+    if spec.width <= 0 or spec.height <= 0 or spec.depth <= 0 or spec.nchannels <= 0:
+        raise ValueError(f"image size {spec.width}x{spec.height}x{spec.nchannels} is not positive")
+    sizes = [f.size() for f in spec.channelformats] or [spec.format.size()] * spec.nchannels
+    return spec.width * spec.height * spec.depth * max(sizes) * spec.nchannels
+
+
 def imread(path: str | os.PathLike[str]) -> np.ndarray:
     """Read an image file in its stored pixel type.
 
@@ -130,7 +160,9 @@ def imread(path: str | os.PathLike[str]) -> np.ndarray:
     file has one channel; row 0 is the top of the image. Values are as stored (colour is not
     premultiplied by alpha). Multi-part files: the first part.
 
-    Raises FileNotFoundError if ``path`` does not exist, ValueError if it cannot be decoded.
+    Raises FileNotFoundError if ``path`` does not exist, ValueError if it cannot be decoded or if
+    its header declares more pixel bytes than ``softrast.get_memory_budget()`` (checked before
+    any pixel is read).
     """
     import OpenImageIO as oiio
 
@@ -143,6 +175,12 @@ def imread(path: str | os.PathLike[str]) -> np.ndarray:
     if inp is None:
         raise ValueError(f"could not read image {path_str!r}: {oiio.geterror()}")
     try:
+        spec = inp.spec()  # the header only: nothing is decoded yet
+        nbytes = _decoded_bytes(spec)
+        check_budget(nbytes, f"image {path_str!r} ({spec.width}x{spec.height}x{spec.nchannels} "
+                             f"{spec.format})")
+        if inp.format_name() == "png":
+            _check_png_size(path_str)
         pixels: Any = inp.read_image(format="unknown")  # "unknown" => keep the native pixel type
         err = inp.geterror()
     finally:

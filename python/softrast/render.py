@@ -8,12 +8,16 @@ import numpy as np
 
 from . import _core
 from .camera import Camera
+from .limits import check_budget
 from .scene import Scene
 
 __all__ = ["Frame", "Renderer"]
 
 _CULL = ("none", "back", "front")
 _SHADING = ("lambert", "unlit")
+# Bytes per pixel of each output (see Frame): what a render allocates for it.
+_OUTPUT_BYTES = {"color": 3, "depth": 4, "mask": 1, "normal": 12, "triangle_id": 4,
+                 "instance_id": 4, "coverage": 4}
 
 
 class Frame:
@@ -169,6 +173,9 @@ class Renderer:
             raise ValueError(f"ambient must be in [0, 1], got {ambient!r}")
 
         out_arrays = _out_arrays(out, names)
+        new = [n for n in names if out_arrays is None or n not in out_arrays]  # out= arrays are reused
+        check_budget(self.width * self.height * sum(_OUTPUT_BYTES[n] for n in new),
+                     f"outputs {tuple(new)} at {self.width}x{self.height}")
 
         draws = [(inst.mesh._core_data(), inst.pose, inst.instance_id, inst.color)
                  for inst in scene.instances]

@@ -1,0 +1,115 @@
+"""softrast.set_memory_budget: renders, imread, meshes and mesh files are refused before allocating."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+import softrast as sr
+from softrast import _core
+
+from conftest import ALL_OUTPUTS, icosphere
+
+
+@pytest.fixture(autouse=True)
+def restore_budget():
+    before = sr.get_memory_budget()
+    yield
+    sr.set_memory_budget(before)
+
+
+def _scene_camera():
+    scene = sr.Scene()
+    scene.add(icosphere(1))
+    cam = sr.PerspectiveCamera(fov_y=50.0)
+    cam.look_at(eye=(0.0, 0.0, 3.0), target=(0.0, 0.0, 0.0))
+    return scene, cam
+
+
+def test_default_matches_core_limit_and_is_exported():
+    assert sr.get_memory_budget() == _core.MAX_FRAMEBUFFER_BYTES == 4 * 2**30
+    assert "set_memory_budget" in sr.__all__ and "get_memory_budget" in sr.__all__
+    sr.set_memory_budget(12345)
+    assert sr.get_memory_budget() == 12345
+
+
+@pytest.mark.parametrize("value, error", [(0, ValueError), (-1, ValueError), (1.5, TypeError),
+                                          (True, TypeError), ("1", TypeError)])
+def test_bad_budget_refused(value, error):
+    with pytest.raises(error, match="nbytes"):
+        sr.set_memory_budget(value)
+
+
+@pytest.mark.parametrize("outputs", [("color",), ("depth", "mask"), ALL_OUTPUTS])
+def test_render_budget_is_exact(outputs):
+    scene, cam = _scene_camera()
+    renderer = sr.Renderer(40, 30)
+    needed = sum(a.nbytes for a in renderer.render(scene, cam, outputs=outputs).as_dict().values())
+    sr.set_memory_budget(needed)
+    assert renderer.render(scene, cam, outputs=outputs).outputs == outputs
+    sr.set_memory_budget(needed - 1)
+    with pytest.raises(ValueError, match=rf"outputs .* needs {needed} bytes.*budget of {needed - 1} "
+                                         r"bytes.*softrast.set_memory_budget"):
+        renderer.render(scene, cam, outputs=outputs)
+
+
+def test_render_budget_ignores_out_arrays():
+    scene, cam = _scene_camera()
+    renderer = sr.Renderer(40, 30)
+    frame = renderer.render(scene, cam, outputs=("color", "depth"))
+    expected = {k: v.copy() for k, v in frame.as_dict().items()}
+    sr.set_memory_budget(1)  # nothing new may be allocated, and nothing needs to be
+    renderer.render(scene, cam, outputs=("color", "depth"), out=frame)
+    for name, want in expected.items():
+        np.testing.assert_array_equal(getattr(frame, name), want)
+    sr.set_memory_budget(40 * 30 - 1)  # the mask (1 B/px) is not in out => must be allocated
+    with pytest.raises(ValueError, match=r"outputs \('mask',\) at 40x30 needs 1200 bytes"):
+        renderer.render(scene, cam, outputs=("color", "depth", "mask"), out=frame)
+
+
+def test_default_budget_refuses_before_the_core(monkeypatch):
+    scene, cam = _scene_camera()
+    renderer = sr.Renderer(16384, 16384)
+    calls = []
+    monkeypatch.setattr(renderer, "_core", type("Spy", (), {"render": lambda *a: calls.append(a),
+                                                             "width": 16384, "height": 16384})())
+    with pytest.raises(ValueError, match=r"needs 5100273664 bytes .*budget of 4294967296"):
+        renderer.render(scene, cam, outputs=("normal", "color", "depth"))  # 19 B/px * 2**28 px
+    assert calls == []
+
+
+def test_imread_budget(tmp_path):
+    image = np.arange(24 * 16 * 3, dtype=np.uint16).reshape(24, 16, 3)
+    sr.imwrite(tmp_path / "im.png", image)
+    sr.set_memory_budget(image.nbytes)
+    np.testing.assert_array_equal(sr.imread(tmp_path / "im.png"), image)
+    sr.set_memory_budget(image.nbytes - 1)
+    with pytest.raises(ValueError, match=rf"im.png.*16x24x3.*needs {image.nbytes} bytes.*set_memory_budget"):
+        sr.imread(tmp_path / "im.png")
+
+
+def test_mesh_budget():
+    m = trimesh.creation.icosphere(subdivisions=2)
+    n, f = len(m.vertices), len(m.faces)
+    needed = 2 * 4 * (3 * n + 3 * f)  # float32 positions + int32 faces, our copy and the core's
+    sr.set_memory_budget(needed)
+    sr.Mesh(m.vertices, m.faces)
+    sr.set_memory_budget(needed - 1)
+    with pytest.raises(ValueError, match=rf"mesh with {n} vertices and {f} triangles needs {needed}"):
+        sr.Mesh(m.vertices, m.faces)
+    sr.set_memory_budget(needed + 2 * 4 * 3 * n - 1)  # normals add 3 floats per vertex
+    with pytest.raises(ValueError, match="mesh with"):
+        sr.Mesh(m.vertices, m.faces, normals=m.vertex_normals)
+
+
+def test_mesh_file_budget_from_header(tmp_path):
+    # A consistent binary PLY whose declared counts exceed a small budget: refused from the header.
+    m = trimesh.creation.icosphere(subdivisions=3)
+    path = tmp_path / "sphere.ply"
+    m.export(path, encoding="binary")
+    sr.set_memory_budget(path.stat().st_size + 1)  # the file itself fits
+    with pytest.raises(ValueError, match=r"sphere.ply.*PLY header counts.*set_memory_budget"):
+        sr.load_mesh(path)
+    sr.set_memory_budget(path.stat().st_size - 1)
+    with pytest.raises(ValueError, match=r"mesh file .*sphere.ply' needs"):
+        sr.load_mesh(path)
