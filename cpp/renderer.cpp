@@ -44,6 +44,13 @@ void MeshData::validate() const {
   if (!colors.empty() && colors.size() != n)
     throw std::invalid_argument("colors must have one row per vertex");
   if (!uvs.empty() && uvs.size() != n) throw std::invalid_argument("uvs must have one row per vertex");
+  auto check_finite = [](const float* values, std::size_t count, const char* name) {
+    for (std::size_t i = 0; i < count; ++i)
+      if (!std::isfinite(values[i])) throw std::invalid_argument(std::string(name) + " contains NaN or inf");
+  };
+  check_finite(reinterpret_cast<const float*>(normals.data()), 3 * normals.size(), "normals");
+  check_finite(reinterpret_cast<const float*>(colors.data()), 4 * colors.size(), "colors");
+  check_finite(reinterpret_cast<const float*>(uvs.data()), 2 * uvs.size(), "uvs");
 }
 
 void validate_camera(const CameraParams& camera) {
@@ -79,6 +86,9 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
     if (!draws[d].mesh) throw std::invalid_argument("draw " + std::to_string(d) + " has no mesh");
     if (!all_finite(draws[d].model))
       throw std::invalid_argument("pose of draw " + std::to_string(d) + " is not finite");
+    const vec4 c = draws[d].color;
+    if (!(std::isfinite(c.r) && std::isfinite(c.g) && std::isfinite(c.b) && std::isfinite(c.a)))
+      throw std::invalid_argument("color of draw " + std::to_string(d) + " is not finite");
   }
   const std::size_t bytes = Framebuffer::bytes_needed(width(), height(), options.outputs);
   if (bytes > kMaxFramebufferBytes)

@@ -8,6 +8,12 @@ namespace sr {
 
 namespace {
 
+// Unit vector in float, or zero for a zero (or non-finite) vector.
+inline vec3 unit(const dvec3& v) {
+  const double len = glm::length(v);
+  return len > 0.0 && std::isfinite(len) ? vec3(v / len) : vec3(0.0f);
+}
+
 // Prepares one visible triangle: its exact edge functions relative to the tile, and its
 // attributes at its own three vertices. A clipped triangle's vertices carry weights of the
 // source face's corners; attributes are linear in those weights, so they are mapped here once.
@@ -28,14 +34,16 @@ ShadeTriangle prepare(const ShadeParams& p, const VisibleTriangle& vt, const Til
   {
     const MeshData& mesh = *d.mesh;
     const ivec3 f = mesh.faces[t.prim];
+    // Normals are transformed and normalised in double: a float cross product or a scaled
+    // normal can overflow (a triangle 1e20 units wide, a pose scaling by 0.1).
     vec3 normal_src[3], color_src[3];
     if (!mesh.normals.empty()) {
-      for (int c = 0; c < 3; ++c) normal_src[c] = d.normal_to_world * mesh.normals[f[c]];
+      for (int c = 0; c < 3; ++c) normal_src[c] = unit(d.normal_to_world * dvec3(mesh.normals[f[c]]));
     } else {  // no vertex normals => flat: the counter-clockwise face normal
-      const vec3 p0 = mesh.positions[f.x];
-      const vec3 n = d.normal_to_world *
-                     glm::cross(mesh.positions[f.y] - p0, mesh.positions[f.z] - p0);
-      normal_src[0] = normal_src[1] = normal_src[2] = n;
+      const dvec3 p0(mesh.positions[f.x]);
+      const dvec3 n = d.normal_to_world *
+                      glm::cross(dvec3(mesh.positions[f.y]) - p0, dvec3(mesh.positions[f.z]) - p0);
+      normal_src[0] = normal_src[1] = normal_src[2] = unit(n);
     }
     if (t.back_facing)  // two-sided: the side the camera sees
       for (vec3& n : normal_src) n = -n;

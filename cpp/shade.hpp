@@ -9,7 +9,7 @@ namespace sr {
 // What shading needs of one draw.
 struct ShadeDraw {
   const MeshData* mesh;
-  mat3 normal_to_world;  // inverse-transpose of the model matrix
+  dmat3 normal_to_world;  // inverse-transpose of the model matrix (double: see prepare())
   vec4 color;            // material colour (used when the mesh has no vertex colours)
   int32_t instance_id;
 };

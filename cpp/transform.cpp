@@ -15,7 +15,7 @@ DrawTransform make_draw_transform(const dmat4& model, const CameraParams& camera
   xf.mirrored = det < 0.0;
   // A mirroring model matrix turns counter-clockwise faces clockwise; like most engines we flip
   // the facing test with it, so the outside of a mirrored closed mesh stays its front.
-  xf.normal_to_world = mat3(glm::inverseTranspose(m3));
+  xf.normal_to_world = glm::inverseTranspose(m3);
   return xf;
 }
 

@@ -10,7 +10,7 @@ namespace sr {
 struct DrawTransform {
   mat4 model_view;         // model -> view
   mat4 proj;               // view -> clip
-  mat3 normal_to_world;    // inverse-transpose of the model's 3x3
+  dmat3 normal_to_world;   // inverse-transpose of the model's 3x3 (double: normals may be huge)
   bool mirrored = false;   // det(model) < 0: the winding flips, so front/back facing swap too
 };
 
