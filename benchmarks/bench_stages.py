@@ -1,0 +1,401 @@
+"""Where softrast's time goes, measured through the public API (the core exposes no stage timers).
+
+    python3 benchmarks/bench_stages.py [--quick] [--sections faces,pixels,outputs,threads,overhead,memory,callgrind]
+
+Sections (all steady state: renderer reused, frames rendered into with out=, warm-up first, the
+cells of a table interleaved in rounds, medians in ms; the machine is shared, so compare within a
+table, not across runs):
+  faces     icosphere sub 3..8 at 1024x1024: cost per input face (geometry + setup + binning)
+  pixels    icosphere sub 6 at 256..4096 square: cost per covered pixel (raster + shade + clear)
+  outputs   depth only vs colour+depth vs unlit vs every output: differences estimate shading and
+            output-writing cost
+  threads   1 vs 2 threads
+  overhead  Python cost per call: a 1x1 render of a 1-triangle scene
+  memory    peak RSS of rendering the 1.3M-face sphere at 1024x1024 (a fresh subprocess) against
+            the mesh's own arrays plus the framebuffers
+  callgrind builds benchmarks/core_bench.cpp (C++ only, no Python) and counts instructions per
+            stage source file with valgrind's callgrind: repeatable, independent of machine noise
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import re
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from collections import defaultdict
+
+import numpy as np
+import trimesh
+
+import softrast as sr
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+FOV_Y_DEG, NEAR, FAR = 45.0, 0.05, 100.0
+SILHOUETTE_FRACTION = 0.8  # as bench_vs_pyrender.py: the sphere spans 0.8 of the image height
+ALL_OUTPUTS = ("color", "depth", "mask", "normal", "triangle_id", "instance_id", "coverage")
+SECTIONS = ("faces", "pixels", "outputs", "threads", "overhead", "memory", "callgrind")
+
+
+def camera_distance() -> float:
+    return 1.0 / math.sin(math.atan(SILHOUETTE_FRACTION * math.tan(math.radians(FOV_Y_DEG) / 2)))
+
+
+_MESHES: dict[int, sr.Mesh] = {}
+
+
+def sphere_scene(sub: int) -> tuple[sr.Scene, int]:
+    if sub not in _MESHES:
+        _MESHES[sub] = sr.Mesh.from_trimesh(trimesh.creation.icosphere(subdivisions=sub))
+    scene = sr.Scene()
+    scene.add(_MESHES[sub], color=(1.0, 1.0, 1.0))
+    return scene, len(_MESHES[sub].faces)
+
+
+def camera(width: int, height: int) -> sr.PerspectiveCamera:
+    cam = sr.PerspectiveCamera(fov_y=FOV_Y_DEG, width=width, height=height, near=NEAR, far=FAR)
+    return cam.look_at(eye=(0.0, 0.0, camera_distance()), target=(0.0, 0.0, 0.0), up=(0.0, 1.0, 0.0))
+
+
+class Job:
+    """One steady-state render configuration, rendering into its own frame (out=)."""
+
+    def __init__(self, key, sub, width, height, outputs=("color", "depth"), shading="lambert", threads=2):
+        self.key = key
+        self.scene, self.faces = sphere_scene(sub)
+        self.cam = camera(width, height)
+        self.renderer = sr.Renderer(width, height, threads=threads)
+        self.kwargs = dict(outputs=outputs, shading=shading)
+        self.frame = self.renderer.render(self.scene, self.cam, **self.kwargs)
+        self.pixels = width * height
+        self.covered = int((self.frame.depth > 0).sum()) if self.frame.depth is not None else \
+            int((self.renderer.render(self.scene, self.cam, outputs=("depth",)).depth > 0).sum())
+        self.times: list[float] = []
+
+    def __call__(self):
+        return self.renderer.render(self.scene, self.cam, out=self.frame, **self.kwargs)
+
+    @property
+    def ms(self) -> float:
+        return 1e3 * statistics.median(self.times)
+
+
+def run_interleaved(jobs, target_s: float, rounds: int, n_min: int = 5, n_max: int = 2000) -> None:
+    counts = []
+    for job in jobs:
+        job()
+        t0 = time.perf_counter()
+        job()
+        counts.append(max(n_min, min(n_max, int(target_s / max(time.perf_counter() - t0, 1e-7)))))
+    for r in range(rounds):
+        for i in [(i + r) % len(jobs) for i in range(len(jobs))]:
+            job = jobs[i]
+            for _ in range(math.ceil(counts[i] / rounds)):
+                t0 = time.perf_counter()
+                job()
+                job.times.append(time.perf_counter() - t0)
+
+
+def linear_fit(x, y):
+    """Least-squares y = a + b x; returns a, b and the largest relative residual."""
+    a_mat = np.stack([np.ones(len(x)), np.asarray(x, float)], axis=1)
+    (a, b), *_ = np.linalg.lstsq(a_mat, np.asarray(y, float), rcond=None)
+    resid = max(abs(a + b * xi - yi) / yi for xi, yi in zip(x, y))
+    return a, b, resid
+
+
+# --------------------------------------------------------------------------------- sections
+
+
+def section_faces(opts):
+    subs = [3, 4, 5, 6, 7] + ([] if opts.quick else [8])
+    print("\n## Scaling with faces: icosphere sub 3..8 at 1024x1024, threads 2, out=")
+    jobs = [Job((s, o), s, 1024, 1024, outputs=o) for s in subs for o in (("depth",), ("color", "depth"))]
+    run_interleaved(jobs, opts.target, opts.rounds)
+    by = {j.key: j for j in jobs}
+    print(f"{'sub':>4}{'faces':>11}{'depth ms':>10}{'c+d ms':>9}{'ns/face d':>11}{'ns/face c+d':>12}"
+          f"{'marginal ns/face d':>20}{'c+d':>8}")
+    prev = None
+    for s in subs:
+        d, cd = by[(s, ("depth",))], by[(s, ("color", "depth"))]
+        marg = ("", "")
+        if prev is not None:
+            df = d.faces - prev[0].faces
+            marg = (f"{1e6 * (d.ms - prev[0].ms) / df:.1f}", f"{1e6 * (cd.ms - prev[1].ms) / df:.1f}")
+        print(f"{s:>4}{d.faces:>11,}{d.ms:>10.2f}{cd.ms:>9.2f}{1e6 * d.ms / d.faces:>11.1f}"
+              f"{1e6 * cd.ms / cd.faces:>12.1f}{marg[0]:>20}{marg[1]:>8}")
+        prev = (d, cd)
+    for name, o in (("depth", ("depth",)), ("c+d", ("color", "depth"))):
+        a, b, r = linear_fit([by[(s, o)].faces for s in subs], [by[(s, o)].ms for s in subs])
+        print(f"fit {name}: {a:.2f} ms + {1e6 * b:.1f} ns/face (wall, 2 threads = {2e6 * b:.1f} ns "
+              f"per face per core); worst residual {100 * r:.0f}%")
+
+
+def section_pixels(opts):
+    sides = [256, 512, 1024, 2048] + ([] if opts.quick else [4096])
+    print("\n## Scaling with pixels: icosphere sub 6 (81,920 faces), square images, threads 2, out=")
+    jobs = [Job((n, o), 6, n, n, outputs=o) for n in sides for o in (("depth",), ("color", "depth"))]
+    run_interleaved(jobs, opts.target, opts.rounds)
+    by = {j.key: j for j in jobs}
+    print(f"{'size':>10}{'covered px':>12}{'depth ms':>10}{'c+d ms':>9}{'ns/covpx d':>12}"
+          f"{'ns/covpx c+d':>14}{'marginal ns/covpx d':>21}{'c+d':>7}")
+    prev = None
+    for n in sides:
+        d, cd = by[(n, ("depth",))], by[(n, ("color", "depth"))]
+        marg = ("", "")
+        if prev is not None:
+            dp = d.covered - prev[0].covered
+            marg = (f"{1e6 * (d.ms - prev[0].ms) / dp:.2f}", f"{1e6 * (cd.ms - prev[1].ms) / dp:.2f}")
+        print(f"{str(n) + 'x' + str(n):>10}{d.covered:>12,}{d.ms:>10.2f}{cd.ms:>9.2f}"
+              f"{1e6 * d.ms / d.covered:>12.2f}{1e6 * cd.ms / cd.covered:>14.2f}{marg[0]:>21}{marg[1]:>7}")
+        prev = (d, cd)
+    for name, o in (("depth", ("depth",)), ("c+d", ("color", "depth"))):
+        a, b, r = linear_fit([by[(n, o)].covered for n in sides], [by[(n, o)].ms for n in sides])
+        print(f"fit {name}: {a:.2f} ms + {1e6 * b:.2f} ns/covered px (wall, 2 threads); "
+              f"worst residual {100 * r:.0f}%")
+
+
+def section_outputs(opts):
+    print("\n## Outputs and shading (threads 2, out=): differences estimate shading / output cost")
+    configs = [("depth", ("depth",), "lambert"), ("color+depth unlit", ("color", "depth"), "unlit"),
+               ("color+depth lambert", ("color", "depth"), "lambert"),
+               ("color only lambert", ("color",), "lambert"), ("all 7 outputs", ALL_OUTPUTS, "lambert")]
+    scenes = [(6, 1024, 1024), (8, 1024, 1024)] if not opts.quick else [(6, 1024, 1024)]
+    jobs = [Job((sc, name), *sc, outputs=o, shading=sh) for sc in scenes for name, o, sh in configs]
+    run_interleaved(jobs, opts.target, opts.rounds)
+    by = {j.key: j for j in jobs}
+    for sc in scenes:
+        base = by[(sc, "depth")]
+        print(f"ico{sc[0]} {sc[1]}x{sc[2]} ({base.faces:,} faces, {base.covered:,} covered px)")
+        print(f"  {'outputs':<22}{'ms':>8}{'- depth ms':>12}{'ns/covered px over depth':>27}")
+        for name, _, _ in configs:
+            j = by[(sc, name)]
+            extra = j.ms - base.ms
+            print(f"  {name:<22}{j.ms:>8.2f}{extra:>12.2f}{1e6 * extra / base.covered:>27.2f}")
+
+
+def section_threads(opts):
+    print("\n## Threads: 1 vs 2 (colour+depth and depth, out=)")
+    scenes = [(3, 256, 256), (6, 640, 480), (6, 1024, 1024), (8, 1024, 1024)]
+    if not opts.quick:
+        scenes.append((7, 2048, 2048))
+    jobs = [Job((sc, o, t), *sc, outputs=o, threads=t) for sc in scenes
+            for o in (("depth",), ("color", "depth")) for t in (1, 2)]
+    run_interleaved(jobs, opts.target, opts.rounds)
+    by = {j.key: j for j in jobs}
+    print(f"{'scene':<18}{'d t1':>8}{'d t2':>8}{'speedup':>9}{'c+d t1':>9}{'c+d t2':>9}{'speedup':>9}")
+    for sc in scenes:
+        d1, d2 = by[(sc, ("depth",), 1)].ms, by[(sc, ("depth",), 2)].ms
+        c1, c2 = by[(sc, ("color", "depth"), 1)].ms, by[(sc, ("color", "depth"), 2)].ms
+        print(f"{'ico%d %dx%d' % sc:<18}{d1:>8.2f}{d2:>8.2f}{d1 / d2:>9.2f}{c1:>9.2f}{c2:>9.2f}{c1 / c2:>9.2f}")
+
+
+def section_overhead(opts):
+    print("\n## Python overhead per frame: 1x1 image, one triangle (goal: < 50 us)")
+    tri = sr.Mesh(np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], np.float32), np.array([[0, 1, 2]], np.int32))
+    scene = sr.Scene()
+    scene.add(tri)
+    cam = sr.PerspectiveCamera(fov_y=FOV_Y_DEG, width=1, height=1, near=NEAR, far=FAR)
+    cam.look_at(eye=(0.0, 0.0, 3.0), target=(0.0, 0.0, 0.0), up=(0.0, 1.0, 0.0))
+    n = 2000 if opts.quick else 10000
+    rows = []
+    for threads in (1, 2):
+        r = sr.Renderer(1, 1, threads=threads)
+        f_cd, f_d = r.render(scene, cam), r.render(scene, cam, outputs=("depth",))
+        calls = {
+            "color+depth, new arrays": lambda: r.render(scene, cam),
+            "color+depth, out=": lambda: r.render(scene, cam, out=f_cd),
+            "depth, out=": lambda: r.render(scene, cam, outputs=("depth",), out=f_d),
+        }
+        samples = defaultdict(list)
+        for _ in range(200):
+            for fn in calls.values():
+                fn()
+        for _ in range(5):  # interleave in blocks
+            for name, fn in calls.items():
+                for _ in range(n // 5):
+                    t0 = time.perf_counter_ns()
+                    fn()
+                    samples[name].append(time.perf_counter_ns() - t0)
+        for name in calls:
+            s = np.array(samples[name]) / 1e3
+            rows.append((threads, name, np.median(s), np.percentile(s, 10), np.percentile(s, 90)))
+    print(f"{'threads':>8}  {'call':<26}{'median us':>10}{'p10':>8}{'p90':>8}")
+    for threads, name, med, p10, p90 in rows:
+        print(f"{threads:>8}  {name:<26}{med:>10.1f}{p10:>8.1f}{p90:>8.1f}")
+    print("(the whole call: argument checks, scene walk, matrices, the C++ render of 1 pixel and "
+          "the arrays' wrapping; with threads 2 it includes waking the pool)")
+
+
+# Runs in a fresh interpreter. Peak RSS is VmHWM (the high-water mark of this process's own
+# memory): ru_maxrss would also do, but a forked child inherits the parent's ru_maxrss.
+MEMORY_CHILD = r"""
+import json, resource, sys
+def status(key):
+    with open('/proc/self/status') as f:
+        return next(int(l.split()[1]) for l in f if l.startswith(key + ':')) / 1024
+import numpy as np, softrast as sr
+sys.path.insert(0, sys.argv[2])
+from bench_stages import camera
+rec = {'imports': status('VmRSS')}
+positions, faces, normals = (np.load(sys.argv[1] + n) for n in ('/p.npy', '/f.npy', '/n.npy'))
+rec['arrays'] = status('VmRSS')
+mesh = sr.Mesh(positions, faces, normals=normals)
+scene = sr.Scene(); scene.add(mesh)
+rec['mesh'] = status('VmRSS')
+cam = camera(1024, 1024)
+r = sr.Renderer(1024, 1024, threads=2)
+frame = r.render(scene, cam, outputs=('color', 'depth'))
+for _ in range(3): r.render(scene, cam, outputs=('color', 'depth'), out=frame)
+rec['render'] = status('VmRSS'); rec['peak'] = status('VmHWM')
+rec['ru_maxrss'] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+print(json.dumps(rec))
+"""
+
+
+def section_memory(opts):
+    print("\n## Peak memory: icosphere sub 8 (1,310,720 faces) at 1024x1024, colour+depth, threads 2")
+    tm = trimesh.creation.icosphere(subdivisions=8)
+    positions = np.ascontiguousarray(tm.vertices, np.float32)
+    faces = np.ascontiguousarray(tm.faces, np.int32)
+    normals = np.ascontiguousarray(tm.vertex_normals, np.float32)
+    mesh_mb = (positions.nbytes + faces.nbytes + normals.nbytes) / 2**20
+    fb_mb = 1024 * 1024 * (3 + 4) / 2**20
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, arr in (("p", positions), ("f", faces), ("n", normals)):
+            np.save(f"{tmp}/{name}.npy", arr)
+        child = subprocess.run([sys.executable, "-c", MEMORY_CHILD, tmp, os.path.dirname(os.path.abspath(__file__))],
+                               capture_output=True, text=True)
+    if child.returncode != 0:
+        print("memory child failed:", child.stderr[-2000:])
+        return
+    rec = json.loads(child.stdout.strip().splitlines()[-1])
+    used = rec["peak"] - rec["imports"]
+    print(f"mesh's own arrays (float32 positions + normals, int32 faces): {mesh_mb:.1f} MiB; "
+          f"framebuffers (RGB8 + float32 depth): {fb_mb:.1f} MiB; sum {mesh_mb + fb_mb:.1f} MiB")
+    print(f"RSS (MiB) of a fresh process: after imports {rec['imports']:.1f}; + loaded arrays "
+          f"{rec['arrays']:.1f}; + sr.Mesh and Scene {rec['mesh']:.1f}; after 4 renders {rec['render']:.1f}; "
+          f"peak (VmHWM) {rec['peak']:.1f} (ru_maxrss {rec['ru_maxrss']:.1f})")
+    print(f"peak - imports = {used:.1f} MiB = {used / (mesh_mb + fb_mb):.2f}x (mesh arrays + "
+          f"framebuffers); goal < 4x. Of it: softrast's mesh copies {rec['mesh'] - rec['arrays']:.1f} MiB, "
+          f"renders {rec['peak'] - rec['mesh']:.1f} MiB")
+
+
+ANNOTATE_LINE = re.compile(r"^\s*([\d,]+)\s+\(\s*[\d.]+%\)\s+(.*?):(.*)$")
+# Stage of a function, by the names the core's stage files use (inlined GLM / std lines are
+# reported under the function they were inlined into, so classify by function, not file).
+STAGES = (("driver (excluded)", ("icosphere", "_Rb_tree", "main", "MeshData::validate", "dl_",
+                                 "do_lookup", "_dl", "Renderer::Renderer", "ThreadPool::ThreadPool")),
+          ("transform", ("transform_vertices", "make_draw_transform", "glm::operator*")),
+          ("clip", ("clip_triangle", "intersect", "ClipPlanes")),
+          ("project+setup+bin", ("project", "setup", "true_plane_keys")),
+          ("raster", ("rasterize",)),
+          ("shade", ("shade", "prepare")),
+          ("framebuffer alloc/clear", ("Framebuffer", "memset")),
+          ("copies (memcpy)", ("memcpy", "memmove")),
+          ("malloc/free (render and driver)", ("malloc", "free", "operator new", "operator delete",
+                                              "unlink_chunk", "consolidate")),
+          ("thread pool, renderer", ("ThreadPool", "Renderer", "thread", "_Function_handler")))
+
+
+def stage_of(fn: str) -> str:
+    name = re.sub(r"\((anonymous namespace|glm::qualifier)\)", "", fn).split("(")[0]
+    for stage, keys in STAGES:
+        if any(k in name for k in keys):
+            return stage
+    return "other"
+
+
+def short_name(fn: str) -> str:
+    return re.sub(r"\(.*\)", "(...)", fn.replace("sr::(anonymous namespace)::", "sr::"))[:90]
+
+
+def section_callgrind(opts):
+    print("\n## Instructions per stage (valgrind callgrind, C++ core without Python, 1 thread)")
+    if not shutil.which("valgrind") or not shutil.which("g++"):
+        print("skipped: valgrind and g++ are needed (bash benchmarks/setup_baselines.sh installs them)")
+        return
+    exe = os.path.join(REPO, "build", "core_bench")
+    sources = sorted(os.path.join(REPO, "cpp", f) for f in os.listdir(os.path.join(REPO, "cpp"))
+                     if f.endswith(".cpp") and f != "bindings.cpp")
+    os.makedirs(os.path.dirname(exe), exist_ok=True)
+    # -g adds line/file info for callgrind_annotate and does not change the generated code.
+    cmd = ["g++", "-O2", "-g", "-std=c++17", "-I" + os.path.join(REPO, "cpp"),
+           os.path.join(REPO, "benchmarks", "core_bench.cpp"), *sources, "-lpthread", "-o", exe]
+    build = subprocess.run(cmd, capture_output=True, text=True)
+    if build.returncode != 0:
+        print("core_bench build failed:\n" + build.stderr[-3000:])
+        return
+    renders = 3  # every instruction of the process is counted; the driver's own are left out
+    cases = [(6, 1024, 1024, 3, "color+depth"), (6, 1024, 1024, 2, "depth")]
+    if not opts.quick:
+        cases += [(8, 1024, 1024, 3, "color+depth"), (8, 1024, 1024, 2, "depth")]
+    for sub, w, h, bits, label in cases:
+        with tempfile.TemporaryDirectory() as tmp:
+            out = os.path.join(tmp, "cg.out")
+            run = subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}",
+                                  exe, str(sub), str(w), str(h), str(bits), str(renders), "1"],
+                                 capture_output=True, text=True)
+            if run.returncode != 0:
+                print(f"callgrind failed for ico{sub}:\n{run.stderr[-2000:]}")
+                continue
+            ann = subprocess.run(["callgrind_annotate", "--inclusive=no", "--auto=no", "--threshold=100", out],
+                                 capture_output=True, text=True).stdout
+        per_stage, per_fn, total = defaultdict(int), [], 0
+        for line in ann.splitlines():
+            m = ANNOTATE_LINE.match(line)
+            if not m:
+                continue
+            ir, file, fn = int(m.group(1).replace(",", "")), m.group(2), m.group(3)
+            fn = re.sub(r" \[/[^\]]*\]$", "", fn)  # drop the trailing [object file]
+            stage = stage_of(fn)
+            per_stage[stage] += ir
+            if stage != "driver (excluded)":
+                per_fn.append((ir, fn, os.path.basename(file)))
+                total += ir
+        if total == 0:
+            print(f"ico{sub}: could not parse callgrind_annotate output:\n{ann[:2000]}")
+            continue
+        merged = defaultdict(int)  # one function's lines may be spread over inlined headers
+        for ir, fn, _ in per_fn:
+            merged[fn] += ir
+        faces = 20 * 4 ** sub
+        print(f"ico{sub} {w}x{h} {label}: {total / renders / 1e6:.1f} M instructions per render "
+              f"(mean of {renders} renders, 1 thread), {total / renders / faces:.0f} per face")
+        for stage, ir in sorted(per_stage.items(), key=lambda kv: (kv[0].startswith("driver"), -kv[1])):
+            share = "  (not in the total)" if stage.startswith("driver") else \
+                f"  {100 * ir / total:5.1f}%  {ir / renders / faces:7.1f} /face"
+            print(f"  {stage:<32}{ir / renders / 1e6:>9.2f} M{share}")
+        print("  top functions (self):")
+        for fn, ir in sorted(merged.items(), key=lambda kv: -kv[1])[:8]:
+            print(f"    {100 * ir / total:5.1f}%  {short_name(fn)}")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true", help="fewer repetitions, no sub 8 / 4096 / 2048 rows")
+    ap.add_argument("--sections", default=",".join(SECTIONS), help="comma-separated: " + ",".join(SECTIONS))
+    opts = ap.parse_args(argv)
+    opts.target, opts.rounds = (0.3, 3) if opts.quick else (1.2, 5)
+    sections = opts.sections.split(",")
+    for s in sections:
+        if s not in SECTIONS:
+            ap.error(f"unknown section {s!r}")
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                            cwd=REPO).stdout.strip()
+    print(f"softrast {getattr(sr, '__version__', '?')} commit {commit}, {os.cpu_count()} cores; "
+          f"sphere silhouette {SILHOUETTE_FRACTION} of the height (camera at {camera_distance():.3f})")
+    for s in sections:
+        globals()["section_" + s](opts)
+        sys.stdout.flush()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

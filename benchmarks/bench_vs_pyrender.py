@@ -1,0 +1,481 @@
+"""softrast vs pyrender (OSMesa) vs a bare moderngl pipeline (EGL), all on the CPU: issue 3's table.
+
+Run ``bash benchmarks/setup_baselines.sh`` once first, then::
+
+    python3 benchmarks/bench_vs_pyrender.py [--quick] [--rows 0,1,4] [--json out.json]
+
+Scenes: trimesh icospheres (radius 1, smooth normals) seen by a 45-degree perspective camera at a
+distance that makes the sphere's silhouette 0.8 of the image height (about half of a square
+image), one directional light along the viewing axis, no anti-aliasing, black background.
+
+Every cell is steady state: the scene is uploaded once and the renderer reused; each renderer is
+warmed up, then timed for N frames (N chosen so each cell takes ~1.5 s, 0.3 s with --quick), and
+the cells of a row are interleaved in rounds so that they share the machine's noise. Times are
+medians in ms per frame and include reading the frame back into NumPy arrays.
+
+Columns:
+  pyrender   OffscreenRenderer.render(scene, flags): NONE (colour+depth), DEPTH_ONLY, FLAT
+  moderngl   a bare pipeline: one lit shader, RGBA8 + depth renderbuffers, fbo.read_into NumPy
+             (colour+depth only; the raw [0, 1] depth buffer, not linearised as the others are)
+  softrast   Renderer(w, h, threads).render(scene, cam, outputs=...), "out" = into the frame of
+             an earlier render (out=frame, as a batch user would), "new" = fresh arrays per frame
+The "first" column is context + first frame: creating the renderer (and its GL context), uploading
+the scene and rendering and reading back one colour+depth frame; scene build (mesh conversion and
+Scene construction from a trimesh) is reported apart.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+# pyrender reads PYOPENGL_PLATFORM when it is imported: OSMesa is its no-AA CPU path (its EGL
+# path forces 4x MSAA). moderngl's EGL context needs no display with the surfaceless platform.
+os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
+os.environ.setdefault("EGL_PLATFORM", "surfaceless")
+
+import numpy as np  # noqa: E402
+import trimesh  # noqa: E402
+
+import softrast as sr  # noqa: E402
+
+# (subdivisions, width, height), the rows of issue 3's table.
+ROWS = [(3, 256, 256), (6, 640, 480), (6, 1024, 1024), (7, 2048, 2048), (8, 1024, 1024)]
+FOV_Y_DEG = 45.0
+NEAR, FAR = 0.05, 100.0
+SILHOUETTE_FRACTION = 0.8  # sphere diameter / image height => ~50% of a square image covered
+AMBIENT = 0.25
+GOALS = {"color+depth": 30.0, "depth": 10.0, "moderngl": 5.0, "first_over_steady": 3.0}
+
+
+def camera_distance() -> float:
+    """Distance at which a unit sphere's silhouette spans SILHOUETTE_FRACTION of the height."""
+    tan_half = math.tan(math.radians(FOV_Y_DEG) / 2)
+    alpha = math.atan(SILHOUETTE_FRACTION * tan_half)  # silhouette half-angle: sin(alpha) = 1/d
+    return 1.0 / math.sin(alpha)
+
+
+def camera_pose() -> np.ndarray:
+    pose = np.eye(4)
+    pose[2, 3] = camera_distance()  # camera-to-world: at +z looking down -z (OpenGL)
+    return pose
+
+
+def fresh_trimesh(base: trimesh.Trimesh) -> trimesh.Trimesh:
+    """A copy without trimesh's caches, so each renderer's scene build pays for its own normals."""
+    return trimesh.Trimesh(vertices=base.vertices.copy(), faces=base.faces.copy(), process=False)
+
+
+# ----------------------------------------------------------------------------------- timing
+
+
+@dataclass
+class Cell:
+    """One renderer x mode: a callable that renders and reads back one frame."""
+    name: str
+    frame: Callable[[], object]
+    times: list[float] = field(default_factory=list)  # seconds
+    n: int = 0
+
+    @property
+    def median_ms(self) -> float:
+        return 1e3 * statistics.median(self.times) if self.times else float("nan")
+
+
+def run_interleaved(cells: list[Cell], target_s: float, n_min: int, n_max: int, rounds: int) -> None:
+    """Warm up every cell, size N from its warm-up time, then time all cells in rounds."""
+    for cell in cells:
+        for _ in range(2):
+            cell.frame()
+        t0 = time.perf_counter()
+        cell.frame()
+        est = time.perf_counter() - t0
+        cell.n = max(n_min, min(n_max, int(target_s / max(est, 1e-6))))
+    for r in range(rounds):
+        order = cells[r % len(cells):] + cells[:r % len(cells)]  # rotate who goes first
+        for cell in order:
+            k = math.ceil(cell.n / rounds)
+            for _ in range(k):
+                t0 = time.perf_counter()
+                cell.frame()
+                cell.times.append(time.perf_counter() - t0)
+
+
+def timed_once(fn: Callable[[], object]) -> tuple[float, object]:
+    t0 = time.perf_counter()
+    result = fn()
+    return 1e3 * (time.perf_counter() - t0), result
+
+
+# ----------------------------------------------------------------------------- baselines
+
+
+def import_pyrender():
+    """pyrender or the reason it cannot run here."""
+    try:
+        import pyrender  # noqa: F401
+        return pyrender, None
+    except Exception as exc:  # noqa: BLE001 - report whatever broke
+        return None, f"import pyrender failed: {type(exc).__name__}: {exc}"
+
+
+def import_moderngl():
+    try:
+        import moderngl  # noqa: F401
+        return moderngl, None
+    except Exception as exc:  # noqa: BLE001
+        return None, f"import moderngl failed: {type(exc).__name__}: {exc}"
+
+
+class PyrenderRow:
+    """pyrender scene (mesh, camera, one directional light) and an OffscreenRenderer for a row."""
+
+    def __init__(self, pyrender, tm: trimesh.Trimesh, width: int, height: int) -> None:
+        self.pyrender = pyrender
+        self.build_ms, self.scene = timed_once(lambda: self._scene(fresh_trimesh(tm), width, height))
+        self.first_ms, self.renderer = timed_once(lambda: self._first(width, height))
+
+    def _scene(self, tm, width, height):
+        pr = self.pyrender
+        scene = pr.Scene(ambient_light=[AMBIENT] * 3, bg_color=[0.0, 0.0, 0.0, 0.0])
+        scene.add(pr.Mesh.from_trimesh(tm, smooth=True))
+        pose = camera_pose()
+        scene.add(pr.PerspectiveCamera(yfov=math.radians(FOV_Y_DEG), aspectRatio=width / height,
+                                       znear=NEAR, zfar=FAR), pose=pose)
+        scene.add(pr.DirectionalLight(color=[1.0, 1.0, 1.0], intensity=3.0), pose=pose)
+        return scene
+
+    def _first(self, width, height):
+        renderer = self.pyrender.OffscreenRenderer(width, height)
+        renderer.render(self.scene)  # context + upload + first frame + readback
+        return renderer
+
+    def cells(self) -> list[Cell]:
+        flags = self.pyrender.RenderFlags
+        r, s = self.renderer, self.scene
+        return [Cell("pyrender color+depth", lambda: r.render(s)),
+                Cell("pyrender depth", lambda: r.render(s, flags=flags.DEPTH_ONLY)),
+                Cell("pyrender flat", lambda: r.render(s, flags=flags.FLAT))]
+
+    def close(self) -> None:
+        self.renderer.delete()
+
+
+VERTEX_SHADER = """
+#version 330
+uniform mat4 mvp;
+uniform mat3 normal_view;
+in vec3 in_position;
+in vec3 in_normal;
+out vec3 v_normal_view;
+void main() {
+    gl_Position = mvp * vec4(in_position, 1.0);
+    v_normal_view = normal_view * in_normal;
+}
+"""
+FRAGMENT_SHADER = """
+#version 330
+uniform vec3 base_color;
+uniform float ambient;
+in vec3 v_normal_view;
+out vec4 f_color;
+void main() {
+    float lambert = abs(normalize(v_normal_view).z);  // headlight along the view axis, two-sided
+    f_color = vec4(base_color * (ambient + (1.0 - ambient) * lambert), 1.0);
+}
+"""
+
+
+def perspective(fov_y_deg: float, aspect: float, near: float, far: float) -> np.ndarray:
+    f = 1.0 / math.tan(math.radians(fov_y_deg) / 2)
+    return np.array([[f / aspect, 0, 0, 0], [0, f, 0, 0],
+                     [0, 0, -(far + near) / (far - near), -2 * far * near / (far - near)],
+                     [0, 0, -1, 0]])
+
+
+class ModernglRow:
+    """A bare moderngl pipeline: one VAO, one lit program, colour + depth renderbuffers."""
+
+    def __init__(self, moderngl, tm: trimesh.Trimesh, width: int, height: int) -> None:
+        self.moderngl = moderngl
+        self.width, self.height = width, height
+        self.build_ms, arrays = timed_once(lambda: self._arrays(fresh_trimesh(tm)))
+        self.first_ms, _ = timed_once(lambda: self._first(arrays))
+
+    @staticmethod
+    def _arrays(tm):
+        vertices = np.hstack([tm.vertices, tm.vertex_normals]).astype(np.float32)
+        return np.ascontiguousarray(vertices), np.ascontiguousarray(tm.faces, dtype=np.int32)
+
+    def _first(self, arrays):
+        mgl = self.moderngl
+        w, h = self.width, self.height
+        self.ctx = ctx = mgl.create_standalone_context(backend="egl")
+        with ctx:
+            prog = ctx.program(vertex_shader=VERTEX_SHADER, fragment_shader=FRAGMENT_SHADER)
+            view = np.linalg.inv(camera_pose())
+            mvp = perspective(FOV_Y_DEG, w / h, NEAR, FAR) @ view
+            prog["mvp"].write(mvp.T.astype(np.float32).tobytes())  # GL is column-major
+            prog["normal_view"].write(np.linalg.inv(view[:3, :3]).astype(np.float32).tobytes())
+            prog["base_color"].value = (1.0, 1.0, 1.0)
+            prog["ambient"].value = AMBIENT
+            vertices, faces = arrays
+            vbo, ibo = ctx.buffer(vertices.tobytes()), ctx.buffer(faces.tobytes())
+            self.vao = ctx.vertex_array(prog, [(vbo, "3f 3f", "in_position", "in_normal")],
+                                        index_buffer=ibo, index_element_size=4)
+            self.fbo = ctx.framebuffer(color_attachments=[ctx.renderbuffer((w, h), 4)],
+                                       depth_attachment=ctx.depth_renderbuffer((w, h)))
+            ctx.enable(mgl.DEPTH_TEST | mgl.CULL_FACE)
+            self.color = np.empty((h, w, 3), np.uint8)
+            self.depth = np.empty((h, w), np.float32)
+            self.frame()
+
+    def frame(self):
+        with self.ctx:  # pyrender's OSMesa context may be current in between
+            self.fbo.use()
+            self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+            self.vao.render(self.moderngl.TRIANGLES)
+            self.fbo.read_into(self.color, components=3)
+            self.fbo.read_into(self.depth, attachment=-1, dtype="f4")
+        return self.color, self.depth
+
+    def cells(self) -> list[Cell]:
+        return [Cell("moderngl color+depth", self.frame)]
+
+    def close(self) -> None:
+        self.ctx.release()
+
+
+class SoftrastRow:
+    """softrast scene and one Renderer per thread count."""
+
+    def __init__(self, tm: trimesh.Trimesh, width: int, height: int, threads: tuple[int, ...]) -> None:
+        self.build_ms, self.scene = timed_once(lambda: self._scene(fresh_trimesh(tm)))
+        self.cam = sr.PerspectiveCamera(fov_y=FOV_Y_DEG, width=width, height=height, near=NEAR, far=FAR)
+        self.cam.pose = camera_pose()
+        self.renderers, self.first_ms = {}, {}
+        for t in threads:
+            self.first_ms[t], self.renderers[t] = timed_once(lambda t=t: self._first(width, height, t))
+        self.coverage = float((self.renderers[threads[0]].render(self.scene, self.cam).depth > 0).mean())
+
+    @staticmethod
+    def _scene(tm):
+        scene = sr.Scene()
+        scene.add(sr.Mesh.from_trimesh(tm), color=(1.0, 1.0, 1.0))
+        return scene
+
+    def _first(self, width, height, threads):
+        renderer = sr.Renderer(width, height, threads=threads)
+        renderer.render(self.scene, self.cam, outputs=("color", "depth"))
+        return renderer
+
+    def cells(self) -> list[Cell]:
+        cells = []
+        s, cam = self.scene, self.cam
+        for t, r in self.renderers.items():
+            cd, d = r.render(s, cam), r.render(s, cam, outputs=("depth",))
+            flat = r.render(s, cam, shading="unlit")
+            cells += [
+                Cell(f"softrast t{t} color+depth out",
+                     lambda r=r, f=cd: r.render(s, cam, outputs=("color", "depth"), out=f)),
+                Cell(f"softrast t{t} depth out",
+                     lambda r=r, f=d: r.render(s, cam, outputs=("depth",), out=f)),
+                Cell(f"softrast t{t} flat out",
+                     lambda r=r, f=flat: r.render(s, cam, outputs=("color", "depth"), shading="unlit", out=f)),
+            ]
+            if t == max(self.renderers):
+                cells.append(Cell(f"softrast t{t} color+depth new",
+                                  lambda r=r: r.render(s, cam, outputs=("color", "depth"))))
+        return cells
+
+
+# ------------------------------------------------------------------------------- report
+
+
+def machine_lines() -> list[str]:
+    model = "?"
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+        flags = open("/proc/cpuinfo").read()
+        avx2 = "avx2" in flags.split()
+    except OSError:
+        avx2 = False
+    try:
+        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                                cwd=os.path.dirname(os.path.abspath(__file__))).stdout.strip()
+    except OSError:
+        commit = "?"
+    return [f"machine: {model}, {os.cpu_count()} cores, AVX2 {'yes' if avx2 else 'no'}, "
+            f"{platform.system()} {platform.release()}, Python {platform.python_version()}, "
+            f"NumPy {np.__version__}",
+            f"softrast commit {commit or '?'}"]
+
+
+def fmt(v: float, width: int = 8, digits: int = 1) -> str:
+    return f"{v:{width}.{digits}f}" if v == v else f"{'n/a':>{width}}"
+
+
+def ratio(a: float, b: float) -> float:
+    return a / b if a == a and b == b and b > 0 else float("nan")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true", help="~0.3 s per cell and no 2048x2048 row")
+    ap.add_argument("--rows", default=None,
+                    help="comma-separated row indices into " + ", ".join(
+                        f"{i}=ico{s}@{w}x{h}" for i, (s, w, h) in enumerate(ROWS)))
+    ap.add_argument("--no-pyrender", action="store_true")
+    ap.add_argument("--no-moderngl", action="store_true")
+    ap.add_argument("--json", help="also write every median to this JSON file")
+    ap.add_argument("--from-json", help="print the tables of an earlier --json file and exit")
+    args = ap.parse_args(argv)
+    if args.from_json:
+        with open(args.from_json) as fh:
+            report(json.load(fh), None, None)
+        return 0
+
+    if args.rows:
+        rows = [ROWS[int(i)] for i in args.rows.split(",")]
+    else:
+        rows = [r for r in ROWS if not (args.quick and r[1] >= 2048)]
+    target_s, n_min, n_max, rounds = (0.3, 3, 60, 3) if args.quick else (1.5, 7, 400, 7)
+
+    pyrender, pyrender_error = (None, "skipped (--no-pyrender)") if args.no_pyrender else import_pyrender()
+    moderngl, moderngl_error = (None, "skipped (--no-moderngl)") if args.no_moderngl else import_moderngl()
+    for line in machine_lines():
+        print(line)
+    print(f"softrast {getattr(sr, '__version__', '?')}, trimesh {trimesh.__version__}, "
+          f"pyrender {getattr(pyrender, '__version__', None) or pyrender_error} "
+          f"(PYOPENGL_PLATFORM={os.environ['PYOPENGL_PLATFORM']}), "
+          f"moderngl {getattr(moderngl, '__version__', None) or moderngl_error} (EGL)")
+    print(f"camera distance {camera_distance():.3f} (fov {FOV_Y_DEG}), N per cell ~{target_s} s "
+          f"(min {n_min}, max {n_max}) in {rounds} interleaved rounds after warm-up; medians in ms")
+    sys.stdout.flush()
+
+    results = []
+    for sub, w, h in rows:
+        base = trimesh.creation.icosphere(subdivisions=sub, radius=1.0)
+        res = {"row": f"ico{sub} {w}x{h}", "sub": sub, "faces": len(base.faces), "width": w,
+               "height": h, "errors": {}}
+        cells: list[Cell] = []
+        pr = mg = None
+        if pyrender is not None:
+            try:
+                pr = PyrenderRow(pyrender, base, w, h)
+                cells += pr.cells()
+            except Exception as exc:  # noqa: BLE001
+                res["errors"]["pyrender"] = f"{type(exc).__name__}: {exc}"
+        if moderngl is not None:
+            try:
+                mg = ModernglRow(moderngl, base, w, h)
+                cells += mg.cells()
+            except Exception as exc:  # noqa: BLE001
+                res["errors"]["moderngl"] = f"{type(exc).__name__}: {exc}"
+        srow = SoftrastRow(base, w, h, threads=(2, 1))
+        cells += srow.cells()
+        run_interleaved(cells, target_s, n_min, n_max, rounds)
+        res["ms"] = {c.name: c.median_ms for c in cells}
+        res["n"] = {c.name: len(c.times) for c in cells}
+        res["first_ms"] = {"pyrender": pr.first_ms if pr else float("nan"),
+                           "moderngl": mg.first_ms if mg else float("nan"),
+                           **{f"softrast t{t}": v for t, v in srow.first_ms.items()}}
+        res["build_ms"] = {"pyrender": pr.build_ms if pr else float("nan"),
+                           "moderngl": mg.build_ms if mg else float("nan"),
+                           "softrast": srow.build_ms}
+        res["coverage"] = srow.coverage
+        for obj in (pr, mg):
+            if obj is not None:
+                obj.close()
+        results.append(res)
+        print(f"  done ico{sub} {w}x{h}: "
+              + ", ".join(f"{k} {v:.2f}" for k, v in res["ms"].items()), flush=True)
+
+    report(results, pyrender_error, moderngl_error)
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(results, fh, indent=1)
+    return 0
+
+
+def report(results: list[dict], pyrender_error: str | None, moderngl_error: str | None) -> None:
+    get = lambda r, k: r["ms"].get(k, float("nan"))  # noqa: E731
+    print("\nMedian ms per frame (steady state, readback included); sr = softrast, t2/t1 = threads")
+    head = (f"{'scene':<6}{'faces':>10}{'size':>10}{'cover':>6}  {'mode':<12}{'pyrender':>9}{'moderngl':>9}"
+            f"{'sr t2':>8}{'sr t2new':>9}{'sr t1':>8}{'xpyr t2':>9}{'xpyr t1':>9}{'xmgl t2':>9}")
+    print(head)
+    print("-" * len(head))
+    for r in results:
+        label = (f"ico{r['sub']:<3}{r['faces']:>10,}{str(r['width']) + 'x' + str(r['height']):>10}"
+                 f"{100 * r['coverage']:>5.0f}%")
+        for mode in ("color+depth", "depth", "flat"):
+            pyr, t2, t1 = get(r, f"pyrender {mode}"), get(r, f"softrast t2 {mode} out"), get(r, f"softrast t1 {mode} out")
+            mgl = get(r, "moderngl color+depth") if mode == "color+depth" else float("nan")
+            new = get(r, "softrast t2 color+depth new") if mode == "color+depth" else float("nan")
+            print(f"{label}  {mode:<12}{fmt(pyr, 9)}{fmt(mgl, 9)}{fmt(t2, 8, 2)}{fmt(new, 9, 2)}{fmt(t1, 8, 2)}"
+                  f"{fmt(ratio(pyr, t2), 9)}{fmt(ratio(pyr, t1), 9)}{fmt(ratio(mgl, t2), 9)}")
+            label = " " * len(label)
+
+    print("\nContext + first colour+depth frame (ms, one sample) and scene build from a trimesh (ms)")
+    head = (f"{'scene':<22}{'pyrender':>9}{'moderngl':>9}{'sr t2':>8}{'sr t1':>8}"
+            f"{'sr t2 first/steady':>20}   {'build: pyrender':>15}{'moderngl':>9}{'softrast':>9}")
+    print(head)
+    print("-" * len(head))
+    for r in results:
+        f, b = r["first_ms"], r["build_ms"]
+        steady = get(r, "softrast t2 color+depth new")
+        print(f"ico{r['sub']} {r['width']}x{r['height']:<12}{fmt(f['pyrender'], 9)}{fmt(f['moderngl'], 9)}"
+              f"{fmt(f['softrast t2'], 8)}{fmt(f['softrast t1'], 8)}{fmt(ratio(f['softrast t2'], steady), 20, 2)}"
+              f"   {fmt(b['pyrender'], 15)}{fmt(b['moderngl'], 9)}{fmt(b['softrast'], 9)}")
+
+    print("\nsoftrast throughput per core (t2 figures divided by 2 threads): Mtri/s = input faces / time;"
+          "\nMpix/s = image pixels / time (the sphere covers the 'cover' fraction of them)")
+    head = f"{'scene':<22}{'mode':<13}{'Mtri/s t1':>10}{'Mtri/s t2':>10}{'Mpix/s t1':>10}{'Mpix/s t2':>10}{'t1/t2':>7}"
+    print(head)
+    print("-" * len(head))
+    for r in results:
+        for mode in ("color+depth", "depth", "flat"):
+            t1, t2 = get(r, f"softrast t1 {mode} out"), get(r, f"softrast t2 {mode} out")
+            pix = r["width"] * r["height"]
+            print(f"{'ico' + str(r['sub']) + ' ' + str(r['width']) + 'x' + str(r['height']):<22}{mode:<13}"
+                  f"{fmt(r['faces'] / t1 / 1e3, 10, 2)}{fmt(r['faces'] / t2 / 2e3, 10, 2)}"
+                  f"{fmt(pix / t1 / 1e3, 10)}{fmt(pix / t2 / 2e3, 10)}{fmt(ratio(t1, t2), 7, 2)}")
+
+    print(f"\nGoals (issue 3): colour+depth >= {GOALS['color+depth']:.0f}x pyrender, depth-only >= "
+          f"{GOALS['depth']:.0f}x pyrender, colour+depth >= {GOALS['moderngl']:.0f}x moderngl, "
+          f"first frame <= {GOALS['first_over_steady']:.0f} steady frames (softrast t2; ratios vs t2 out=, "
+          f"first frame vs steady frames into new arrays)")
+    for r in results:
+        checks = []
+        for what, num, den, goal in (
+                ("c+d vs pyrender", get(r, "pyrender color+depth"), get(r, "softrast t2 color+depth out"), GOALS["color+depth"]),
+                ("depth vs pyrender", get(r, "pyrender depth"), get(r, "softrast t2 depth out"), GOALS["depth"]),
+                ("c+d vs moderngl", get(r, "moderngl color+depth"), get(r, "softrast t2 color+depth out"), GOALS["moderngl"])):
+            x = ratio(num, den)
+            checks.append(f"{what} {x:.1f}x {'MET' if x >= goal else 'short by %.2fx' % (goal / x)}"
+                          if x == x else f"{what} n/a")
+        x = ratio(r["first_ms"]["softrast t2"], get(r, "softrast t2 color+depth new"))
+        checks.append(f"first {x:.1f} frames {'MET' if x <= GOALS['first_over_steady'] else 'NOT MET'}")
+        print(f"  ico{r['sub']} {r['width']}x{r['height']}: " + "; ".join(checks))
+    errors = {k: v for r in results for k, v in r["errors"].items()}
+    if pyrender_error or moderngl_error or errors:
+        print("\nBaselines that did not run:")
+        for name, err in (("pyrender", pyrender_error), ("moderngl", moderngl_error), *errors.items()):
+            if err:
+                hint = "" if err.startswith("skipped") else "  (run: bash benchmarks/setup_baselines.sh)"
+                print(f"  {name}: {err}{hint}")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
