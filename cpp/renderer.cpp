@@ -82,6 +82,9 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
     throw std::invalid_argument("outputs: request at least one known output");
   if (!(std::isfinite(options.ambient) && options.ambient >= 0.0f && options.ambient <= 1.0f))
     throw std::invalid_argument("ambient must be in [0, 1]");
+  for (int c = 0; c < 3; ++c)
+    if (!(options.background[c] >= 0.0f && options.background[c] <= 1.0f))  // NaN fails too
+      throw std::invalid_argument("background components must be in [0, 1]");
   for (std::size_t d = 0; d < draws.size(); ++d) {
     if (!draws[d].mesh) throw std::invalid_argument("draw " + std::to_string(d) + " has no mesh");
     if (!all_finite(draws[d].model))

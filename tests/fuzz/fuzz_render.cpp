@@ -1,0 +1,277 @@
+// libFuzzer target over the C++ core: MeshData::validate + Renderer::render on decoded input.
+// Built and run by .ci/fuzz (clang, -fsanitize=fuzzer,address,undefined); seeds come from
+// tests/fuzz/make_corpus.py, which writes the same byte format this file decodes.
+//
+// Input format (little-endian; a read past the end yields zero bytes, so every input decodes):
+//   u8 width-1, u8 height-1, u8 threads (1 + t % 3), u8 outputs (raw bits: 0 and bit 7 are
+//   invalid), u8 cull % 3, u8 shading % 2, u8 flags (bit 0 orthographic, bit 1 re-render with
+//   another thread count and compare), 3 x F background, F ambient,
+//   camera: M view, P proj, D near, D far,
+//   mesh: u8 vertices, vertices x 3 F, u8 faces, faces x 3 I, then normals, colors, uvs each as
+//   u8 mode (0 absent, 1 one per vertex, 2 one too many, 3 one too few) and their values,
+//   u8 draws % 4, per draw: M model, i32 instance id, 4 x F colour.
+// F (float) / D (double) values: u8 selector, then for some selectors a payload (see value()).
+// I (face index): u8 < 0xf0 => that byte % vertices, else a special value (see index()).
+// M (matrix): u8 mode: identity, translation, scale + translation, 16 raw values, mirror.
+// P (projection): u8 mode: perspective(fovy, aspect, near, far), ortho, 16 raw values, identity.
+#include "framebuffer.hpp"
+#include "renderer.hpp"
+
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+using namespace sr;
+
+namespace {
+
+class Reader {
+ public:
+  Reader(const uint8_t* data, std::size_t size) : p_(data), end_(data + size) {}
+
+  template <typename T>
+  T raw() {
+    uint8_t bytes[sizeof(T)] = {};
+    for (std::size_t i = 0; i < sizeof(T) && p_ < end_; ++i) bytes[i] = *p_++;
+    T v;
+    std::memcpy(&v, bytes, sizeof(T));
+    return v;
+  }
+  uint8_t u8() { return raw<uint8_t>(); }
+
+  // Special values first, so short selectors reach the edge cases.
+  double value() {
+    const uint8_t sel = u8();
+    switch (sel % 16) {
+      case 0: return 0.0;
+      case 1: return std::numeric_limits<double>::quiet_NaN();
+      case 2: return std::numeric_limits<double>::infinity();
+      case 3: return -std::numeric_limits<double>::infinity();
+      case 4: return 3e38;   // near FLT_MAX
+      case 5: return -1e30;
+      case 6: return 1e-30;  // tiny
+      case 7: return 1.4e-45;  // float denormal
+      case 8: return -0.0;
+      case 9: return double(raw<float>());  // any float bit pattern
+      case 10: return raw<double>();        // any double bit pattern
+      case 11: return double(raw<int16_t>()) * 1024.0;  // large but ordinary
+      default: return double(raw<int16_t>()) / 256.0;   // ordinary, sub-pixel steps
+    }
+  }
+  float value_f() { return float(value()); }
+
+  int32_t index(int32_t n) {
+    const uint8_t b = u8();
+    if (b < 0xf0) return n > 0 ? int32_t(b % n) : int32_t(b);
+    switch (b) {
+      case 0xf0: return -1;
+      case 0xf1: return n;
+      case 0xf2: return std::numeric_limits<int32_t>::min();
+      case 0xf3: return std::numeric_limits<int32_t>::max();
+      default: return raw<int32_t>();
+    }
+  }
+
+  dmat4 matrix() {
+    dmat4 m(1.0);
+    switch (u8() % 6) {
+      case 0: break;
+      case 1: for (int r = 0; r < 3; ++r) m[3][r] = value(); break;
+      case 2:
+        for (int r = 0; r < 3; ++r) m[r][r] = value();
+        for (int r = 0; r < 3; ++r) m[3][r] = value();
+        break;
+      case 3: for (int c = 0; c < 4; ++c) for (int r = 0; r < 4; ++r) m[c][r] = value(); break;
+      case 4:  // rotation about a fuzzed axis by a fuzzed angle, then translation
+        m = glm::rotate(dmat4(1.0), value(), dvec3(value(), value(), value()));
+        for (int r = 0; r < 3; ++r) m[3][r] = value();
+        break;
+      default: m[0][0] = -1.0; for (int r = 0; r < 3; ++r) m[3][r] = value(); break;  // mirror
+    }
+    return m;
+  }
+
+  dmat4 projection(double near, double far, double aspect) {
+    const uint8_t mode = u8() % 4;
+    if (mode == 0) return glm::perspective(value(), aspect, near, far);
+    if (mode == 1) {
+      const double x = value(), y = value();
+      return glm::ortho(-x, x, -y, y, near, far);
+    }
+    dmat4 m(1.0);
+    if (mode == 2)
+      for (int c = 0; c < 4; ++c) for (int r = 0; r < 4; ++r) m[c][r] = value();
+    return m;
+  }
+
+ private:
+  const uint8_t* p_;
+  const uint8_t* end_;
+};
+
+// -DFUZZ_TRACE prints what each input decoded to (to check seeds: fuzz_render corpus/*.bin).
+template <typename... Args>
+void trace([[maybe_unused]] const char* format, [[maybe_unused]] Args... args) {
+#ifdef FUZZ_TRACE
+  std::fprintf(stderr, format, args...);
+#endif
+}
+
+[[noreturn]] void fail(const char* what, int i) {
+  std::fprintf(stderr, "invariant violated: %s (pixel %d)\n", what, i);
+  std::abort();
+}
+
+template <typename V>
+void fill(Reader& in, std::vector<V>& out, std::size_t n, int comps) {
+  const uint8_t mode = in.u8() % 4;
+  if (mode == 0) return;
+  const std::size_t count = mode == 1 ? n : mode == 2 ? n + 1 : (n > 0 ? n - 1 : 0);
+  out.resize(count);
+  for (V& v : out)
+    for (int k = 0; k < comps; ++k) v[k] = in.value_f();
+}
+
+// Checks what the README promises of any successful render; returns the number of hits.
+int check_frame(const Framebuffer& fb, const MeshData& mesh, std::size_t num_draws,
+                 const uint8_t background[3]) {
+  const int n = fb.width * fb.height;
+  int hits = 0;
+  for (int i = 0; i < n; ++i) {
+    // Hit: derived from whichever output says it; all that are present must agree.
+    int hit = -1;
+    auto agree = [&](bool h, const char* what) {
+      if (hit >= 0 && bool(hit) != h) fail(what, i);
+      hit = h;
+    };
+    if (fb.mask) agree(fb.mask[i], "mask");
+    if (fb.depth) {
+      if (!(std::isfinite(fb.depth[i]) && fb.depth[i] >= 0.0f)) fail("depth finite and >= 0", i);
+      agree(fb.depth[i] > 0.0f, "mask == (depth > 0)");
+    }
+    if (fb.triangle_id) {
+      if (fb.triangle_id[i] < -1 || fb.triangle_id[i] >= int64_t(mesh.faces.size()))
+        fail("triangle_id in [-1, faces)", i);
+      agree(fb.triangle_id[i] != -1, "triangle_id == -1 exactly where mask is false");
+    }
+    if (fb.coverage && hit == 1 && fb.coverage[i] == 0) fail("visible pixel has coverage 0", i);
+    if (fb.instance_id && hit == 0 && fb.instance_id[i] != -1) fail("background instance_id", i);
+    if (fb.normal) {
+      const float* nrm = fb.normal + 3 * i;
+      for (int k = 0; k < 3; ++k)
+        if (!std::isfinite(nrm[k])) fail("normal finite", i);
+      if (hit == 0 && (nrm[0] != 0.0f || nrm[1] != 0.0f || nrm[2] != 0.0f))
+        fail("background normal is 0", i);
+    }
+    if (fb.color && hit == 0 && std::memcmp(fb.color + 3 * i, background, 3) != 0)
+      fail("background colour", i);
+    if (hit == 1 && num_draws == 0) fail("a hit without draws", i);
+    hits += hit == 1;
+  }
+  return hits;
+}
+
+bool same_frames(const Framebuffer& a, const Framebuffer& b) {
+  for (int i = 0; i < kNumOutputs; ++i) {
+    if (!(a.outputs & kOutputLayouts[i].bit)) continue;
+    const void* pa = nullptr; const void* pb = nullptr;
+    switch (i) {
+      case 0: pa = a.color; pb = b.color; break;
+      case 1: pa = a.depth; pb = b.depth; break;
+      case 2: pa = a.mask; pb = b.mask; break;
+      case 3: pa = a.normal; pb = b.normal; break;
+      case 4: pa = a.triangle_id; pb = b.triangle_id; break;
+      case 5: pa = a.instance_id; pb = b.instance_id; break;
+      default: pa = a.coverage; pb = b.coverage; break;
+    }
+    const std::size_t bytes = std::size_t(a.width) * a.height * kOutputLayouts[i].channels *
+                              kOutputLayouts[i].item_bytes;
+    if (std::memcmp(pa, pb, bytes) != 0) return false;
+  }
+  return true;
+}
+
+// Renderers are kept between inputs (as a Python user keeps one), so scratch reuse is fuzzed too.
+Renderer& renderer(int width, int height, int threads) {
+  static std::unique_ptr<Renderer> cache[4];
+  std::unique_ptr<Renderer>& r = cache[threads];
+  if (!r || r->width() != width || r->height() != height)
+    r = std::make_unique<Renderer>(width, height, threads);
+  return *r;
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
+  Reader in(data, size);
+  const int width = 1 + in.u8(), height = 1 + in.u8();
+  const int threads = 1 + in.u8() % 3;
+  RenderOptions options;
+  options.outputs = in.u8();
+  options.cull = Cull(in.u8() % 3);
+  options.shading = Shading(in.u8() % 2);
+  const uint8_t flags = in.u8();
+  for (int c = 0; c < 3; ++c) options.background[c] = in.value_f();
+  options.ambient = in.value_f();
+
+  CameraParams camera;
+  camera.orthographic = flags & 1;
+  camera.view = in.matrix();
+  const double near = in.value(), far = in.value();
+  camera.proj = in.projection(near, far, double(width) / height);
+  camera.near = near;
+  camera.far = far;
+
+  auto mesh = std::make_shared<MeshData>();
+  mesh->positions.resize(in.u8());
+  for (vec3& p : mesh->positions) p = vec3(in.value_f(), in.value_f(), in.value_f());
+  const int32_t n = int32_t(mesh->positions.size());
+  mesh->faces.resize(in.u8());
+  for (ivec3& f : mesh->faces) f = ivec3(in.index(n), in.index(n), in.index(n));
+  fill(in, mesh->normals, n, 3);
+  fill(in, mesh->colors, n, 4);
+  fill(in, mesh->uvs, n, 2);
+
+  std::vector<Draw> draws(in.u8() % 4);
+  for (Draw& d : draws) {
+    d.mesh = mesh;
+    d.model = in.matrix();
+    d.instance_id = in.raw<int32_t>();
+    d.color = vec4(in.value_f(), in.value_f(), in.value_f(), in.value_f());
+  }
+
+  try {
+    mesh->validate();
+  } catch (const std::invalid_argument& e) {
+    trace("mesh refused: %s\n", e.what());
+    return 0;  // rejected before rendering, as the bindings do
+  }
+  std::unique_ptr<Framebuffer> fb;
+  try {
+    fb = renderer(width, height, threads).render(draws, camera, options);
+  } catch (const std::invalid_argument& e) {
+    trace("render refused: %s\n", e.what());
+    return 0;  // bad camera or options
+  }
+  uint8_t background[3];
+  for (int c = 0; c < 3; ++c)
+    background[c] = uint8_t(std::clamp(options.background[c], 0.0f, 1.0f) * 255.0f + 0.5f);
+  const int hits = check_frame(*fb, *mesh, draws.size(), background);
+  trace("rendered %dx%d, %zu vertices, %zu faces, %zu draws, outputs 0x%x: %d hits\n", width,
+        height, mesh->positions.size(), mesh->faces.size(), draws.size(),
+        unsigned(options.outputs), hits);
+
+  if (flags & 2) {  // bit-identical for any thread count (README: determinism)
+    const int other = 1 + threads % 3;
+    auto fb2 = renderer(width, height, other).render(draws, camera, options);
+    if (!same_frames(*fb, *fb2)) fail("same frame for 1, 2 and 3 threads", -1);
+  }
+  return 0;
+}

@@ -1,0 +1,252 @@
+"""Writes the seed corpus of tests/fuzz/fuzz_render.cpp into tests/fuzz/corpus/ (replacing it).
+
+Each seed is one scene in the byte format documented at the top of fuzz_render.cpp: ordinary
+scenes that reach every stage (clipping, guard band, mirroring, all outputs, thread counts) and
+the edge cases the core must refuse or survive (NaN, inf, huge, tiny, bad indices and cameras).
+Run: python3 tests/fuzz/make_corpus.py
+"""
+from __future__ import annotations
+
+import math
+import pathlib
+import struct
+
+import numpy as np
+
+CORPUS = pathlib.Path(__file__).resolve().parent / "corpus"
+
+NAN, INF = float("nan"), float("inf")
+ALL_OUTPUTS = 0x7F
+CULL = {"none": 0, "back": 1, "front": 2}
+
+
+# --- encoders mirroring Reader in fuzz_render.cpp -------------------------------------------
+
+def u8(v: int) -> bytes:
+    return struct.pack("<B", v & 0xFF)
+
+
+def value(x: float) -> bytes:
+    """A double through the selector byte: specials by selector, the rest as a raw double."""
+    specials = {0.0: 0, INF: 2, -INF: 3}
+    if isinstance(x, float) and math.isnan(x):
+        return u8(1)
+    if x == 0.0 and math.copysign(1.0, x) < 0:
+        return u8(8)
+    if x in specials:
+        return u8(specials[x])
+    return u8(10) + struct.pack("<d", x)
+
+
+def index(i: int, n: int) -> bytes:
+    if 0 <= i < min(n, 0xF0):
+        return u8(i)
+    return u8(0xF4) + struct.pack("<i", i)  # a raw int32
+
+
+def matrix(m=None) -> bytes:
+    """None => identity; a (4, 4) array (row-major maths layout) => 16 raw values."""
+    if m is None:
+        return u8(0)
+    m = np.asarray(m, dtype=np.float64)
+    return u8(3) + b"".join(value(float(m[r, c])) for c in range(4) for r in range(4))
+
+
+def translation(t) -> bytes:
+    return u8(1) + b"".join(value(float(v)) for v in t)
+
+
+def scale_translation(s, t) -> bytes:
+    return u8(2) + b"".join(value(float(v)) for v in (*s, *t))
+
+
+def rotation(angle, axis, t=(0, 0, 0)) -> bytes:
+    return u8(4) + value(angle) + b"".join(value(float(v)) for v in (*axis, *t))
+
+
+def mirror(t) -> bytes:
+    return u8(5) + b"".join(value(float(v)) for v in t)
+
+
+def perspective(fovy_deg: float = 45.0) -> bytes:
+    return u8(0) + value(math.radians(fovy_deg))
+
+
+def ortho(x: float, y: float) -> bytes:
+    return u8(1) + value(x) + value(y)
+
+
+def attribute(rows, mode: int | None = None) -> bytes:
+    """mode: 0 absent, 1 one per vertex, 2 one too many, 3 one too few (rows as given)."""
+    if rows is None:
+        return u8(0)
+    rows = np.asarray(rows, dtype=np.float64)
+    return u8(1 if mode is None else mode) + b"".join(value(float(v)) for v in rows.ravel())
+
+
+def scene(*, size=(64, 48), threads=1, outputs=ALL_OUTPUTS, cull="back", shading=1, ortho_cam=False,
+          compare_threads=False, background=(0.1, 0.2, 0.3), ambient=0.25, view=None,
+          near=0.1, far=100.0, proj=None, positions=(), faces=(), normals=None, colors=None,
+          uvs=None, attr_modes=(None, None, None), draws=((None, 0, (0.8, 0.6, 0.4, 1.0)),)) -> bytes:
+    w, h = size
+    b = u8(w - 1) + u8(h - 1) + u8(threads - 1) + u8(outputs) + u8(CULL[cull]) + u8(shading)
+    b += u8(int(ortho_cam) | (2 if compare_threads else 0))
+    b += b"".join(value(c) for c in background) + value(ambient)
+    b += view if isinstance(view, bytes) else matrix(view)
+    b += value(near) + value(far)
+    b += proj if proj is not None else (ortho(2.0, 1.5) if ortho_cam else perspective())
+    positions = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
+    faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    n = len(positions)
+    b += u8(n) + b"".join(value(float(v)) for v in positions.ravel())
+    b += u8(len(faces)) + b"".join(index(int(i), n) for i in faces.ravel())
+    for rows, mode in zip((normals, colors, uvs), attr_modes):
+        b += attribute(rows, mode)
+    b += u8(len(draws))
+    for model, instance_id, rgba in draws:
+        b += model if isinstance(model, bytes) else matrix(model)
+        b += struct.pack("<i", instance_id) + b"".join(value(c) for c in rgba)
+    return b
+
+
+# --- geometry -------------------------------------------------------------------------------
+
+def icosphere(subdivisions: int = 1):
+    t = (1.0 + 5 ** 0.5) / 2.0
+    p = [[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t], [0, -1, -t],
+         [0, 1, -t], [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]]
+    f = [[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4],
+         [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8],
+         [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1]]
+    for _ in range(subdivisions):
+        mid = {}
+
+        def midpoint(a, b):
+            key = (min(a, b), max(a, b))
+            if key not in mid:
+                p.append([(x + y) / 2 for x, y in zip(p[a], p[b])])
+                mid[key] = len(p) - 1
+            return mid[key]
+
+        nf = []
+        for a, b, c in f:
+            ab, bc, ca = midpoint(a, b), midpoint(b, c), midpoint(c, a)
+            nf += [[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]
+        f = nf
+    p = np.array(p, dtype=np.float64)
+    p /= np.linalg.norm(p, axis=1, keepdims=True)
+    return p, np.array(f)
+
+
+def grid(nx: int, ny: int, size: float = 2.0, z: float = 0.0):
+    xs, ys = np.meshgrid(np.linspace(-size / 2, size / 2, nx + 1), np.linspace(-size / 2, size / 2, ny + 1))
+    p = np.stack([xs.ravel(), ys.ravel(), np.full(xs.size, z)], axis=1)
+    f = []
+    for j in range(ny):
+        for i in range(nx):
+            a = j * (nx + 1) + i
+            f += [[a, a + 1, a + nx + 2], [a, a + nx + 2, a + nx + 1]]
+    return p, np.array(f)
+
+
+TRI = np.array([[-1.0, -1.0, -3.0], [1.0, -1.0, -3.0], [0.0, 1.0, -3.0]])
+
+
+def seeds() -> dict[str, bytes]:
+    sphere_p, sphere_f = icosphere(1)
+    grid_p, grid_f = grid(6, 4)
+    rng = np.random.default_rng(7)
+    out = {}
+    out["triangle"] = scene(positions=TRI, faces=[[0, 1, 2]], cull="none")
+    out["triangle_ortho"] = scene(positions=TRI, faces=[[0, 1, 2]], ortho_cam=True)
+    out["triangle_back_culled"] = scene(positions=TRI, faces=[[0, 2, 1]], cull="back")
+    out["triangle_front_cull"] = scene(positions=TRI, faces=[[0, 2, 1]], cull="front", shading=0)
+    out["sphere_all_attributes"] = scene(
+        positions=sphere_p, faces=sphere_f, normals=sphere_p, colors=np.c_[(sphere_p + 1) / 2, np.ones(len(sphere_p))],
+        uvs=sphere_p[:, :2], draws=((translation((0, 0, -4)), 3, (1, 1, 1, 1)),))
+    out["sphere_two_instances_threads"] = scene(
+        size=(200, 130), threads=3, compare_threads=True, positions=sphere_p, faces=sphere_f,
+        draws=((translation((-0.7, 0, -4)), 1, (1, 0, 0, 1)), (translation((0.7, 0.2, -4.5)), 2, (0, 1, 0, 1))))
+    out["sphere_ortho_three_draws"] = scene(
+        ortho_cam=True, threads=2, compare_threads=True, positions=sphere_p, faces=sphere_f, normals=sphere_p,
+        draws=tuple((translation((x, 0, -5)), i, (0.5, 0.5, 0.5, 1)) for i, x in enumerate((-1.2, 0, 1.2))))
+    out["sphere_mirrored"] = scene(positions=sphere_p, faces=sphere_f, draws=((mirror((0, 0, -4)), 0, (1, 1, 1, 1)),))
+    out["sphere_crossing_near"] = scene(positions=sphere_p, faces=sphere_f, near=0.5, cull="none",
+                                        draws=((translation((0, 0, -0.7)), 0, (1, 1, 1, 1)),))
+    out["sphere_camera_inside"] = scene(positions=sphere_p, faces=sphere_f, cull="none", normals=sphere_p,
+                                        draws=((scale_translation((3, 3, 3), (0, 0, 0)), 0, (1, 1, 1, 1)),))
+    out["sphere_crossing_far"] = scene(positions=sphere_p, faces=sphere_f, far=4.2,
+                                       draws=((translation((0, 0, -4)), 0, (1, 1, 1, 1)),))
+    out["guard_band_huge_triangle"] = scene(positions=TRI * [1e5, 1e5, 1], faces=[[0, 1, 2]], cull="none")
+    out["guard_band_far_sideways"] = scene(positions=TRI + [3000, 0, 0], faces=[[0, 1, 2]], cull="none")
+    out["grid_floor_grazing"] = scene(
+        size=(256, 96), positions=grid_p, faces=grid_f, cull="none",
+        draws=((rotation(-math.pi / 2 + 0.02, (1, 0, 0), (0, -0.3, -2)), 0, (1, 1, 1, 1)),))
+    out["grid_rotated_threads"] = scene(
+        size=(130, 129), threads=2, compare_threads=True, positions=grid_p, faces=grid_f,
+        draws=((rotation(0.7, (0.3, 1, 0.2), (0, 0, -3)), 5, (1, 1, 1, 1)),))
+    out["far_from_origin"] = scene(
+        positions=TRI, faces=[[0, 1, 2]], view=translation((-1e6, 0, 0)),
+        draws=((translation((1e6, 0, 0)), 0, (1, 1, 1, 1)),))
+    out["tiny_scale"] = scene(positions=TRI * 1e-30, faces=[[0, 1, 2]], near=1e-35, far=1e-20, cull="none")
+    out["huge_scale"] = scene(positions=TRI * 1e30, faces=[[0, 1, 2]], near=1e20, far=1e35, cull="none")
+    out["denormal_vertices"] = scene(positions=[[1e-45, 0, -1], [0, 1e-45, -1], [1e-45, 1e-45, -1]],
+                                     faces=[[0, 1, 2]], cull="none")
+    out["singular_model"] = scene(positions=sphere_p, faces=sphere_f,
+                                  draws=((scale_translation((1, 0, 1), (0, 0, -4)), 0, (1, 1, 1, 1)),))
+    out["degenerate_triangles"] = scene(positions=[[0, 0, -2], [1, 1, -2], [2, 2, -2], [0, 0, -2]],
+                                        faces=[[0, 1, 2], [0, 3, 1], [0, 0, 0]], cull="none")
+    sliver = np.array([[0, 0, -2]] + [[math.cos(a), math.sin(a), -2] for a in np.linspace(0, 1e-3, 40)])
+    out["sliver_fan"] = scene(positions=sliver, faces=[[0, i, i + 1] for i in range(1, 40)], cull="none")
+    out["pixel_sizes_1x1"] = scene(size=(1, 1), positions=TRI, faces=[[0, 1, 2]], cull="none")
+    out["pixel_sizes_256x1"] = scene(size=(256, 1), threads=3, compare_threads=True, positions=TRI, faces=[[0, 1, 2]])
+    out["pixel_sizes_1x256"] = scene(size=(1, 256), threads=2, positions=TRI, faces=[[0, 1, 2]])
+    out["pixel_sizes_256x256"] = scene(size=(256, 256), threads=3, compare_threads=True, positions=sphere_p,
+                                       faces=sphere_f, draws=((translation((0, 0, -2.5)), 0, (1, 1, 1, 1)),))
+    out["no_draws"] = scene(positions=TRI, faces=[[0, 1, 2]], draws=())
+    for bit in range(7):
+        out[f"output_bit{bit}"] = scene(positions=TRI, faces=[[0, 1, 2]], outputs=1 << bit, cull="none")
+    # Refused inputs: the core must throw std::invalid_argument, not crash.
+    out["bad_outputs_zero"] = scene(positions=TRI, faces=[[0, 1, 2]], outputs=0)
+    out["bad_outputs_unknown_bit"] = scene(positions=TRI, faces=[[0, 1, 2]], outputs=0xFF)
+    out["bad_ambient_nan"] = scene(positions=TRI, faces=[[0, 1, 2]], ambient=NAN)
+    out["bad_near_zero"] = scene(positions=TRI, faces=[[0, 1, 2]], near=0.0)
+    out["bad_far_below_near"] = scene(positions=TRI, faces=[[0, 1, 2]], near=2.0, far=1.0)
+    out["bad_proj_nan"] = scene(positions=TRI, faces=[[0, 1, 2]], proj=u8(2) + value(NAN) * 16)
+    out["bad_proj_zero"] = scene(positions=TRI, faces=[[0, 1, 2]], proj=u8(2) + value(0.0) * 16)
+    out["bad_view_inf"] = scene(positions=TRI, faces=[[0, 1, 2]], view=translation((INF, 0, 0)))
+    out["bad_model_nan"] = scene(positions=TRI, faces=[[0, 1, 2]], draws=((translation((NAN, 0, 0)), 0, (1, 1, 1, 1)),))
+    out["bad_vertex_nan"] = scene(positions=[[NAN, 0, -1], [1, 0, -1], [0, 1, -1]], faces=[[0, 1, 2]])
+    out["bad_vertex_inf"] = scene(positions=[[INF, 0, -1], [1, 0, -1], [0, 1, -1]], faces=[[0, 1, 2]])
+    out["bad_index_negative"] = scene(positions=TRI, faces=[[0, 1, -1]])
+    out["bad_index_out_of_range"] = scene(positions=TRI, faces=[[0, 1, 3]])
+    out["bad_index_int_min"] = scene(positions=TRI, faces=[[-2 ** 31, 1, 2]])
+    out["bad_normals_too_many"] = scene(positions=TRI, faces=[[0, 1, 2]], normals=np.ones((4, 3)), attr_modes=(2, None, None))
+    out["bad_colors_too_few"] = scene(positions=TRI, faces=[[0, 1, 2]], colors=np.ones((2, 4)), attr_modes=(None, 3, None))
+    out["bad_empty_mesh"] = scene(positions=np.zeros((0, 3)), faces=np.zeros((0, 3)))
+    out["nan_normals_and_colors"] = scene(positions=TRI, faces=[[0, 1, 2]], normals=np.full((3, 3), NAN),
+                                          colors=np.full((3, 4), NAN), cull="none")
+    # Random soup: arbitrary triangles around the camera, some behind it.
+    p = rng.normal(size=(60, 3)) * [2, 2, 3] + [0, 0, -2]
+    out["random_soup"] = scene(size=(97, 71), threads=2, compare_threads=True, positions=p,
+                               faces=rng.integers(0, 60, size=(80, 3)), cull="none")
+    out["random_soup_raw_matrices"] = scene(
+        positions=p, faces=rng.integers(0, 60, size=(40, 3)), cull="none", view=matrix(np.eye(4) + rng.normal(size=(4, 4)) * 0.1),
+        proj=u8(2) + b"".join(value(float(v)) for v in rng.normal(size=16)),
+        draws=((matrix(rng.normal(size=(4, 4))), 0, (1, 1, 1, 1)),))
+    return out
+
+
+def main() -> None:
+    CORPUS.mkdir(exist_ok=True)
+    for old in CORPUS.glob("*.bin"):
+        old.unlink()
+    total = 0
+    for name, data in seeds().items():
+        (CORPUS / f"{name}.bin").write_bytes(data)
+        total += len(data)
+    print(f"wrote {len(seeds())} seeds, {total} bytes, to {CORPUS}")
+
+
+if __name__ == "__main__":
+    main()
