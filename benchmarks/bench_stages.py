@@ -113,52 +113,45 @@ def linear_fit(x, y):
 # --------------------------------------------------------------------------------- sections
 
 
+def _sweep(jobs, keys, key_label, key_text, amount, unit, digits, opts):
+    """Times depth-only and colour+depth for each key, prints per-unit costs and a linear fit.
+
+    amount(job) is the unit the cost grows with (faces, covered pixels)."""
+    outs = (("depth",), ("color", "depth"))
+    run_interleaved(jobs, opts.target, opts.rounds)
+    by = {j.key: j for j in jobs}
+    print(f"{key_label:>10}{unit:>12}{'depth ms':>10}{'c+d ms':>9}{'ns/' + unit + ' d':>14}"
+          f"{'ns/' + unit + ' c+d':>16}{'marginal d':>12}{'c+d':>8}")
+    prev = None
+    for k in keys:
+        d, cd = by[(k, outs[0])], by[(k, outs[1])]
+        marg = ("", "")
+        if prev is not None:
+            du = amount(d) - amount(prev[0])
+            marg = (f"{1e6 * (d.ms - prev[0].ms) / du:.{digits}f}",
+                    f"{1e6 * (cd.ms - prev[1].ms) / du:.{digits}f}")
+        print(f"{key_text(k):>10}{amount(d):>12,}{d.ms:>10.2f}{cd.ms:>9.2f}"
+              f"{1e6 * d.ms / amount(d):>14.{digits}f}{1e6 * cd.ms / amount(cd):>16.{digits}f}"
+              f"{marg[0]:>12}{marg[1]:>8}")
+        prev = (d, cd)
+    for name, o in (("depth", outs[0]), ("c+d", outs[1])):
+        a, b, r = linear_fit([amount(by[(k, o)]) for k in keys], [by[(k, o)].ms for k in keys])
+        print(f"fit {name}: {a:.2f} ms + {1e6 * b:.{digits}f} ns/{unit} (wall, 2 threads); "
+              f"worst residual {100 * r:.0f}%")
+
+
 def section_faces(opts):
     subs = [3, 4, 5, 6, 7] + ([] if opts.quick else [8])
     print("\n## Scaling with faces: icosphere sub 3..8 at 1024x1024, threads 2, out=")
     jobs = [Job((s, o), s, 1024, 1024, outputs=o) for s in subs for o in (("depth",), ("color", "depth"))]
-    run_interleaved(jobs, opts.target, opts.rounds)
-    by = {j.key: j for j in jobs}
-    print(f"{'sub':>4}{'faces':>11}{'depth ms':>10}{'c+d ms':>9}{'ns/face d':>11}{'ns/face c+d':>12}"
-          f"{'marginal ns/face d':>20}{'c+d':>8}")
-    prev = None
-    for s in subs:
-        d, cd = by[(s, ("depth",))], by[(s, ("color", "depth"))]
-        marg = ("", "")
-        if prev is not None:
-            df = d.faces - prev[0].faces
-            marg = (f"{1e6 * (d.ms - prev[0].ms) / df:.1f}", f"{1e6 * (cd.ms - prev[1].ms) / df:.1f}")
-        print(f"{s:>4}{d.faces:>11,}{d.ms:>10.2f}{cd.ms:>9.2f}{1e6 * d.ms / d.faces:>11.1f}"
-              f"{1e6 * cd.ms / cd.faces:>12.1f}{marg[0]:>20}{marg[1]:>8}")
-        prev = (d, cd)
-    for name, o in (("depth", ("depth",)), ("c+d", ("color", "depth"))):
-        a, b, r = linear_fit([by[(s, o)].faces for s in subs], [by[(s, o)].ms for s in subs])
-        print(f"fit {name}: {a:.2f} ms + {1e6 * b:.1f} ns/face (wall, 2 threads = {2e6 * b:.1f} ns "
-              f"per face per core); worst residual {100 * r:.0f}%")
+    _sweep(jobs, subs, "sub", str, lambda j: j.faces, "face", 1, opts)
 
 
 def section_pixels(opts):
     sides = [256, 512, 1024, 2048] + ([] if opts.quick else [4096])
     print("\n## Scaling with pixels: icosphere sub 6 (81,920 faces), square images, threads 2, out=")
     jobs = [Job((n, o), 6, n, n, outputs=o) for n in sides for o in (("depth",), ("color", "depth"))]
-    run_interleaved(jobs, opts.target, opts.rounds)
-    by = {j.key: j for j in jobs}
-    print(f"{'size':>10}{'covered px':>12}{'depth ms':>10}{'c+d ms':>9}{'ns/covpx d':>12}"
-          f"{'ns/covpx c+d':>14}{'marginal ns/covpx d':>21}{'c+d':>7}")
-    prev = None
-    for n in sides:
-        d, cd = by[(n, ("depth",))], by[(n, ("color", "depth"))]
-        marg = ("", "")
-        if prev is not None:
-            dp = d.covered - prev[0].covered
-            marg = (f"{1e6 * (d.ms - prev[0].ms) / dp:.2f}", f"{1e6 * (cd.ms - prev[1].ms) / dp:.2f}")
-        print(f"{str(n) + 'x' + str(n):>10}{d.covered:>12,}{d.ms:>10.2f}{cd.ms:>9.2f}"
-              f"{1e6 * d.ms / d.covered:>12.2f}{1e6 * cd.ms / cd.covered:>14.2f}{marg[0]:>21}{marg[1]:>7}")
-        prev = (d, cd)
-    for name, o in (("depth", ("depth",)), ("c+d", ("color", "depth"))):
-        a, b, r = linear_fit([by[(n, o)].covered for n in sides], [by[(n, o)].ms for n in sides])
-        print(f"fit {name}: {a:.2f} ms + {1e6 * b:.2f} ns/covered px (wall, 2 threads); "
-              f"worst residual {100 * r:.0f}%")
+    _sweep(jobs, sides, "size", lambda n: f"{n}x{n}", lambda j: j.covered, "covpx", 2, opts)
 
 
 def section_outputs(opts):

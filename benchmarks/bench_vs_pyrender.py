@@ -370,19 +370,17 @@ def main(argv: list[str] | None = None) -> int:
         res = {"row": f"ico{sub} {w}x{h}", "sub": sub, "faces": len(base.faces), "width": w,
                "height": h, "errors": {}}
         cells: list[Cell] = []
-        pr = mg = None
-        if pyrender is not None:
+        baselines = {}
+        for name, module, row_class in (("pyrender", pyrender, PyrenderRow),
+                                        ("moderngl", moderngl, ModernglRow)):
+            if module is None:
+                continue
             try:
-                pr = PyrenderRow(pyrender, base, w, h)
-                cells += pr.cells()
-            except Exception as exc:  # noqa: BLE001
-                res["errors"]["pyrender"] = f"{type(exc).__name__}: {exc}"
-        if moderngl is not None:
-            try:
-                mg = ModernglRow(moderngl, base, w, h)
-                cells += mg.cells()
-            except Exception as exc:  # noqa: BLE001
-                res["errors"]["moderngl"] = f"{type(exc).__name__}: {exc}"
+                baselines[name] = row_class(module, base, w, h)
+                cells += baselines[name].cells()
+            except Exception as exc:  # noqa: BLE001 (a baseline that fails is reported, not fatal)
+                res["errors"][name] = f"{type(exc).__name__}: {exc}"
+        pr, mg = baselines.get("pyrender"), baselines.get("moderngl")
         srow = SoftrastRow(base, w, h, threads=(2, 1))
         cells += srow.cells()
         run_interleaved(cells, target_s, n_min, n_max, rounds)

@@ -21,6 +21,15 @@ def _scene(k: int) -> tuple[sr.Scene, sr.PerspectiveCamera]:
     return scene, cam
 
 
+def _run_in_threads(work, count: int) -> None:
+    """Runs work(0) .. work(count - 1) in as many threads at once and waits for them all."""
+    threads = [threading.Thread(target=work, args=(i,)) for i in range(count)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+
+
 def test_concurrent_renders_match_sequential():
     jobs = [_scene(k) for k in range(8)]
     expected = [sr.Renderer(96, 80, threads=1).render(s, c, outputs=OUTPUTS).as_dict() for s, c in jobs]
@@ -32,11 +41,7 @@ def test_concurrent_renders_match_sequential():
         for _ in range(5):
             results[i] = renderer.render(s, c, outputs=OUTPUTS).as_dict()
 
-    threads = [threading.Thread(target=work, args=(i,)) for i in range(len(jobs))]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
+    _run_in_threads(work, len(jobs))
     for want, got in zip(expected, results):
         assert got is not None
         for name in OUTPUTS:
@@ -55,11 +60,7 @@ def test_one_renderer_shared_by_threads_serialises_calls():
             if not np.array_equal(renderer.render(s, c, outputs=("depth",)).depth, expected[i]):
                 errors.append(f"job {i} differs")
 
-    threads = [threading.Thread(target=work, args=(i,)) for i in range(len(jobs))]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
+    _run_in_threads(work, len(jobs))
     assert errors == []
 
 
@@ -118,10 +119,6 @@ def test_eight_threads_eight_scenes_mixed_outputs_match_one_by_one():
                 if got[name].tobytes() != want.tobytes():
                     mismatches.append(f"scene {i} round {rnd} {name}")
 
-    threads = [threading.Thread(target=work, args=(i,)) for i in range(len(jobs))]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
+    _run_in_threads(work, len(jobs))
     assert mismatches == []
     assert len({name for job in jobs for name in job[2]}) >= 5  # the outputs really are mixed
