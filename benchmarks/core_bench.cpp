@@ -1,5 +1,5 @@
 // Drives the C++ core without Python, for callgrind and quick timing:
-//   core_bench SUBDIV WIDTH HEIGHT OUTPUT_BITS RENDERS [THREADS]
+//   core_bench SUBDIV WIDTH HEIGHT OUTPUT_BITS RENDERS [THREADS [SIMD]]
 // renders an icosphere (radius 1, seen from z = 3.4, fov 45) and prints ms per render.
 #include "renderer.hpp"
 
@@ -45,14 +45,15 @@ static std::shared_ptr<MeshData> icosphere(int subdivisions) {
 
 int main(int argc, char** argv) {
   if (argc < 6) {
-    std::fprintf(stderr, "usage: core_bench SUBDIV WIDTH HEIGHT OUTPUT_BITS RENDERS [THREADS]\n");
+    std::fprintf(stderr, "usage: core_bench SUBDIV WIDTH HEIGHT OUTPUT_BITS RENDERS [THREADS [SIMD]]\n");
     return 2;
   }
   const int sub = std::atoi(argv[1]), width = std::atoi(argv[2]), height = std::atoi(argv[3]);
   const uint32_t outputs = uint32_t(std::atoi(argv[4]));
   const int renders = std::atoi(argv[5]), threads = argc > 6 ? std::atoi(argv[6]) : 0;
+  const bool simd = argc > 7 ? std::atoi(argv[7]) != 0 : true;
 
-  Renderer renderer(width, height, threads);
+  Renderer renderer(width, height, threads, simd);
   std::vector<Draw> draws(1);
   draws[0].mesh = icosphere(sub);
   CameraParams camera;
@@ -69,13 +70,24 @@ int main(int argc, char** argv) {
   camera.far = fa;
   RenderOptions options;
   options.outputs = outputs;
+  // Frames reused across renders, as the Python benchmarks do with `out=` (a fresh frame costs
+  // page faults, not rendering).
+  std::vector<std::unique_ptr<std::byte[]>> frames;
+  std::byte* external[kNumOutputs] = {};
+  for (int i = 0; i < kNumOutputs; ++i) {
+    const OutputLayout& layout = kOutputLayouts[i];
+    if (!(outputs & layout.bit)) continue;
+    const std::size_t bytes = std::size_t(width) * height * layout.channels * layout.item_bytes;
+    frames.push_back(std::make_unique<std::byte[]>(bytes));
+    external[i] = frames.back().get();
+  }
   double best = 1e30;
   for (int r = 0; r < renders; ++r) {
     const auto start = std::chrono::steady_clock::now();
-    auto fb = renderer.render(draws, camera, options);
+    auto fb = renderer.render(draws, camera, options, external);
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     best = std::min(best, ms);
   }
-  std::printf("ico%d %dx%d outputs=%u threads=%d faces=%zu: best %.2f ms\n", sub, width, height,
-              outputs, renderer.threads(), draws[0].mesh->faces.size(), best);
+  std::printf("ico%d %dx%d outputs=%u threads=%d %s faces=%zu: best %.2f ms\n", sub, width, height,
+              outputs, renderer.threads(), isa_name(renderer.isa()), draws[0].mesh->faces.size(), best);
 }

@@ -215,10 +215,11 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("num_faces", [](const MeshData& m) { return m.faces.size(); });
 
   py::class_<Renderer>(m, "Renderer")
-      .def(py::init<int, int, int>(), "width"_a, "height"_a, "threads"_a = 0)
+      .def(py::init<int, int, int, bool>(), "width"_a, "height"_a, "threads"_a = 0, "simd"_a = true)
       .def_property_readonly("width", &Renderer::width)
       .def_property_readonly("height", &Renderer::height)
       .def_property_readonly("threads", &Renderer::threads)
+      .def_property_readonly("isa", [](const Renderer& r) { return isa_name(r.isa()); })
       .def("render", &render, "draws"_a, "view"_a, "proj"_a, "orthographic"_a, "near"_a, "far"_a,
            "outputs"_a, "cull"_a = "back", "shading"_a = "lambert",
            "background"_a = std::array<float, 3>{0.0f, 0.0f, 0.0f}, "ambient"_a = 0.25f,

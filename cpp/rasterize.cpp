@@ -7,25 +7,15 @@ namespace sr {
 
 namespace {
 
-template <bool kCoverage>
-void rasterize_triangle(const TriangleSetup& t, const TileRect& rect, uint32_t index,
-                        TileScratch& s) {
-  const int x0 = std::max(t.x0, rect.x0), x1 = std::min(t.x1, rect.x1 - 1);
-  const int y0 = std::max(t.y0, rect.y0), y1 = std::min(t.y1, rect.y1 - 1);
-  if (x0 > x1 || y0 > y1) return;
+using namespace simd;
 
-  // E_k(p) = dx_k * (p.y - y_a) - dy_k * (p.x - x_a) for edge a -> b; exact in int64 (see
-  // kGuardBandPx). Stepping one pixel adds a multiple of 256, so E stays exact as it moves.
-  int64_t step_x[3], step_y[3], row[3];
-  const int64_t px = int64_t(x0) * kSubpixelOne + kSubpixelHalf;
-  const int64_t py = int64_t(y0) * kSubpixelOne + kSubpixelHalf;
-  for (int k = 0; k < 3; ++k) {
-    const int a = kEdgeStart[k], b = kEdgeEnd[k];
-    const int64_t dx = t.x[b] - t.x[a], dy = t.y[b] - t.y[a];
-    step_x[k] = -dy * kSubpixelOne;
-    step_y[k] = dx * kSubpixelOne;
-    row[k] = dx * (py - t.y[a]) - dy * (px - t.x[a]) - t.bias[k];  // biased: inside <=> >= 0
-  }
+// Any triangle, one pixel at a time, edge functions in int64.
+template <bool kCoverage>
+void rasterize_large(const TriangleSetup& t, int x0, int x1, int y0, int y1, const TileRect& rect,
+                     uint32_t index, TileScratch& s) {
+  const EdgeEquations eq = edge_equations(t, x0, y0);
+  int64_t row[3];
+  for (int k = 0; k < 3; ++k) row[k] = eq.origin[k] - t.bias[k];  // biased: inside <=> >= 0
   const float k0 = t.key_over_area[0], k1 = t.key_over_area[1], k2 = t.key_over_area[2];
   const int64_t b0 = t.bias[0], b1 = t.bias[1], b2 = t.bias[2];
 
@@ -43,39 +33,98 @@ void rasterize_triangle(const TriangleSetup& t, const TileRect& rect, uint32_t i
           s.visible[i] = index;
         }
       }
-      e0 += step_x[0]; e1 += step_x[1]; e2 += step_x[2];
+      e0 += eq.step_x[0]; e1 += eq.step_x[1]; e2 += eq.step_x[2];
+    }
+    row[0] += eq.step_y[0]; row[1] += eq.step_y[1]; row[2] += eq.step_y[2];
+  }
+}
+
+// A small triangle (is_small), eight pixels of a row at a time in int32: the same integer edge
+// values and the same float operations per pixel as rasterize_large, so the same bits.
+template <bool kCoverage>
+SR_INLINE void rasterize_small(const TriangleSetup& t, int x0, int x1, int y0, int y1,
+                               const TileRect& rect, uint32_t index, TileScratch& s) {
+  const EdgeEquations eq = edge_equations(t, x0, y0);
+  const i8 lane = lane_index();
+  i8 row[3], step_x8[3], step_y[3], bias[3];
+  f8 key_k[3];
+  for (int k = 0; k < 3; ++k) {
+    row[k] = splat(int32_t(eq.origin[k])) + lane * int32_t(eq.step_x[k]);
+    step_x8[k] = splat(int32_t(eq.step_x[k] * kLanes));
+    step_y[k] = splat(int32_t(eq.step_y[k]));
+    bias[k] = splat(int32_t(t.bias[k]));
+    key_k[k] = splat(t.key_over_area[k]);
+  }
+  const i8 index_v = splat(int32_t(index));
+  const int width = x1 - x0 + 1;
+
+  for (int y = y0; y <= y1; ++y) {
+    i8 e0 = row[0], e1 = row[1], e2 = row[2];
+    int i = (y - rect.y0) * kTileSizePx + (x0 - rect.x0);
+    for (int dx = 0; dx < width; dx += kLanes, i += kLanes) {
+      const i8 inside = (((e0 - bias[0]) | (e1 - bias[1]) | (e2 - bias[2])) >= 0) &
+                        (lane < width - dx);
+      if (any(inside)) {
+        if constexpr (kCoverage) store(s.coverage + i, load<i8>(s.coverage + i) - inside);
+        const f8 key = to_float(e0) * key_k[0] + to_float(e1) * key_k[1] + to_float(e2) * key_k[2];
+        const f8 old = load<f8>(s.key + i);
+        const i8 win = inside & (key > old);  // strict: on a tie the earlier triangle stays
+        store(s.key + i, win ? key : old);
+        store(s.visible + i, win ? index_v : load<i8>(s.visible + i));
+      }
+      e0 += step_x8[0]; e1 += step_x8[1]; e2 += step_x8[2];
     }
     row[0] += step_y[0]; row[1] += step_y[1]; row[2] += step_y[2];
   }
 }
 
 template <bool kCoverage>
-void rasterize_all(const TileRect& rect, int tile, const std::vector<SetupChunk>& chunks,
-                   std::size_t num_chunks, TileScratch& s) {
+SR_INLINE void rasterize_all(const TileRect& rect, int tile, const std::vector<SetupChunk>& chunks,
+                             std::size_t num_chunks, TileScratch& s) {
   for (std::size_t c = 0; c < num_chunks; ++c) {
     const SetupChunk& chunk = chunks[c];
-    for (uint32_t i = chunk.tile_begin[tile]; i < chunk.tile_begin[tile + 1]; ++i) {
-      const TriangleSetup& t = chunk.records[chunk.tile_records[i]];
+    for (uint32_t r = chunk.tile_begin[tile]; r < chunk.tile_begin[tile + 1]; ++r) {
+      const TriangleSetup& t = chunk.records[chunk.tile_records[r]];
       const uint32_t index = uint32_t(s.triangles.size());
       s.triangles.push_back({&t, &chunk});
-      rasterize_triangle<kCoverage>(t, rect, index, s);
+      const int x0 = std::max(int(t.x0), rect.x0), x1 = std::min(int(t.x1), rect.x1 - 1);
+      const int y0 = std::max(int(t.y0), rect.y0), y1 = std::min(int(t.y1), rect.y1 - 1);
+      if (x0 > x1 || y0 > y1) continue;
+      if (is_small(t))
+        rasterize_small<kCoverage>(t, x0, x1, y0, y1, rect, index, s);
+      else
+        rasterize_large<kCoverage>(t, x0, x1, y0, y1, rect, index, s);
     }
   }
+}
+
+template <bool kCoverage>
+SR_TARGET_AVX2 void rasterize_all_avx2(const TileRect& rect, int tile,
+                                       const std::vector<SetupChunk>& chunks,
+                                       std::size_t num_chunks, TileScratch& s) {
+  rasterize_all<kCoverage>(rect, tile, chunks, num_chunks, s);
+}
+
+template <bool kCoverage>
+void rasterize_all_generic(const TileRect& rect, int tile, const std::vector<SetupChunk>& chunks,
+                           std::size_t num_chunks, TileScratch& s) {
+  rasterize_all<kCoverage>(rect, tile, chunks, num_chunks, s);
 }
 
 }  // namespace
 
 void rasterize_tile(const Viewport& viewport, int tile, const std::vector<SetupChunk>& chunks,
-                    std::size_t num_chunks, bool want_coverage, TileScratch& s) {
+                    std::size_t num_chunks, bool want_coverage, Isa isa, TileScratch& s) {
   const TileRect rect = tile_rect(viewport, tile);
   std::fill(std::begin(s.key), std::end(s.key), -std::numeric_limits<float>::infinity());
   std::fill(std::begin(s.visible), std::end(s.visible), kNoTriangle);
   if (want_coverage) std::fill(std::begin(s.coverage), std::end(s.coverage), 0u);
   s.triangles.clear();
+  const bool avx2 = isa == Isa::Avx2;
   if (want_coverage)
-    rasterize_all<true>(rect, tile, chunks, num_chunks, s);
+    (avx2 ? rasterize_all_avx2<true> : rasterize_all_generic<true>)(rect, tile, chunks, num_chunks, s);
   else
-    rasterize_all<false>(rect, tile, chunks, num_chunks, s);
+    (avx2 ? rasterize_all_avx2<false> : rasterize_all_generic<false>)(rect, tile, chunks, num_chunks, s);
 }
 
 }  // namespace sr

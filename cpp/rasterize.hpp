@@ -3,7 +3,9 @@
 #pragma once
 
 #include "setup.hpp"
+#include "simd.hpp"
 
+#include <algorithm>
 #include <limits>
 
 namespace sr {
@@ -25,17 +27,52 @@ struct VisibleTriangle {
 constexpr uint32_t kNoTriangle = 0xffffffffu;
 constexpr int kTilePixels = kTileSizePx * kTileSizePx;
 
-// Per-thread scratch, reused from tile to tile (row stride kTileSizePx).
+// Per-thread scratch, reused from tile to tile (row stride kTileSizePx). The kernels read and
+// write eight pixels at a time from any column, so rows may spill up to kLanes - 1 pixels into the
+// next row (lanes masked off, values kept) and the arrays have that much padding at the end.
+constexpr int kTileScratchPixels = kTilePixels + simd::kLanes;
 struct TileScratch {
-  float key[kTilePixels];         // depth key of the nearest fragment so far (larger = closer)
-  uint32_t visible[kTilePixels];  // index into `triangles`, or kNoTriangle
-  uint32_t coverage[kTilePixels]; // fragments before the depth test
+  float key[kTileScratchPixels];         // depth key of the nearest fragment so far (larger = closer)
+  uint32_t visible[kTileScratchPixels];  // index into `triangles`, or kNoTriangle
+  uint32_t coverage[kTileScratchPixels]; // fragments before the depth test
   std::vector<VisibleTriangle> triangles;  // binned triangles of this tile, in primitive order
 };
 
 // Rasterizes every triangle binned to `tile`, chunks in order, records in order: ties in depth
 // keep the first triangle drawn, so the result is the same for any thread count.
+// `isa` picks the kernel's instruction set; the result is the same bits for either.
 void rasterize_tile(const Viewport& viewport, int tile, const std::vector<SetupChunk>& chunks,
-                    std::size_t num_chunks, bool want_coverage, TileScratch& scratch);
+                    std::size_t num_chunks, bool want_coverage, Isa isa, TileScratch& scratch);
+
+// Triangles whose snapped bounding box spans at most this many pixels per side take the
+// eight-lane path: their edge functions, relative to a sample in the box, fit in int32.
+constexpr int kSmallTrianglePx = 64;
+inline bool is_small(const TriangleSetup& t) {
+  const int32_t span_x = std::max({t.x[0], t.x[1], t.x[2]}) - std::min({t.x[0], t.x[1], t.x[2]});
+  const int32_t span_y = std::max({t.y[0], t.y[1], t.y[2]}) - std::min({t.y[0], t.y[1], t.y[2]});
+  return span_x <= kSmallTrianglePx * kSubpixelOne && span_y <= kSmallTrianglePx * kSubpixelOne;
+}
+
+// Unbiased edge functions E_k at the centre of pixel (x, y), and their change per pixel step.
+// Exact: |E| < 2^51 in general (see kGuardBandPx). For a small triangle and a pixel within its
+// bounding box widened by a vector (kLanes - 1 pixels), |E| < 2^14 * (2^14 + 2^11) * 2 < 2^30,
+// so values and steps fit in int32 and may be stepped there.
+struct EdgeEquations {
+  int64_t origin[3];
+  int64_t step_x[3], step_y[3];
+};
+inline EdgeEquations edge_equations(const TriangleSetup& t, int x, int y) {
+  EdgeEquations e;
+  const int64_t px = int64_t(x) * kSubpixelOne + kSubpixelHalf;
+  const int64_t py = int64_t(y) * kSubpixelOne + kSubpixelHalf;
+  for (int k = 0; k < 3; ++k) {
+    const int a = kEdgeStart[k], b = kEdgeEnd[k];
+    const int64_t dx = t.x[b] - t.x[a], dy = t.y[b] - t.y[a];
+    e.origin[k] = dx * (py - t.y[a]) - dy * (px - t.x[a]);
+    e.step_x[k] = -dy * kSubpixelOne;
+    e.step_y[k] = dx * kSubpixelOne;
+  }
+  return e;
+}
 
 }  // namespace sr

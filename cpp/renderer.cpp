@@ -62,15 +62,16 @@ void validate_camera(const CameraParams& camera) {
     throw std::invalid_argument("far must be finite and > near");
 }
 
-Renderer::Renderer(int width, int height, int threads)
+Renderer::Renderer(int width, int height, int threads, bool simd)
     : viewport_((width >= 1 && width <= kMaxImageSide && height >= 1 && height <= kMaxImageSide)
                     ? Viewport(width, height)
                     : throw std::invalid_argument(
                           "width and height must be in [1, " + std::to_string(kMaxImageSide) +
                           "], got " + std::to_string(width) + "x" + std::to_string(height))),
-      pool_(threads) {
+      pool_(threads),
+      isa_(simd ? best_isa() : Isa::Generic) {
   for (int w = 0; w < pool_.size(); ++w) tile_scratch_.push_back(std::make_unique<TileScratch>());
-  shade_scratch_.resize(pool_.size());
+  for (int w = 0; w < pool_.size(); ++w) shade_scratch_.push_back(std::make_unique<ShadeScratch>());
 }
 
 std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
@@ -142,10 +143,25 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   });
 
   // Tiles: rasterize, then shade, each tile by one thread.
+  const bool want_normals = (options.outputs & kOutNormal) ||
+                            ((options.outputs & kOutColor) && options.shading == Shading::Lambert);
   std::vector<ShadeDraw> shade_draws;
-  for (std::size_t d = 0; d < draws.size(); ++d)
-    shade_draws.push_back({draws[d].mesh.get(), transforms[d].normal_to_world, draws[d].color,
-                           draws[d].instance_id});
+  std::vector<Block> normal_blocks;
+  world_normals_.resize(draws.size());
+  for (std::size_t d = 0; d < draws.size(); ++d) {
+    const MeshData& mesh = *draws[d].mesh;
+    const bool smooth = want_normals && !mesh.normals.empty();
+    world_normals_[d].resize(smooth ? mesh.normals.size() : 0);
+    for (std::size_t b = 0; b < world_normals_[d].size(); b += kVertexBlock)
+      normal_blocks.push_back({uint32_t(d), b, std::min(world_normals_[d].size(), b + kVertexBlock)});
+    shade_draws.push_back({&mesh, transforms[d].normal_to_world, draws[d].color,
+                           draws[d].instance_id, smooth ? world_normals_[d].data() : nullptr});
+  }
+  pool_.parallel_for(normal_blocks.size(), [&](std::size_t item, int) {
+    const Block& blk = normal_blocks[item];
+    world_normals(*draws[blk.draw].mesh, transforms[blk.draw].normal_to_world, blk.begin, blk.end,
+                  world_normals_[blk.draw].data());
+  });
   ShadeParams shade{};
   shade.draws = shade_draws.data();
   shade.shading = options.shading;
@@ -161,8 +177,8 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   const std::size_t num_chunks = chunk_ranges.size();
   pool_.parallel_for(viewport_.num_tiles(), [&](std::size_t tile, int worker) {
     TileScratch& scratch = *tile_scratch_[worker];
-    rasterize_tile(viewport_, int(tile), chunks_, num_chunks, want_coverage, scratch);
-    shade_tile(shade, viewport_, int(tile), scratch, shade_scratch_[worker]);
+    rasterize_tile(viewport_, int(tile), chunks_, num_chunks, want_coverage, isa_, scratch);
+    shade_tile(shade, viewport_, int(tile), scratch, isa_, *shade_scratch_[worker]);
   });
   return framebuffer;
 }

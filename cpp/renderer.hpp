@@ -18,12 +18,14 @@ namespace sr {
 
 class Renderer {
  public:
-  // Throws std::invalid_argument for sizes outside [1, kMaxImageSide].
-  Renderer(int width, int height, int threads);
+  // Throws std::invalid_argument for sizes outside [1, kMaxImageSide]. `simd`: use the best
+  // instruction set the CPU has (false: the generic kernels; the images are the same bits).
+  Renderer(int width, int height, int threads, bool simd = true);
 
   int width() const { return viewport_.width; }
   int height() const { return viewport_.height; }
   int threads() const { return pool_.size(); }
+  Isa isa() const { return isa_; }
 
   // Renders the draws in order into a new framebuffer holding only options.outputs.
   // Thread-safe: concurrent calls on one Renderer run one after the other.
@@ -36,12 +38,14 @@ class Renderer {
  private:
   Viewport viewport_;
   ThreadPool pool_;
+  Isa isa_;
   std::mutex mutex_;
   // Scratch reused across renders: no per-frame allocation once sizes settle.
   std::vector<std::vector<ProjectedVertex>> vertices_;  // per draw
   std::vector<SetupChunk> chunks_;
+  std::vector<std::vector<vec3>> world_normals_;  // per draw, when shading needs them
   std::vector<std::unique_ptr<TileScratch>> tile_scratch_;  // per worker
-  std::vector<ShadeScratch> shade_scratch_;                 // per worker
+  std::vector<std::unique_ptr<ShadeScratch>> shade_scratch_;  // per worker
 };
 
 void validate_camera(const CameraParams& camera);

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 namespace sr {
 
@@ -14,31 +15,22 @@ inline vec3 unit(const dvec3& v) {
   return len > 0.0 && std::isfinite(len) ? vec3(v / len) : vec3(0.0f);
 }
 
-// Prepares one visible triangle: its exact edge functions relative to the tile, and its
-// attributes at its own three vertices. A clipped triangle's vertices carry weights of the
+// Prepares one visible triangle: its perspective weights and its attributes at its own three
+// vertices. A clipped triangle's vertices carry weights of the
 // source face's corners; attributes are linear in those weights, so they are mapped here once.
-ShadeTriangle prepare(const ShadeParams& p, const VisibleTriangle& vt, const TileRect& rect) {
+ShadeTriangle prepare(const ShadeParams& p, const VisibleTriangle& vt) {
   const TriangleSetup& t = *vt.tri;
   const ShadeDraw& d = p.draws[t.draw];
   ShadeTriangle s;
-  const int64_t px = int64_t(rect.x0) * kSubpixelOne + kSubpixelHalf;
-  const int64_t py = int64_t(rect.y0) * kSubpixelOne + kSubpixelHalf;
-  for (int k = 0; k < 3; ++k) {
-    const int a = kEdgeStart[k], b = kEdgeEnd[k];
-    const int64_t dx = t.x[b] - t.x[a], dy = t.y[b] - t.y[a];
-    s.edge_origin[k] = dx * (py - t.y[a]) - dy * (px - t.x[a]);
-    s.edge_step_x[k] = -dy * kSubpixelOne;
-    s.edge_step_y[k] = dx * kSubpixelOne;
-    s.persp[k] = float(double(t.inv_w[k]) / double(t.area2));
-  }
+  for (int k = 0; k < 3; ++k) s.persp[k] = float(double(t.inv_w[k]) / double(t.area2));
   {
     const MeshData& mesh = *d.mesh;
     const ivec3 f = mesh.faces[t.prim];
     // Normals are transformed and normalised in double: a float cross product or a scaled
     // normal can overflow (a triangle 1e20 units wide, a pose scaling by 0.1).
     vec3 normal_src[3], color_src[3];
-    if (!mesh.normals.empty()) {
-      for (int c = 0; c < 3; ++c) normal_src[c] = unit(d.normal_to_world * dvec3(mesh.normals[f[c]]));
+    if (d.world_normals) {
+      for (int c = 0; c < 3; ++c) normal_src[c] = d.world_normals[f[c]];
     } else {  // no vertex normals => flat: the counter-clockwise face normal
       const dvec3 p0(mesh.positions[f.x]);
       const dvec3 n = d.normal_to_world *
@@ -66,111 +58,252 @@ ShadeTriangle prepare(const ShadeParams& p, const VisibleTriangle& vt, const Til
   return s;
 }
 
-inline uint8_t to_unorm8(float v) { return uint8_t(std::clamp(v, 0.0f, 1.0f) * 255.0f + 0.5f); }
+using namespace simd;
 
-template <bool kColor, bool kLit, bool kNormal>
-void shade(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
-           ShadeScratch& scratch) {
-  constexpr bool kAttributes = kColor || kNormal;
-  const Framebuffer& fb = *p.framebuffer;
-  // Local copies: stores through uint8_t* may alias anything, so members would be reloaded.
-  uint8_t* const color = fb.color;
-  float* const depth = fb.depth;
-  bool* const mask = fb.mask;
-  float* const normal = fb.normal;
-  int32_t* const triangle_id = fb.triangle_id;
-  int32_t* const instance_id = fb.instance_id;
-  uint32_t* const coverage = fb.coverage;
-  const std::size_t width = std::size_t(fb.width);
-  const bool orthographic = p.orthographic;
-  const vec3 to_light = p.to_light_world;
-  const float ambient = p.ambient, diffuse = 1.0f - p.ambient;
-  const uint8_t bg0 = p.background[0], bg1 = p.background[1], bg2 = p.background[2];
-
-  if constexpr (kAttributes) {
-    scratch.slot.assign(raster.triangles.size(), kNoTriangle);
-    scratch.triangles.clear();
+// Eight lanes of float edge values E_k for pixels (x .. x + 7, y) of one triangle, stepped along
+// its rows; each lane holds float(E_k), rounded once from the exact value, as a scalar
+// float(int64) would. Small triangles (is_small) step exact int32 values, as the rasterizer does.
+struct SmallEdges {
+  i8 row[3], step_x8[3], step_y[3];
+  SR_INLINE explicit SmallEdges(const EdgeEquations& eq) {
+    for (int k = 0; k < 3; ++k) {
+      row[k] = splat(int32_t(eq.origin[k])) + lane_index() * int32_t(eq.step_x[k]);
+      step_x8[k] = splat(int32_t(eq.step_x[k] * kLanes));
+      step_y[k] = splat(int32_t(eq.step_y[k]));
+    }
   }
+  struct Cursor {
+    i8 e[3];
+    SR_INLINE f8 edge(int k) const { return to_float(e[k]); }
+    SR_INLINE void next(const SmallEdges& s) { for (int k = 0; k < 3; ++k) e[k] += s.step_x8[k]; }
+  };
+  SR_INLINE Cursor cursor() const { return {{row[0], row[1], row[2]}}; }
+  SR_INLINE void next_row() { for (int k = 0; k < 3; ++k) row[k] += step_y[k]; }
+};
 
-  for (int y = rect.y0; y < rect.y1; ++y) {
-    const int row = (y - rect.y0) * kTileSizePx;
-    for (int x = rect.x0; x < rect.x1; ++x) {
-      const int i = row + (x - rect.x0);
-      const std::size_t o = std::size_t(y) * width + std::size_t(x);
-      const uint32_t v = raster.visible[i];
-      if (coverage) coverage[o] = raster.coverage[i];
-      if (v == kNoTriangle) {  // Background.
-        if (depth) depth[o] = 0.0f;
-        if (mask) mask[o] = false;
-        if (triangle_id) triangle_id[o] = -1;
-        if (instance_id) instance_id[o] = -1;
-        if constexpr (kNormal) normal[3 * o] = normal[3 * o + 1] = normal[3 * o + 2] = 0.0f;
-        if constexpr (kColor) {
-          color[3 * o] = bg0;
-          color[3 * o + 1] = bg1;
-          color[3 * o + 2] = bg2;
-        }
-        continue;
+// Any triangle: exact values in double (|E| < 2^51 < 2^53), two halves of four lanes.
+struct LargeEdges {
+  d4 lo[3], hi[3];
+  double step_x8[3], step_y[3];
+  SR_INLINE explicit LargeEdges(const EdgeEquations& eq) {
+    const d4 lane{0.0, 1.0, 2.0, 3.0};
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = double(eq.origin[k]) + lane * double(eq.step_x[k]);
+      hi[k] = double(eq.origin[k]) + (lane + 4.0) * double(eq.step_x[k]);
+      step_x8[k] = double(eq.step_x[k] * kLanes);
+      step_y[k] = double(eq.step_y[k]);
+    }
+  }
+  struct Cursor {
+    d4 lo[3], hi[3];
+    SR_INLINE f8 edge(int k) const { return to_float(lo[k], hi[k]); }
+    SR_INLINE void next(const LargeEdges& s) {
+      for (int k = 0; k < 3; ++k) {
+        lo[k] += s.step_x8[k];
+        hi[k] += s.step_x8[k];
       }
-      if (depth) depth[o] = depth_from_key(raster.key[i], orthographic);
-      if (mask) mask[o] = true;
-      const TriangleSetup& t = *raster.triangles[v].tri;
-      if (triangle_id) triangle_id[o] = int32_t(t.prim);
-      if (instance_id) instance_id[o] = p.draws[t.draw].instance_id;
-      if constexpr (kAttributes) {
-        if (scratch.slot[v] == kNoTriangle) {  // first pixel of this triangle in the tile
-          scratch.slot[v] = uint32_t(scratch.triangles.size());
-          scratch.triangles.push_back(prepare(p, raster.triangles[v], rect));
+    }
+  };
+  SR_INLINE Cursor cursor() const { return {{lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]}}; }
+  SR_INLINE void next_row() {
+    for (int k = 0; k < 3; ++k) {
+      lo[k] += step_y[k];
+      hi[k] += step_y[k];
+    }
+  }
+};
+
+// std::clamp(v, 0, 1) * 255 + 0.5 truncated, per lane, as to_unorm8 does.
+SR_INLINE i8 to_unorm8(f8 v) {
+  const f8 zero = splat(0.0f), one = splat(1.0f);
+  const f8 c = v < zero ? zero : (one < v ? one : v);
+  return __builtin_convertvector(c * 255.0f + 0.5f, i8);
+}
+
+// Shades the pixels of rows [y0, y1], columns [x0, x1] of the tile that visible triangle `index`
+// owns, into the scratch buffers.
+template <bool kColor, bool kLit, bool kNormal, typename Edges>
+SR_INLINE void shade_pixels(const ShadeParams& p, const ShadeTriangle& s, Edges edges, int x0,
+                            int x1, int y0, int y1, const TileRect& rect,
+                            const TileScratch& raster, uint32_t index, ShadeScratch& out) {
+  const f8 persp0 = splat(s.persp[0]), persp1 = splat(s.persp[1]), persp2 = splat(s.persp[2]);
+  const f8 light_x = splat(p.to_light_world.x), light_y = splat(p.to_light_world.y),
+           light_z = splat(p.to_light_world.z);
+  const f8 ambient = splat(p.ambient), diffuse = splat(1.0f - p.ambient);
+  const i8 lane = lane_index(), index_v = splat(int32_t(index));
+  const int width = x1 - x0 + 1;
+
+  for (int y = y0; y <= y1; ++y, edges.next_row()) {
+    int i = (y - rect.y0) * kTileSizePx + (x0 - rect.x0);
+    typename Edges::Cursor cursor = edges.cursor();
+    for (int dx = 0; dx < width; dx += kLanes, i += kLanes, cursor.next(edges)) {
+      const i8 mine = (load<i8>(raster.visible + i) == index_v) & (lane < width - dx);
+      if (!any(mine)) continue;
+      // Perspective-correct barycentrics from the exact edge values.
+      f8 b0 = cursor.edge(0) * persp0, b1 = cursor.edge(1) * persp1, b2 = cursor.edge(2) * persp2;
+      const f8 inv_sum = 1.0f / (b0 + b1 + b2);
+      b0 *= inv_sum; b1 *= inv_sum; b2 *= inv_sum;
+      f8 nx{}, ny{}, nz{};
+      if constexpr (kLit || kNormal) {
+        nx = b0 * s.normal[0].x + b1 * s.normal[1].x + b2 * s.normal[2].x;
+        ny = b0 * s.normal[0].y + b1 * s.normal[1].y + b2 * s.normal[2].y;
+        nz = b0 * s.normal[0].z + b1 * s.normal[1].z + b2 * s.normal[2].z;
+        const f8 len2 = nx * nx + ny * ny + nz * nz;
+        const f8 r = 1.0f / simd::sqrt(len2);
+        const i8 nonzero = len2 > 0.0f;
+        nx = nonzero ? nx * r : f8{};
+        ny = nonzero ? ny * r : f8{};
+        nz = nonzero ? nz * r : f8{};
+      }
+      if constexpr (kNormal) {
+        store(out.normal[0] + i, mine ? nx : load<f8>(out.normal[0] + i));
+        store(out.normal[1] + i, mine ? ny : load<f8>(out.normal[1] + i));
+        store(out.normal[2] + i, mine ? nz : load<f8>(out.normal[2] + i));
+      }
+      if constexpr (kColor) {
+        f8 r = b0 * s.color[0].x + b1 * s.color[1].x + b2 * s.color[2].x;
+        f8 g = b0 * s.color[0].y + b1 * s.color[1].y + b2 * s.color[2].y;
+        f8 b = b0 * s.color[0].z + b1 * s.color[1].z + b2 * s.color[2].z;
+        if constexpr (kLit) {
+          const f8 d = nx * light_x + ny * light_y + nz * light_z;
+          const f8 f = ambient + diffuse * (f8{} < d ? d : f8{});
+          r *= f; g *= f; b *= f;
         }
-        const ShadeTriangle& s = scratch.triangles[scratch.slot[v]];
-        // Perspective-correct barycentrics from the exact edge values (all >= 0 here).
-        const int64_t dx = x - rect.x0, dy = y - rect.y0;
-        float b[3];
-        for (int k = 0; k < 3; ++k)
-          b[k] = float(s.edge_origin[k] + s.edge_step_x[k] * dx + s.edge_step_y[k] * dy) * s.persp[k];
-        const float inv_sum = 1.0f / (b[0] + b[1] + b[2]);
-        b[0] *= inv_sum; b[1] *= inv_sum; b[2] *= inv_sum;
-        vec3 n(0.0f);
-        if constexpr (kLit || kNormal) {
-          n = b[0] * s.normal[0] + b[1] * s.normal[1] + b[2] * s.normal[2];
-          const float len2 = glm::dot(n, n);
-          n = len2 > 0.0f ? n * (1.0f / std::sqrt(len2)) : vec3(0.0f);
-        }
-        if constexpr (kNormal) {
-          normal[3 * o] = n.x;
-          normal[3 * o + 1] = n.y;
-          normal[3 * o + 2] = n.z;
-        }
-        if constexpr (kColor) {
-          vec3 c = b[0] * s.color[0] + b[1] * s.color[1] + b[2] * s.color[2];
-          if constexpr (kLit) c *= ambient + diffuse * std::max(0.0f, glm::dot(n, to_light));
-          color[3 * o] = to_unorm8(c.x);
-          color[3 * o + 1] = to_unorm8(c.y);
-          color[3 * o + 2] = to_unorm8(c.z);
-        }
+        const i8 packed = to_unorm8(r) | (to_unorm8(g) << 8) | (to_unorm8(b) << 16);
+        store(out.rgb + i, mine ? packed : load<i8>(out.rgb + i));
       }
     }
   }
 }
 
+template <bool kColor, bool kLit, bool kNormal>
+SR_INLINE void shade_triangle(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
+                              uint32_t index, ShadeScratch& out) {
+  const VisibleTriangle& vt = raster.triangles[index];
+  const TriangleSetup& t = *vt.tri;
+  const int x0 = std::max(int(t.x0), rect.x0), x1 = std::min(int(t.x1), rect.x1 - 1);
+  const int y0 = std::max(int(t.y0), rect.y0), y1 = std::min(int(t.y1), rect.y1 - 1);
+  const ShadeTriangle s = prepare(p, vt);
+  const EdgeEquations eq = edge_equations(t, x0, y0);
+  if (is_small(t))
+    shade_pixels<kColor, kLit, kNormal>(p, s, SmallEdges(eq), x0, x1, y0, y1, rect, raster, index, out);
+  else
+    shade_pixels<kColor, kLit, kNormal>(p, s, LargeEdges(eq), x0, x1, y0, y1, rect, raster, index, out);
+}
+
+template <bool kColor, bool kLit, bool kNormal>
+SR_INLINE void shade_visible(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
+                             ShadeScratch& scratch) {
+  scratch.used.assign(raster.triangles.size(), 0);
+  for (int y = rect.y0; y < rect.y1; ++y) {
+    const uint32_t* visible = raster.visible + (y - rect.y0) * kTileSizePx;
+    for (int x = 0; x < rect.x1 - rect.x0; ++x)
+      if (visible[x] != kNoTriangle) scratch.used[visible[x]] = 1;
+  }
+  for (uint32_t v = 0; v < scratch.used.size(); ++v)
+    if (scratch.used[v]) shade_triangle<kColor, kLit, kNormal>(p, rect, raster, v, scratch);
+}
+
+template <bool kColor, bool kLit, bool kNormal>
+SR_TARGET_AVX2 void shade_visible_avx2(const ShadeParams& p, const TileRect& rect,
+                                       const TileScratch& raster, ShadeScratch& scratch) {
+  shade_visible<kColor, kLit, kNormal>(p, rect, raster, scratch);
+}
+
+template <bool kColor, bool kLit, bool kNormal>
+void shade_visible_generic(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
+                           ShadeScratch& scratch) {
+  shade_visible<kColor, kLit, kNormal>(p, rect, raster, scratch);
+}
+
 using ShadeFn = void (*)(const ShadeParams&, const TileRect&, const TileScratch&, ShadeScratch&);
 
-// Feature set chosen once per draw: [color][lit][normal].
-constexpr ShadeFn kShadeTable[2][2][2] = {
-    {{shade<false, false, false>, shade<false, false, true>},
-     {shade<false, false, false>, shade<false, false, true>}},  // lighting without colour is moot
-    {{shade<true, false, false>, shade<true, false, true>},
-     {shade<true, true, false>, shade<true, true, true>}},
-};
+// Feature set chosen once per render: [isa][color][lit][normal] (lighting without colour is moot).
+#define SR_SHADE_TABLE(suffix)                                                         \
+  {{{nullptr, shade_visible_##suffix<false, false, true>},                             \
+    {nullptr, shade_visible_##suffix<false, false, true>}},                            \
+   {{shade_visible_##suffix<true, false, false>, shade_visible_##suffix<true, false, true>}, \
+    {shade_visible_##suffix<true, true, false>, shade_visible_##suffix<true, true, true>}}}
+constexpr ShadeFn kShadeTable[2][2][2][2] = {SR_SHADE_TABLE(generic), SR_SHADE_TABLE(avx2)};
+#undef SR_SHADE_TABLE
+
+// Depth of the visible pixels of one row, eight at a time.
+SR_INLINE void resolve_depth_row(const float* key, const uint32_t* visible, int n,
+                                 bool orthographic, float* depth) {
+  int x = 0;
+  for (; x + kLanes <= n; x += kLanes) {
+    const f8 k = load<f8>(key + x);
+    const f8 d = orthographic ? -k : 1.0f / k;
+    store(depth + x, load<i8>(visible + x) != int32_t(kNoTriangle) ? d : f8{});
+  }
+  for (; x < n; ++x) depth[x] = visible[x] != kNoTriangle ? depth_from_key(key[x], orthographic) : 0.0f;
+}
+SR_TARGET_AVX2 void resolve_depth_row_avx2(const float* key, const uint32_t* visible, int n,
+                                           bool orthographic, float* depth) {
+  resolve_depth_row(key, visible, n, orthographic, depth);
+}
+void resolve_depth_row_generic(const float* key, const uint32_t* visible, int n,
+                               bool orthographic, float* depth) {
+  resolve_depth_row(key, visible, n, orthographic, depth);
+}
+
+// Copies the tile's resolved values to the requested outputs, background where nothing is visible.
+void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
+                const ShadeScratch& shaded, Isa isa) {
+  const Framebuffer& fb = *p.framebuffer;
+  const std::size_t width = std::size_t(fb.width);
+  const int n = rect.x1 - rect.x0;
+  const auto resolve_depth = isa == Isa::Avx2 ? resolve_depth_row_avx2 : resolve_depth_row_generic;
+  for (int y = rect.y0; y < rect.y1; ++y) {
+    const int row = (y - rect.y0) * kTileSizePx;
+    const std::size_t o = std::size_t(y) * width + std::size_t(rect.x0);
+    const uint32_t* visible = raster.visible + row;
+    if (fb.coverage) std::memcpy(fb.coverage + o, raster.coverage + row, sizeof(uint32_t) * n);
+    if (fb.depth) resolve_depth(raster.key + row, visible, n, p.orthographic, fb.depth + o);
+    if (fb.mask)
+      for (int x = 0; x < n; ++x) fb.mask[o + x] = visible[x] != kNoTriangle;
+    if (fb.triangle_id)
+      for (int x = 0; x < n; ++x)
+        fb.triangle_id[o + x] = visible[x] == kNoTriangle ? -1 : int32_t(raster.triangles[visible[x]].tri->prim);
+    if (fb.instance_id)
+      for (int x = 0; x < n; ++x)
+        fb.instance_id[o + x] = visible[x] == kNoTriangle ? -1 : p.draws[raster.triangles[visible[x]].tri->draw].instance_id;
+    if (fb.normal) {
+      float* normal = fb.normal + 3 * o;
+      for (int x = 0; x < n; ++x) {
+        const bool bg = visible[x] == kNoTriangle;
+        for (int c = 0; c < 3; ++c) normal[3 * x + c] = bg ? 0.0f : shaded.normal[c][row + x];
+      }
+    }
+    if (fb.color) {
+      uint8_t* color = fb.color + 3 * o;
+      const uint32_t background = p.background[0] | p.background[1] << 8 | p.background[2] << 16;
+      for (int x = 0; x < n; ++x) {
+        const uint32_t rgb = visible[x] == kNoTriangle ? background : shaded.rgb[row + x];
+        color[3 * x] = uint8_t(rgb);
+        color[3 * x + 1] = uint8_t(rgb >> 8);
+        color[3 * x + 2] = uint8_t(rgb >> 16);
+      }
+    }
+  }
+}
 
 }  // namespace
 
+void world_normals(const MeshData& mesh, const dmat3& normal_to_world, std::size_t begin,
+                   std::size_t end, vec3* out) {
+  // Normals are transformed and normalised in double: a scaled normal can overflow float.
+  for (std::size_t i = begin; i < end; ++i) out[i] = unit(normal_to_world * dvec3(mesh.normals[i]));
+}
+
 void shade_tile(const ShadeParams& params, const Viewport& viewport, int tile,
-                const TileScratch& raster, ShadeScratch& scratch) {
+                const TileScratch& raster, Isa isa, ShadeScratch& scratch) {
   const Framebuffer& fb = *params.framebuffer;
-  const ShadeFn fn = kShadeTable[fb.color != nullptr][params.shading == Shading::Lambert]
-                                [fb.normal != nullptr];
-  fn(params, tile_rect(viewport, tile), raster, scratch);
+  const TileRect rect = tile_rect(viewport, tile);
+  const ShadeFn fn = kShadeTable[isa == Isa::Avx2][fb.color != nullptr]
+                                [params.shading == Shading::Lambert][fb.normal != nullptr];
+  if (fn) fn(params, rect, raster, scratch);
+  write_tile(params, rect, raster, scratch, isa);
 }
 
 }  // namespace sr

@@ -12,7 +12,13 @@ struct ShadeDraw {
   dmat3 normal_to_world;  // inverse-transpose of the model matrix (double: see prepare())
   vec4 color;            // material colour (used when the mesh has no vertex colours)
   int32_t instance_id;
+  const vec3* world_normals;  // per vertex (world_normals()), or null: flat face normals
 };
+
+// World-space unit normals of vertices [begin, end) of a mesh with vertex normals, once per
+// render rather than once per triangle corner and tile.
+void world_normals(const MeshData& mesh, const dmat3& normal_to_world, std::size_t begin,
+                   std::size_t end, vec3* out);
 
 struct ShadeParams {
   const ShadeDraw* draws;
@@ -26,22 +32,23 @@ struct ShadeParams {
 
 // A triangle visible in the tile being shaded, prepared once for all its pixels.
 struct ShadeTriangle {
-  int64_t edge_origin[3];  // E_k at the tile's first pixel centre (exact, fixed-point units^2)
-  int64_t edge_step_x[3], edge_step_y[3];  // E_k change per pixel
-  float persp[3];          // 1 / (w_k * area2): E_k * persp[k] ~ perspective-correct weight
-  vec3 normal[3];          // world-space normal at each vertex (the face normal if flat), facing
-                           // the camera's side for back faces
-  vec3 color[3];           // base colour at each vertex
+  float persp[3];   // 1 / (w_k * area2): E_k * persp[k] ~ perspective-correct weight
+  vec3 normal[3];   // world-space normal at each vertex (the face normal if flat), facing the
+                    // camera's side for back faces
+  vec3 color[3];    // base colour at each vertex
 };
 
-// Per-thread scratch for shade_tile.
+// Per-thread scratch for shade_tile: which binned triangles own a pixel, and the tile's shaded
+// values (row stride kTileSizePx, padded like TileScratch) before they go to the framebuffer.
 struct ShadeScratch {
-  std::vector<uint32_t> slot;  // binned-triangle index -> index in `triangles`, or kNoTriangle
-  std::vector<ShadeTriangle> triangles;
+  std::vector<uint8_t> used;  // per binned-triangle index: owns at least one pixel of the tile
+  uint32_t rgb[kTileScratchPixels];  // packed 8-bit colour, r | g << 8 | b << 16
+  float normal[3][kTileScratchPixels];
 };
 
-// Writes every pixel of `tile` in each requested output. Each visible pixel is shaded once.
+// Writes every pixel of `tile` in each requested output. Each visible pixel is shaded once, by
+// the kernel for `isa` (the same bits for either).
 void shade_tile(const ShadeParams& params, const Viewport& viewport, int tile,
-                const TileScratch& raster, ShadeScratch& scratch);
+                const TileScratch& raster, Isa isa, ShadeScratch& scratch);
 
 }  // namespace sr

@@ -45,14 +45,16 @@ class MeshData:
     def num_faces(self) -> int: ...
 
 class Renderer:
-    def __init__(self, width: int, height: int, threads: int = 0) -> None:
-        """threads = 0 => one worker per hardware core."""
+    def __init__(self, width: int, height: int, threads: int = 0, simd: bool = True) -> None:
+        """threads = 0 => one worker per hardware core; simd = False => generic kernels."""
     @property
     def width(self) -> int: ...
     @property
     def height(self) -> int: ...
     @property
     def threads(self) -> int: ...
+    @property
+    def isa(self) -> str: ...
     def render(
         self,
         draws: Sequence[tuple[MeshData, npt.NDArray[np.float64], int, Sequence[float]]],

@@ -101,17 +101,22 @@ class Renderer:
     ----------
     width, height : image size in pixels, each in [1, softrast.MAX_IMAGE_SIDE].
     threads : worker threads (0 = one per core). The images are bit-identical for any count.
+    simd : use the widest instruction set the CPU has for the per-pixel kernels (AVX2 where
+        available; see ``isa``). False forces the generic x86-64 kernels. The images are
+        bit-identical either way.
 
     The GIL is released while rendering, so Python threads may render concurrently (calls on one
     Renderer are serialised; use one Renderer per thread for parallelism).
     """
 
-    def __init__(self, width: int, height: int, threads: int = 0) -> None:
+    def __init__(self, width: int, height: int, threads: int = 0, simd: bool = True) -> None:
         w = _image_side(width, "width")
         h = _image_side(height, "height")
         if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 0:
             raise ValueError(f"threads must be an int >= 0, got {threads!r}")
-        self._core = _core.Renderer(w, h, int(threads))
+        if not isinstance(simd, (bool, np.bool_)):
+            raise ValueError(f"simd must be True or False, got {simd!r}")
+        self._core = _core.Renderer(w, h, int(threads), bool(simd))
 
     @property
     def width(self) -> int:
@@ -124,6 +129,11 @@ class Renderer:
     @property
     def threads(self) -> int:
         return self._core.threads
+
+    @property
+    def isa(self) -> str:
+        """Instruction set of the per-pixel kernels in use: "avx2" or "generic"."""
+        return self._core.isa
 
     def render(
         self,
@@ -196,4 +206,4 @@ class Renderer:
         return Frame(buffers)
 
     def __repr__(self) -> str:
-        return f"Renderer({self.width}x{self.height}, threads={self.threads})"
+        return f"Renderer({self.width}x{self.height}, threads={self.threads}, isa={self.isa!r})"

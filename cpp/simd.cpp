@@ -1,0 +1,10 @@
+// Run-time choice of instruction set for the kernels written against simd.hpp.
+#include "simd.hpp"
+
+namespace sr {
+
+Isa best_isa() { return __builtin_cpu_supports("avx2") ? Isa::Avx2 : Isa::Generic; }
+
+const char* isa_name(Isa isa) { return isa == Isa::Avx2 ? "avx2" : "generic"; }
+
+}  // namespace sr

@@ -1,0 +1,81 @@
+// Eight-lane vectors for the per-pixel kernels, and the run-time choice of instruction set.
+//
+// A kernel is written once, as an always-inline function over these GCC/Clang vector types, and
+// instantiated twice: inside a function compiled for AVX2 (one 256-bit instruction per operation)
+// and inside a plain x86-64 function (two SSE2 instructions, or scalar code elsewhere). Every
+// operation is an IEEE single operation per lane (no FMA contraction: the build passes
+// -ffp-contract=off and the AVX2 target excludes FMA), so both produce identical bits; the test
+// suite checks that. Only inlined code takes the target: nothing outside the kernel is compiled
+// for AVX2, so no out-of-line copy of a shared inline function can leak AVX2 instructions into
+// the generic path.
+#pragma once
+
+#include <cstdint>
+#include <cstring>
+#include <emmintrin.h>
+
+#define SR_INLINE inline __attribute__((always_inline))
+#define SR_TARGET_AVX2 __attribute__((target("avx2")))
+
+namespace sr {
+
+enum class Isa : uint8_t { Generic, Avx2 };
+
+// The best instruction set this CPU runs.
+Isa best_isa();
+const char* isa_name(Isa isa);
+
+namespace simd {
+
+constexpr int kLanes = 8;
+typedef float f8 __attribute__((vector_size(32)));
+typedef int32_t i8 __attribute__((vector_size(32)));
+typedef double d4 __attribute__((vector_size(32)));
+typedef float f4 __attribute__((vector_size(16)));
+typedef int32_t i4 __attribute__((vector_size(16)));
+
+template <typename V, typename T>
+SR_INLINE V load(const T* p) {
+  V v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+template <typename V, typename T>
+SR_INLINE void store(T* p, V v) {
+  std::memcpy(p, &v, sizeof v);
+}
+// Broadcasts written as loops: GCC turns them into one vpbroadcast (an initializer list or
+// `f8{} + v` became a chain of inserts).
+template <typename V, typename T>
+SR_INLINE V broadcast(T v) {
+  V r;
+  for (int k = 0; k < kLanes; ++k) r[k] = v;
+  return r;
+}
+SR_INLINE f8 splat(float v) { return broadcast<f8>(v); }
+SR_INLINE i8 splat(int32_t v) { return broadcast<i8>(v); }
+SR_INLINE f8 to_float(i8 v) { return __builtin_convertvector(v, f8); }
+SR_INLINE i8 lane_index() { return i8{0, 1, 2, 3, 4, 5, 6, 7}; }
+
+// True if any lane of the mask (all-ones or zero per lane) is set.
+SR_INLINE bool any(i8 mask) {
+  const i4 lo = __builtin_shufflevector(mask, mask, 0, 1, 2, 3);
+  const i4 hi = __builtin_shufflevector(mask, mask, 4, 5, 6, 7);
+  return _mm_movemask_epi8(__m128i(lo | hi)) != 0;
+}
+
+// Correctly rounded square root per lane (as std::sqrt).
+SR_INLINE f8 sqrt(f8 v) {
+  const f4 lo = __builtin_shufflevector(v, v, 0, 1, 2, 3), hi = __builtin_shufflevector(v, v, 4, 5, 6, 7);
+  const f4 a = f4(_mm_sqrt_ps(__m128(lo))), b = f4(_mm_sqrt_ps(__m128(hi)));
+  return __builtin_shufflevector(a, b, 0, 1, 2, 3, 4, 5, 6, 7);
+}
+
+// Two times four integer-valued doubles to eight floats (each rounded once, to nearest).
+SR_INLINE f8 to_float(d4 lo, d4 hi) {
+  const f4 a = __builtin_convertvector(lo, f4), b = __builtin_convertvector(hi, f4);
+  return __builtin_shufflevector(a, b, 0, 1, 2, 3, 4, 5, 6, 7);
+}
+
+}  // namespace simd
+}  // namespace sr
