@@ -285,7 +285,7 @@ ANNOTATE_LINE = re.compile(r"^\s*([\d,]+)\s+\(\s*[\d.]+%\)\s+(.*?):(.*)$")
 # reported under the function they were inlined into, so classify by function, not file).
 STAGES = (("driver (excluded)", ("icosphere", "_Rb_tree", "main", "MeshData::validate", "dl_",
                                  "do_lookup", "_dl", "Renderer::Renderer", "ThreadPool::ThreadPool")),
-          ("transform", ("transform_vertices", "make_draw_transform", "glm::operator*")),
+          ("transform", ("transform_point", "make_draw_transform")),  # inlined: counted in project_vertices
           ("clip", ("clip_triangle", "intersect", "ClipPlanes")),
           ("project+setup+bin", ("project", "setup", "true_plane_keys")),
           ("raster", ("rasterize",)),

@@ -14,7 +14,6 @@ namespace sr {
 namespace {
 
 constexpr std::size_t kVertexBlock = 16384;  // vertices per work item
-constexpr std::size_t kVertexBatch = 256;    // transformed on the stack, then projected
 
 template <typename M>
 bool all_finite(const M& m) {
@@ -117,13 +116,8 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   }
   pool_.parallel_for(vertex_blocks.size(), [&](std::size_t item, int) {
     const Block& blk = vertex_blocks[item];
-    ClipVertex clip[kVertexBatch];
-    for (std::size_t b = blk.begin; b < blk.end; b += kVertexBatch) {
-      const std::size_t e = std::min(blk.end, b + kVertexBatch);
-      transform_vertices(*draws[blk.draw].mesh, transforms[blk.draw], b, e, clip);
-      project_vertices(clip, b, e, planes, viewport_, camera.orthographic,
-                       vertices_[blk.draw].data());
-    }
+    project_vertices(*draws[blk.draw].mesh, transforms[blk.draw], blk.begin, blk.end, planes,
+                     viewport_, camera.orthographic, vertices_[blk.draw].data());
   });
 
   // Setup and binning, parallel over fixed-size triangle chunks (primitive order is kept).
@@ -136,8 +130,8 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   if (chunks_.size() < chunk_ranges.size()) chunks_.resize(chunk_ranges.size());
   pool_.parallel_for(chunk_ranges.size(), [&](std::size_t item, int) {
     const Block& blk = chunk_ranges[item];
-    SetupParams params{draws[blk.draw].mesh.get(), vertices_[blk.draw].data(), blk.draw,
-                       transforms[blk.draw].mirrored, camera.orthographic, options.cull,
+    SetupParams params{draws[blk.draw].mesh.get(), &transforms[blk.draw],
+                       vertices_[blk.draw].data(), blk.draw, camera.orthographic, options.cull,
                        &planes, viewport_};
     setup_chunk(params, blk.begin, blk.end, chunks_[item]);
   });

@@ -9,31 +9,30 @@ namespace sr {
 namespace {
 
 // Round half away from zero (as lround) by truncation: one instruction instead of a libm call.
-inline int32_t round_to_fixed(double window) {
-  const double scaled = window * kSubpixelOne;
+inline int32_t round_to_fixed(double scaled) {
   return int32_t(scaled + (scaled >= 0.0 ? 0.5 : -0.5));
 }
 
 // Snaps one vertex. With `snap_outside`, a vertex outside some plane is snapped too (clipping
 // output that rounding left a hair outside the plane it was clipped to: the guard band's margin
-// keeps it representable).
-ProjectedVertex project(const vec4& p_clip, float depth_view, const ClipPlanes& planes,
-                        const Viewport& viewport, bool orthographic, bool snap_outside) {
-  ProjectedVertex v{};
-  v.p_clip = p_clip;
-  v.depth_view = depth_view;
+// keeps it representable). Writes `v` in place: a returned copy would be read back with wider
+// loads than it was written with, which stalls store-to-load forwarding.
+void project(const vec4& p_clip, float depth_view, const ClipPlanes& planes,
+             const Viewport& viewport, bool orthographic, bool snap_outside,
+             ProjectedVertex& v) {
+  v = ProjectedVertex{};
   const bool finite = std::isfinite(p_clip.x) && std::isfinite(p_clip.y) &&
                       std::isfinite(p_clip.z) && std::isfinite(p_clip.w) &&
                       std::isfinite(depth_view);
   if (!finite) {
     v.outcode = kInvalidVertex;
-    return v;
+    return;
   }
   v.outcode = planes.outcode(p_clip, depth_view);
-  if (v.outcode != 0 && !snap_outside) return v;
+  if (v.outcode != 0 && !snap_outside) return;
   if (!(p_clip.w > 0.0f) || !(depth_view > 0.0f)) {  // not a projection we can rasterize
     v.outcode = kInvalidVertex;
-    return v;
+    return;
   }
   // Double precision: the snapped position must not depend on rounding in the divide.
   const double inv_w = 1.0 / double(p_clip.w);
@@ -43,22 +42,25 @@ ProjectedVertex project(const vec4& p_clip, float depth_view, const ClipPlanes& 
   constexpr double kLimit = 32768.0 - 1.0;
   if (!(std::fabs(x_window) < kLimit && std::fabs(y_window) < kLimit)) {
     v.outcode = kInvalidVertex;
-    return v;
+    return;
   }
-  v.x_window = x_window;
-  v.y_window = y_window;
-  v.x = round_to_fixed(x_window);
-  v.y = round_to_fixed(y_window);
-  v.key = orthographic ? -depth_view : float(1.0 / double(depth_view));
+  const double x_scaled = x_window * kSubpixelOne, y_scaled = y_window * kSubpixelOne;
+  v.x = round_to_fixed(x_scaled);
+  v.y = round_to_fixed(y_scaled);
+  v.dx = float(x_scaled - v.x);  // the subtraction is exact; float keeps 2^-24 of a subpixel
+  v.dy = float(y_scaled - v.y);
+  // 1.0f / d is float(1.0 / double(d)): a double quotient rounded to float is correctly rounded
+  // (53 >= 2 * 24 + 2 bits), so the cheaper float divide gives the same key.
+  v.key = orthographic ? -depth_view : 1.0f / depth_view;
   v.inv_w = float(inv_w);
-  return v;
 }
 
 // First and last pixel whose centre (j * 256 + 128) lies in [lo, hi] (fixed point).
 inline int32_t first_sample(int32_t lo) { return (lo - kSubpixelHalf + kSubpixelOne - 1) >> kSubpixelBits; }
 inline int32_t last_sample(int32_t hi) { return (hi - kSubpixelHalf) >> kSubpixelBits; }
 
-// Depth keys for the snapped vertices that reproduce the unsnapped triangle's depth plane.
+// Sets key_over_area from depth keys for the snapped vertices that reproduce the unsnapped
+// triangle's depth plane.
 //
 // Coverage must use the snapped triangle (exact edge functions => watertight), but its keys need
 // not: snapping moves a vertex by up to 1/512 px, and where depth changes fast across the screen
@@ -67,61 +69,81 @@ inline int32_t last_sample(int32_t hi) { return (hi - kSubpixelHalf) >> kSubpixe
 // window space, so evaluating the true plane at the snapped vertices makes the interpolated key
 // exact (to rounding) at every sample. Slivers, whose true plane is ill-conditioned, keep the
 // original keys.
-void true_plane_keys(const ProjectedVertex* const o[3], const TriangleSetup& t, float keys[3]) {
-  for (int k = 0; k < 3; ++k) keys[k] = o[k]->key;
-  const double x0 = o[0]->x_window, y0 = o[0]->y_window;
-  const double ex1 = o[1]->x_window - x0, ey1 = o[1]->y_window - y0;
-  const double ex2 = o[2]->x_window - x0, ey2 = o[2]->y_window - y0;
+void plane_keys_over_area(const ProjectedVertex* const o[3], TriangleSetup& t) {
+  const double area2 = double(t.area2);
+  // The unsnapped triangle's edges from vertex 0, in fixed-point units.
+  const double ex1 = double(t.x[1] - t.x[0]) + (double(o[1]->dx) - double(o[0]->dx));
+  const double ey1 = double(t.y[1] - t.y[0]) + (double(o[1]->dy) - double(o[0]->dy));
+  const double ex2 = double(t.x[2] - t.x[0]) + (double(o[2]->dx) - double(o[0]->dx));
+  const double ey2 = double(t.y[2] - t.y[0]) + (double(o[2]->dy) - double(o[0]->dy));
   const double area = ex1 * ey2 - ey1 * ex2;
-  if (!(std::fabs(area) > 1e-6)) return;
-  const double inv_area = 1.0 / area;
-  double fitted[3];
-  for (int k = 0; k < 3; ++k) {
-    const double dx = t.x[k] * (1.0 / kSubpixelOne) - x0, dy = t.y[k] * (1.0 / kSubpixelOne) - y0;
-    const double mu1 = (dx * ey2 - dy * ex2) * inv_area, mu2 = (ex1 * dy - ey1 * dx) * inv_area;
-    const double mu0 = 1.0 - mu1 - mu2;
-    // A well-shaped triangle has mu ~ the unit vector of vertex k; far from it => sliver.
-    if (std::fabs(mu0 - (k == 0)) > 0.25 || std::fabs(mu1 - (k == 1)) > 0.25 ||
-        std::fabs(mu2 - (k == 2)) > 0.25)
+  constexpr double kMinArea = 1e-6 * kSubpixelOne * kSubpixelOne;  // 1e-6 px^2
+  if (std::fabs(area) > kMinArea) {
+    // One division for both reciprocals (divisions dominate this function's latency).
+    const double r = 1.0 / (area * area2);
+    const double inv_area = area2 * r, inv_area2 = area * r;
+    const double dkey1 = double(o[1]->key) - double(o[0]->key);
+    const double dkey2 = double(o[2]->key) - double(o[0]->key);
+    bool well_shaped = true;
+    // Snapping moved vertex v by (-dx, -dy): the change of its barycentric coordinates in the
+    // unsnapped triangle. The plane's value there is v's key plus that change applied to the
+    // keys (the changes sum to 0), which keeps the small correction apart from the large key.
+    auto fitted = [&](const ProjectedVertex& v) {
+      const double sx = -double(v.dx), sy = -double(v.dy);
+      const double mu1 = (sx * ey2 - sy * ex2) * inv_area, mu2 = (ex1 * sy - ey1 * sx) * inv_area;
+      const double mu0 = -(mu1 + mu2);
+      const double key = double(v.key) + (mu1 * dkey1 + mu2 * dkey2);
+      // A well-shaped triangle moves its barycentrics a little; much more => sliver. The key's
+      // sign is its camera type.
+      well_shaped &= (std::fabs(mu0) <= 0.25) & (std::fabs(mu1) <= 0.25) &
+                     (std::fabs(mu2) <= 0.25) & ((key > 0.0) == (v.key > 0.0f));
+      return key;
+    };
+    const double key0 = fitted(*o[0]), key1 = fitted(*o[1]), key2 = fitted(*o[2]);
+    if (well_shaped) {
+      t.key_over_area[0] = float(key0 * inv_area2);
+      t.key_over_area[1] = float(key1 * inv_area2);
+      t.key_over_area[2] = float(key2 * inv_area2);
       return;
-    fitted[k] = mu0 * o[0]->key + mu1 * o[1]->key + mu2 * o[2]->key;
-    if ((fitted[k] > 0.0) != (o[k]->key > 0.0f)) return;  // the key's sign is its camera type
+    }
   }
-  for (int k = 0; k < 3; ++k) keys[k] = float(fitted[k]);
+  const double inv_area2 = 1.0 / area2;
+  for (int k = 0; k < 3; ++k) t.key_over_area[k] = float(double(o[k]->key) * inv_area2);
 }
 
 // Builds the record for one snapped triangle. Returns false if it is culled, degenerate or
-// covers no sample centre.
-bool setup_triangle(const ProjectedVertex* v[3], const SetupParams& params, uint32_t prim,
+// covers no sample centre; those integer tests come before any floating-point work.
+bool setup_triangle(const ProjectedVertex* const v[3], const SetupParams& params, uint32_t prim,
                     TriangleSetup& t, bool& swapped) {
   const int64_t area2 = int64_t(v[1]->x - v[0]->x) * (v[2]->y - v[0]->y) -
                         int64_t(v[1]->y - v[0]->y) * (v[2]->x - v[0]->x);
   if (area2 == 0) return false;  // Degenerate => cull.
   // y-down window space flips the sign of areas: counter-clockwise in NDC (OpenGL's front)
   // <=> area2 < 0 here, the triangle looking clockwise in these coordinates' algebra.
-  const bool front = (area2 < 0) != params.mirrored;
+  const bool front = (area2 < 0) != params.transform->mirrored;
   if (params.cull == Cull::Back && !front) return false;
   if (params.cull == Cull::Front && front) return false;
 
-  swapped = area2 < 0;  // orient every record the same way so E_k > 0 inside
-  const ProjectedVertex* o[3] = {v[0], swapped ? v[2] : v[1], swapped ? v[1] : v[2]};
-  int32_t x_min = INT32_MAX, x_max = INT32_MIN, y_min = INT32_MAX, y_max = INT32_MIN;
-  for (int k = 0; k < 3; ++k) {
-    t.x[k] = o[k]->x;
-    t.y[k] = o[k]->y;
-    x_min = std::min(x_min, t.x[k]); x_max = std::max(x_max, t.x[k]);
-    y_min = std::min(y_min, t.y[k]); y_max = std::max(y_max, t.y[k]);
-  }
+  const int32_t x_min = std::min({v[0]->x, v[1]->x, v[2]->x});
+  const int32_t x_max = std::max({v[0]->x, v[1]->x, v[2]->x});
+  const int32_t y_min = std::min({v[0]->y, v[1]->y, v[2]->y});
+  const int32_t y_max = std::max({v[0]->y, v[1]->y, v[2]->y});
   t.x0 = std::max(first_sample(x_min), 0);
   t.y0 = std::max(first_sample(y_min), 0);
   t.x1 = std::min(last_sample(x_max), params.viewport.width - 1);
   t.y1 = std::min(last_sample(y_max), params.viewport.height - 1);
-  if (t.x0 > t.x1 || t.y0 > t.y1) return false;  // No sample centre in the bounding box => cull.
+  // No sample centre in the bounding box => cull: most faces of a dense mesh end here.
+  if (t.x0 > t.x1 || t.y0 > t.y1) return false;
 
+  swapped = area2 < 0;  // orient every record the same way so E_k > 0 inside
+  const ProjectedVertex* const o[3] = {v[0], swapped ? v[2] : v[1], swapped ? v[1] : v[2]};
+  for (int k = 0; k < 3; ++k) {
+    t.x[k] = o[k]->x;
+    t.y[k] = o[k]->y;
+    t.inv_w[k] = o[k]->inv_w;
+  }
   t.area2 = swapped ? -area2 : area2;
-  float keys[3];
-  true_plane_keys(o, t, keys);
-  const double inv_area2 = 1.0 / double(t.area2);
+  plane_keys_over_area(o, t);
   for (int k = 0; k < 3; ++k) {
     // Edge k runs from vertex k+1 to k+2. Direct3D's top-left rule in y-down window space: with
     // this winding, a top edge runs exactly horizontally to the right (dy == 0, dx > 0) and a
@@ -130,8 +152,6 @@ bool setup_triangle(const ProjectedVertex* v[3], const SetupParams& params, uint
     const int32_t dx = t.x[b] - t.x[a], dy = t.y[b] - t.y[a];
     const bool top_left = dy < 0 || (dy == 0 && dx > 0);
     t.bias[k] = top_left ? 0 : 1;
-    t.key_over_area[k] = float(double(keys[k]) * inv_area2);
-    t.inv_w[k] = o[k]->inv_w;
   }
   t.prim = prim;
   t.draw = params.draw;
@@ -143,12 +163,55 @@ bool setup_triangle(const ProjectedVertex* v[3], const SetupParams& params, uint
   return true;
 }
 
-void clip_and_setup(const ProjectedVertex* v[3], uint8_t planes_mask, const SetupParams& params,
+// Appends a record and does the first pass of binning while the record is at hand: counts it in
+// every tile it overlaps (at tile_begin[tile + 2], see bin_records) and notes those tiles as
+// first tile | (columns - 1) << 16 | (rows - 1) << 24 (num_tiles <= 2^16, tiles_x, tiles_y <= 2^8).
+void emit(const TriangleSetup& t, const Viewport& vp, SetupChunk& out) {
+  const uint32_t tx0 = uint32_t(t.x0) / kTileSizePx, tx1 = uint32_t(t.x1) / kTileSizePx;
+  const uint32_t ty0 = uint32_t(t.y0) / kTileSizePx, ty1 = uint32_t(t.y1) / kTileSizePx;
+  const uint32_t first = ty0 * uint32_t(vp.tiles_x) + tx0;
+  uint32_t* count = out.tile_begin.data() + 2;
+  if (tx0 == tx1 && ty0 == ty1) {  // the common case: inside one tile
+    ++count[first];
+  } else {
+    for (uint32_t ty = ty0; ty <= ty1; ++ty)
+      for (uint32_t tx = tx0; tx <= tx1; ++tx) ++count[ty * uint32_t(vp.tiles_x) + tx];
+  }
+  out.records.push_back(t);
+  out.record_tiles.push_back(first | (tx1 - tx0) << 16 | (ty1 - ty0) << 24);
+}
+
+// Second pass of binning: a counting sort of (tile, record) pairs, which keeps records in
+// primitive order within a tile. After the prefix sum tile_begin[tile + 1] is the tile's start;
+// used as its cursor it ends as the tile's end, which is the next tile's begin.
+void bin_records(const Viewport& vp, SetupChunk& out) {
+  const uint32_t num_tiles = uint32_t(vp.num_tiles()), tiles_x = uint32_t(vp.tiles_x);
+  uint32_t* begin = out.tile_begin.data();
+  for (uint32_t i = 2; i < num_tiles + 2; ++i) begin[i] += begin[i - 1];
+  out.tile_records.resize(begin[num_tiles + 1]);
+  uint32_t* cursor = begin + 1;
+  uint32_t* records = out.tile_records.data();
+  const uint32_t* tiles = out.record_tiles.data();
+  for (uint32_t r = 0; r < uint32_t(out.record_tiles.size()); ++r) {
+    const uint32_t first = tiles[r] & 0xffffu, columns = (tiles[r] >> 16) & 0xffu,
+                   rows = tiles[r] >> 24;
+    if ((tiles[r] >> 16) == 0) {
+      records[cursor[first]++] = r;
+    } else {
+      for (uint32_t j = 0; j <= rows; ++j)
+        for (uint32_t i = 0; i <= columns; ++i) records[cursor[first + j * tiles_x + i]++] = r;
+    }
+  }
+  out.tile_begin.pop_back();
+}
+
+void clip_and_setup(const ivec3& face, uint8_t planes_mask, const SetupParams& params,
                     uint32_t prim, SetupChunk& out) {
   ClipPoint in[3];
   for (int k = 0; k < 3; ++k) {
-    in[k].p_clip = v[k]->p_clip;
-    in[k].depth_view = v[k]->depth_view;
+    const ClipVertex c = transform_point(*params.transform, params.mesh->positions[face[k]]);
+    in[k].p_clip = c.p_clip;
+    in[k].depth_view = c.depth_view;
     in[k].bary_source = vec3(0.0f);
     in[k].bary_source[k] = 1.0f;
   }
@@ -157,66 +220,56 @@ void clip_and_setup(const ProjectedVertex* v[3], uint8_t planes_mask, const Setu
   if (n < 3) return;
   ProjectedVertex projected[kMaxClipPoints];
   for (int i = 0; i < n; ++i) {
-    projected[i] = project(poly[i].p_clip, poly[i].depth_view, *params.planes, params.viewport,
-                           params.orthographic, /*snap_outside=*/true);
+    project(poly[i].p_clip, poly[i].depth_view, *params.planes, params.viewport,
+            params.orthographic, /*snap_outside=*/true, projected[i]);
     if (projected[i].outcode & kInvalidVertex) return;  // Unrepresentable after clipping => drop.
   }
   for (int i = 1; i + 1 < n; ++i) {  // fan: watertight inside, as all sub-triangles share snaps
-    const ProjectedVertex* tri[3] = {&projected[0], &projected[i], &projected[i + 1]};
+    const ProjectedVertex* const tri[3] = {&projected[0], &projected[i], &projected[i + 1]};
     TriangleSetup t;
     bool swapped = false;
     if (!setup_triangle(tri, params, prim, t, swapped)) continue;
     t.clip_ref = uint32_t(out.clip_bary.size() / 3);
     const int ids[3] = {0, swapped ? i + 1 : i, swapped ? i : i + 1};
     for (int k = 0; k < 3; ++k) out.clip_bary.push_back(poly[ids[k]].bary_source);
-    out.records.push_back(t);
+    emit(t, params.viewport, out);
   }
 }
 
 }  // namespace
 
-void project_vertices(const ClipVertex* in, std::size_t begin, std::size_t end,
-                      const ClipPlanes& planes, const Viewport& viewport, bool orthographic,
-                      ProjectedVertex* out) {
-  for (std::size_t i = begin; i < end; ++i)
-    out[i] = project(in[i - begin].p_clip, in[i - begin].depth_view, planes, viewport, orthographic, false);
+void project_vertices(const MeshData& mesh, const DrawTransform& xf, std::size_t begin,
+                      std::size_t end, const ClipPlanes& planes, const Viewport& viewport,
+                      bool orthographic, ProjectedVertex* out) {
+  const vec3* positions = mesh.positions.data();
+  for (std::size_t i = begin; i < end; ++i) {
+    const ClipVertex c = transform_point(xf, positions[i]);
+    project(c.p_clip, c.depth_view, planes, viewport, orthographic, false, out[i]);
+  }
 }
 
 void setup_chunk(const SetupParams& params, std::size_t begin, std::size_t end, SetupChunk& out) {
   out.records.clear();
+  out.record_tiles.clear();
   out.clip_bary.clear();
+  out.tile_begin.assign(params.viewport.num_tiles() + 2, 0);
   const ivec3* faces = params.mesh->faces.data();
   for (std::size_t f = begin; f < end; ++f) {
-    const ProjectedVertex* v[3] = {&params.vertices[faces[f].x], &params.vertices[faces[f].y],
-                                   &params.vertices[faces[f].z]};
+    const ProjectedVertex* const v[3] = {&params.vertices[faces[f].x],
+                                         &params.vertices[faces[f].y],
+                                         &params.vertices[faces[f].z]};
     const uint8_t any_out = v[0]->outcode | v[1]->outcode | v[2]->outcode;
     if (any_out & kInvalidVertex) continue;  // Non-finite after transform => drop.
     if (v[0]->outcode & v[1]->outcode & v[2]->outcode) continue;  // All outside one plane => cull.
     if (any_out == 0) {
       TriangleSetup t;
       bool swapped;
-      if (setup_triangle(v, params, uint32_t(f), t, swapped)) out.records.push_back(t);
+      if (setup_triangle(v, params, uint32_t(f), t, swapped)) emit(t, params.viewport, out);
     } else {
-      clip_and_setup(v, any_out, params, uint32_t(f), out);
+      clip_and_setup(faces[f], any_out, params, uint32_t(f), out);
     }
   }
-
-  // Bin: counting sort of (tile, record) pairs keeps records in primitive order within a tile.
-  const Viewport& vp = params.viewport;
-  out.tile_begin.assign(vp.num_tiles() + 1, 0);
-  for (const TriangleSetup& t : out.records)
-    for (int ty = t.y0 / kTileSizePx; ty <= t.y1 / kTileSizePx; ++ty)
-      for (int tx = t.x0 / kTileSizePx; tx <= t.x1 / kTileSizePx; ++tx)
-        ++out.tile_begin[ty * vp.tiles_x + tx + 1];
-  for (int i = 0; i < vp.num_tiles(); ++i) out.tile_begin[i + 1] += out.tile_begin[i];
-  out.tile_records.resize(out.tile_begin[vp.num_tiles()]);
-  std::vector<uint32_t> cursor(out.tile_begin.begin(), out.tile_begin.end() - 1);
-  for (uint32_t r = 0; r < out.records.size(); ++r) {
-    const TriangleSetup& t = out.records[r];
-    for (int ty = t.y0 / kTileSizePx; ty <= t.y1 / kTileSizePx; ++ty)
-      for (int tx = t.x0 / kTileSizePx; tx <= t.x1 / kTileSizePx; ++tx)
-        out.tile_records[cursor[ty * vp.tiles_x + tx]++] = r;
-  }
+  bin_records(params.viewport, out);
 }
 
 }  // namespace sr

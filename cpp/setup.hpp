@@ -20,21 +20,22 @@ struct Viewport {
 };
 
 // A vertex in window space, snapped; computed once per mesh vertex (and per clipping vertex).
-struct ProjectedVertex {
-  vec4 p_clip;
-  float depth_view;
-  double x_window, y_window;  // window coordinates before snapping, px
+// Kept to 32 bytes, two to a cache line: the setup pass fetches three per face, in index order.
+// Clip-space position and view depth are not stored: only the rare clipped triangle needs them,
+// and it recomputes them from the mesh (transform_point gives the same bits).
+struct alignas(32) ProjectedVertex {
   int32_t x, y;     // window coordinates, fixed point, valid when outcode == 0
+  float dx, dy;     // unsnapped - snapped window coordinates in fixed-point units, in [-1/2, 1/2]
   float key;        // depth key (pipeline.hpp)
   float inv_w;      // 1 / w_clip
   uint8_t outcode;  // ClipPlaneBit set; kInvalidVertex if not finite
 };
 constexpr uint8_t kInvalidVertex = 0x80;
 
-// Fills out[begin, end) from the clip-space vertices in[0 .. end - begin).
-void project_vertices(const ClipVertex* in, std::size_t begin, std::size_t end,
-                      const ClipPlanes& planes, const Viewport& viewport, bool orthographic,
-                      ProjectedVertex* out);
+// Transforms and projects the draw's vertices [begin, end) into out[begin, end).
+void project_vertices(const MeshData& mesh, const DrawTransform& xf, std::size_t begin,
+                      std::size_t end, const ClipPlanes& planes, const Viewport& viewport,
+                      bool orthographic, ProjectedVertex* out);
 
 // The triangles one chunk of a draw produced, binned to tiles. Records keep primitive order.
 struct SetupChunk {
@@ -42,13 +43,14 @@ struct SetupChunk {
   std::vector<vec3> clip_bary;           // 3 per clipped record: source weights of its vertices
   std::vector<uint32_t> tile_begin;      // num_tiles + 1 offsets into tile_records
   std::vector<uint32_t> tile_records;    // record indices, grouped by tile, ascending
+  std::vector<uint32_t> record_tiles;    // scratch: tiles each record overlaps (setup.cpp)
 };
 
 struct SetupParams {
   const MeshData* mesh;
+  const DrawTransform* transform;
   const ProjectedVertex* vertices;  // of this draw
   uint32_t draw;
-  bool mirrored;
   bool orthographic;
   Cull cull;
   const ClipPlanes* planes;

@@ -1,4 +1,4 @@
-// Transform stage: per-vertex model -> clip.
+// Transform stage: the matrices of a draw (the per-vertex work is transform_point, inline).
 #include "transform.hpp"
 
 #include <cmath>
@@ -17,16 +17,6 @@ DrawTransform make_draw_transform(const dmat4& model, const CameraParams& camera
   // the facing test with it, so the outside of a mirrored closed mesh stays its front.
   xf.normal_to_world = glm::inverseTranspose(m3);
   return xf;
-}
-
-void transform_vertices(const MeshData& mesh, const DrawTransform& xf, std::size_t begin,
-                        std::size_t end, ClipVertex* out) {
-  const vec3* positions = mesh.positions.data();
-  for (std::size_t i = begin; i < end; ++i) {
-    const vec4 p_view = xf.model_view * vec4(positions[i], 1.0f);
-    out[i - begin].p_clip = xf.proj * p_view;
-    out[i - begin].depth_view = -p_view.z;
-  }
 }
 
 }  // namespace sr

@@ -16,8 +16,21 @@ struct DrawTransform {
 
 DrawTransform make_draw_transform(const dmat4& model, const CameraParams& camera);
 
-// Transforms positions[begin, end) into clip space: out[0 .. end - begin).
-void transform_vertices(const MeshData& mesh, const DrawTransform& xf, std::size_t begin,
-                        std::size_t end, ClipVertex* out);
+// Clip-space position and view depth of one model-space point. Written out because GLM's
+// mat4 * vec4 is not inlined; the sums are grouped as GLM groups them, (c0 x + c1 y) + (c2 z + c3 w).
+// The vertex pass and the clipping path both call this, so a vertex recomputed for clipping has
+// exactly the bits the vertex pass classified.
+[[gnu::always_inline]] inline ClipVertex transform_point(const DrawTransform& xf, const vec3& p) {
+  const mat4& m = xf.model_view;
+  const mat4& c = xf.proj;
+  float v[4];
+  for (int r = 0; r < 4; ++r)  // the model-space point's w is 1: m[3][r] * 1 is m[3][r]
+    v[r] = (m[0][r] * p.x + m[1][r] * p.y) + (m[2][r] * p.z + m[3][r]);
+  ClipVertex out;
+  for (int r = 0; r < 4; ++r)
+    out.p_clip[r] = (c[0][r] * v[0] + c[1][r] * v[1]) + (c[2][r] * v[2] + c[3][r] * v[3]);
+  out.depth_view = -v[2];
+  return out;
+}
 
 }  // namespace sr
