@@ -199,11 +199,11 @@ bool same_frames(const Framebuffer& a, const Framebuffer& b) {
 }
 
 // Renderers are kept between inputs (as a Python user keeps one), so scratch reuse is fuzzed too.
-Renderer& renderer(int width, int height, int threads) {
-  static std::unique_ptr<Renderer> cache[4];
-  std::unique_ptr<Renderer>& r = cache[threads];
+Renderer& renderer(int width, int height, int threads, bool simd = true) {
+  static std::unique_ptr<Renderer> cache[4][2];
+  std::unique_ptr<Renderer>& r = cache[threads][simd];
   if (!r || r->width() != width || r->height() != height)
-    r = std::make_unique<Renderer>(width, height, threads);
+    r = std::make_unique<Renderer>(width, height, threads, simd);
   return *r;
 }
 
@@ -268,10 +268,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
         height, mesh->positions.size(), mesh->faces.size(), draws.size(),
         unsigned(options.outputs), hits);
 
-  if (flags & 2) {  // bit-identical for any thread count (README: determinism)
+  if (flags & 2) {  // bit-identical for any thread count and either kernel set (README: determinism)
     const int other = 1 + threads % 3;
-    auto fb2 = renderer(width, height, other).render(draws, camera, options);
-    if (!same_frames(*fb, *fb2)) fail("same frame for 1, 2 and 3 threads", -1);
+    const bool simd = !(flags & 4);
+    auto fb2 = renderer(width, height, other, simd).render(draws, camera, options);
+    if (!same_frames(*fb, *fb2)) fail("same frame for 1, 2 and 3 threads, AVX2 and generic kernels", -1);
   }
   return 0;
 }
