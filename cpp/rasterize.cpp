@@ -44,37 +44,30 @@ void rasterize_large(const TriangleSetup& t, int x0, int x1, int y0, int y1, con
 template <bool kCoverage>
 SR_INLINE void rasterize_small(const TriangleSetup& t, int x0, int x1, int y0, int y1,
                                const TileRect& rect, uint32_t index, TileScratch& s) {
-  const EdgeEquations eq = edge_equations(t, x0, y0);
-  const i8 lane = lane_index();
-  i8 row[3], step_x8[3], step_y[3], bias[3];
+  SmallEdges edges(edge_equations(t, x0, y0));
+  i8 bias[3];
   f8 key_k[3];
   for (int k = 0; k < 3; ++k) {
-    row[k] = splat(int32_t(eq.origin[k])) + lane * int32_t(eq.step_x[k]);
-    step_x8[k] = splat(int32_t(eq.step_x[k] * kLanes));
-    step_y[k] = splat(int32_t(eq.step_y[k]));
     bias[k] = splat(int32_t(t.bias[k]));
     key_k[k] = splat(t.key_over_area[k]);
   }
-  const i8 index_v = splat(int32_t(index));
+  const i8 lane = lane_index(), index_v = splat(int32_t(index));
   const int width = x1 - x0 + 1;
 
-  for (int y = y0; y <= y1; ++y) {
-    i8 e0 = row[0], e1 = row[1], e2 = row[2];
+  for (int y = y0; y <= y1; ++y, edges.next_row()) {
     int i = (y - rect.y0) * kTileSizePx + (x0 - rect.x0);
-    for (int dx = 0; dx < width; dx += kLanes, i += kLanes) {
-      const i8 inside = (((e0 - bias[0]) | (e1 - bias[1]) | (e2 - bias[2])) >= 0) &
+    SmallEdges::Cursor c = edges.cursor();
+    for (int dx = 0; dx < width; dx += kLanes, i += kLanes, c.next(edges)) {
+      const i8 inside = (((c.e[0] - bias[0]) | (c.e[1] - bias[1]) | (c.e[2] - bias[2])) >= 0) &
                         (lane < width - dx);
-      if (any(inside)) {
-        if constexpr (kCoverage) store(s.coverage + i, load<i8>(s.coverage + i) - inside);
-        const f8 key = to_float(e0) * key_k[0] + to_float(e1) * key_k[1] + to_float(e2) * key_k[2];
-        const f8 old = load<f8>(s.key + i);
-        const i8 win = inside & (key > old);  // strict: on a tie the earlier triangle stays
-        store(s.key + i, win ? key : old);
-        store(s.visible + i, win ? index_v : load<i8>(s.visible + i));
-      }
-      e0 += step_x8[0]; e1 += step_x8[1]; e2 += step_x8[2];
+      if (!any(inside)) continue;
+      if constexpr (kCoverage) store(s.coverage + i, load<i8>(s.coverage + i) - inside);
+      const f8 key = c.edge(0) * key_k[0] + c.edge(1) * key_k[1] + c.edge(2) * key_k[2];
+      const f8 old = load<f8>(s.key + i);
+      const i8 win = inside & (key > old);  // strict: on a tie the earlier triangle stays
+      store(s.key + i, win ? key : old);
+      store(s.visible + i, win ? index_v : load<i8>(s.visible + i));
     }
-    row[0] += step_y[0]; row[1] += step_y[1]; row[2] += step_y[2];
   }
 }
 

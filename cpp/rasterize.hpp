@@ -75,4 +75,24 @@ inline EdgeEquations edge_equations(const TriangleSetup& t, int x, int y) {
   return e;
 }
 
+// A small triangle's edge functions for eight pixels of a row in exact int32 (see above), stepped
+// eight pixels along a row (Cursor) and one row down (next_row); shared by raster and shading.
+struct SmallEdges {
+  simd::i8 row[3], step_x8[3], step_y[3];
+  SR_INLINE explicit SmallEdges(const EdgeEquations& eq) {
+    for (int k = 0; k < 3; ++k) {
+      row[k] = simd::splat(int32_t(eq.origin[k])) + simd::lane_index() * int32_t(eq.step_x[k]);
+      step_x8[k] = simd::splat(int32_t(eq.step_x[k] * simd::kLanes));
+      step_y[k] = simd::splat(int32_t(eq.step_y[k]));
+    }
+  }
+  struct Cursor {
+    simd::i8 e[3];  // exact E_k at the eight pixels
+    SR_INLINE simd::f8 edge(int k) const { return simd::to_float(e[k]); }
+    SR_INLINE void next(const SmallEdges& s) { for (int k = 0; k < 3; ++k) e[k] += s.step_x8[k]; }
+  };
+  SR_INLINE Cursor cursor() const { return {{row[0], row[1], row[2]}}; }
+  SR_INLINE void next_row() { for (int k = 0; k < 3; ++k) row[k] += step_y[k]; }
+};
+
 }  // namespace sr

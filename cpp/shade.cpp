@@ -17,8 +17,7 @@ inline vec3 unit(const dvec3& v) {
 }
 
 // Prepares one visible triangle: its perspective weights and its attributes at its own three
-// vertices. A clipped triangle's vertices carry weights of the
-// source face's corners; attributes are linear in those weights, so they are mapped here once.
+// vertices. A clipped triangle's vertices carry weights of the source face's corners; attributes are linear in those weights, so they are mapped here once.
 ShadeTriangle prepare(const ShadeParams& p, const VisibleTriangle& vt) {
   const TriangleSetup& t = *vt.tri;
   const ShadeDraw& d = p.draws[t.draw];
@@ -63,25 +62,7 @@ using namespace simd;
 
 // Eight lanes of float edge values E_k for pixels (x .. x + 7, y) of one triangle, stepped along
 // its rows; each lane holds float(E_k), rounded once from the exact value, as a scalar
-// float(int64) would. Small triangles (is_small) step exact int32 values, as the rasterizer does.
-struct SmallEdges {
-  i8 row[3], step_x8[3], step_y[3];
-  SR_INLINE explicit SmallEdges(const EdgeEquations& eq) {
-    for (int k = 0; k < 3; ++k) {
-      row[k] = splat(int32_t(eq.origin[k])) + lane_index() * int32_t(eq.step_x[k]);
-      step_x8[k] = splat(int32_t(eq.step_x[k] * kLanes));
-      step_y[k] = splat(int32_t(eq.step_y[k]));
-    }
-  }
-  struct Cursor {
-    i8 e[3];
-    SR_INLINE f8 edge(int k) const { return to_float(e[k]); }
-    SR_INLINE void next(const SmallEdges& s) { for (int k = 0; k < 3; ++k) e[k] += s.step_x8[k]; }
-  };
-  SR_INLINE Cursor cursor() const { return {{row[0], row[1], row[2]}}; }
-  SR_INLINE void next_row() { for (int k = 0; k < 3; ++k) row[k] += step_y[k]; }
-};
-
+// float(int64) would. Small triangles (is_small) use the rasterizer's SmallEdges.
 // Any triangle: exact values in double (|E| < 2^51 < 2^53), two halves of four lanes.
 struct LargeEdges {
   d4 lo[3], hi[3];
