@@ -38,7 +38,9 @@ void project_vertices(const MeshData& mesh, const DrawTransform& xf, std::size_t
                       bool orthographic, ProjectedVertex* out);
 
 // The triangles one chunk of a draw produced, binned to tiles. Records keep primitive order.
-struct SetupChunk {
+// Cache-line aligned: neighbouring chunks are set up by different threads, and every push_back
+// writes a vector's end pointer (sharing a line made the setup pass scale 1.1x on 2 threads).
+struct alignas(64) SetupChunk {
   std::vector<TriangleSetup> records;
   std::vector<vec3> clip_bary;           // 3 per clipped record: source weights of its vertices
   std::vector<uint32_t> tile_begin;      // num_tiles + 1 offsets into tile_records
