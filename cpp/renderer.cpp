@@ -117,7 +117,7 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   pool_.parallel_for(vertex_blocks.size(), [&](std::size_t item, int) {
     const Block& blk = vertex_blocks[item];
     project_vertices(*draws[blk.draw].mesh, transforms[blk.draw], blk.begin, blk.end, planes,
-                     viewport_, camera.orthographic, vertices_[blk.draw].data());
+                     viewport_, camera.orthographic, isa_, vertices_[blk.draw].data());
   });
 
   // Setup and binning, parallel over fixed-size triangle chunks (primitive order is kept).

@@ -3,6 +3,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
+
+#include "simd.hpp"
 
 namespace sr {
 
@@ -236,16 +239,170 @@ void clip_and_setup(const ivec3& face, uint8_t planes_mask, const SetupParams& p
   }
 }
 
+using namespace simd;
+
+static_assert(sizeof(ProjectedVertex) == kLanes * sizeof(int32_t) &&
+                  offsetof(ProjectedVertex, dx) == 8 && offsetof(ProjectedVertex, key) == 16 &&
+                  offsetof(ProjectedVertex, inv_w) == 20 && offsetof(ProjectedVertex, outcode) == 24,
+              "project_eight writes a ProjectedVertex as eight 32-bit words");
+
+typedef int64_t l4 __attribute__((vector_size(32)));
+
+SR_INLINE i8 float_bits(f8 v) { return i8(v); }
+SR_INLINE f4 low_half(f8 v) { return __builtin_shufflevector(v, v, 0, 1, 2, 3); }
+SR_INLINE f4 high_half(f8 v) { return __builtin_shufflevector(v, v, 4, 5, 6, 7); }
+// A lane mask (all-ones or zero per lane) as one bit per lane.
+SR_INLINE unsigned mask_bits(i8 mask) {
+  const i4 lo = __builtin_shufflevector(mask, mask, 0, 1, 2, 3);
+  const i4 hi = __builtin_shufflevector(mask, mask, 4, 5, 6, 7);
+  return unsigned(_mm_movemask_ps(__m128(lo)) | _mm_movemask_ps(__m128(hi)) << 4);
+}
+SR_INLINE unsigned mask_bits(l4 mask) {
+  const __m128d lo = __m128d(__builtin_shufflevector(mask, mask, 0, 1));
+  const __m128d hi = __m128d(__builtin_shufflevector(mask, mask, 2, 3));
+  return unsigned(_mm_movemask_pd(lo) | _mm_movemask_pd(hi) << 2);
+}
+
+// Eight vertices [i, i + 8) at once, lane by lane the operations of transform_point and project
+// (IEEE operations in the same order, no contraction), so the same bits. A vertex that project()
+// would not write plainly (outside a plane, not finite, w <= 0, outside the guard band's limit)
+// is redone by project() itself afterwards.
+SR_INLINE void project_eight(const vec3* positions, const DrawTransform& xf, std::size_t i,
+                             const ClipPlanes& planes, const Viewport& viewport, bool orthographic,
+                             ProjectedVertex* out) {
+  // De-interleave eight xyz triples: contiguous loads and shuffles (gathers are slow here).
+  const f8 a = load<f8>(&positions[i].x), b = load<f8>(&positions[i].x + 8),
+           c = load<f8>(&positions[i].x + 16);
+  const f8 ab_x = __builtin_shufflevector(a, b, 0, 3, 6, 9, 12, 15, 0, 0);
+  const f8 ab_y = __builtin_shufflevector(a, b, 1, 4, 7, 10, 13, 0, 0, 0);
+  const f8 ab_z = __builtin_shufflevector(a, b, 2, 5, 8, 11, 14, 0, 0, 0);
+  const f8 px = __builtin_shufflevector(ab_x, c, 0, 1, 2, 3, 4, 5, 10, 13);
+  const f8 py = __builtin_shufflevector(ab_y, c, 0, 1, 2, 3, 4, 8, 11, 14);
+  const f8 pz = __builtin_shufflevector(ab_z, c, 0, 1, 2, 3, 4, 9, 12, 15);
+
+  const mat4& m = xf.model_view;
+  const mat4& proj = xf.proj;
+  f8 v[4], clip[4];
+  for (int r = 0; r < 4; ++r)
+    v[r] = (splat(m[0][r]) * px + splat(m[1][r]) * py) + (splat(m[2][r]) * pz + splat(m[3][r]));
+  for (int r = 0; r < 4; ++r)
+    clip[r] = (splat(proj[0][r]) * v[0] + splat(proj[1][r]) * v[1]) +
+              (splat(proj[2][r]) * v[2] + splat(proj[3][r]) * v[3]);
+  const f8 depth_view = -v[2];
+
+  const i8 exponent = splat(int32_t(0x7f800000));
+  const i8 finite = ((float_bits(clip[0]) & exponent) != exponent) &
+                    ((float_bits(clip[1]) & exponent) != exponent) &
+                    ((float_bits(clip[2]) & exponent) != exponent) &
+                    ((float_bits(clip[3]) & exponent) != exponent) &
+                    ((float_bits(depth_view) & exponent) != exponent);
+  unsigned plain = mask_bits(finite);
+
+  // The double-precision part, four lanes at a time.
+  constexpr double kLimit = 32768.0 - 1.0;
+  const l4 sign = broadcast<l4>(int64_t(0x8000000000000000ull)), half = l4(broadcast<d4>(0.5));
+  const double width = double(viewport.width), height = double(viewport.height);
+  i4 fixed[2][2];  // [x / y][half]
+  f4 residual[2][2], inv_w_f[2];
+  for (int h = 0; h < 2; ++h) {
+    const auto part = [h](f8 v) {
+      return __builtin_convertvector(h == 0 ? low_half(v) : high_half(v), d4);
+    };
+    const d4 x = part(clip[0]), y = part(clip[1]), w = part(clip[3]), d = part(depth_view);
+    // ClipPlanes::outcode() == 0, project()'s w > 0 and depth > 0, and its window-limit test.
+    l4 inside = (d - planes.near >= 0.0) & (planes.far - d >= 0.0) &
+                (x - planes.ndc_x_min * w >= 0.0) & (planes.ndc_x_max * w - x >= 0.0) &
+                (planes.ndc_y_max * w - y >= 0.0) & (y - planes.ndc_y_min * w >= 0.0) &
+                (w > 0.0) & (d > 0.0);
+    const d4 inv_w = 1.0 / w;
+    const d4 window[2] = {(x * inv_w + 1.0) * 0.5 * width, (1.0 - y * inv_w) * 0.5 * height};
+    for (int k = 0; k < 2; ++k) {
+      inside &= d4(l4(window[k]) & ~sign) < kLimit;  // |window| < kLimit
+      // round_to_fixed: + or - 1/2 by the sign bit, then truncate.
+      const d4 scaled = window[k] * double(kSubpixelOne);
+      fixed[k][h] = __builtin_convertvector(scaled + d4((l4(scaled) & sign) | half), i4);
+      residual[k][h] = __builtin_convertvector(scaled - __builtin_convertvector(fixed[k][h], d4), f4);
+    }
+    inv_w_f[h] = __builtin_convertvector(inv_w, f4);
+    plain &= mask_bits(inside) << (4 * h) | (0xfu << (4 - 4 * h));
+  }
+  const auto join = [](auto lo, auto hi) {
+    return __builtin_shufflevector(lo, hi, 0, 1, 2, 3, 4, 5, 6, 7);
+  };
+  const i8 xi = join(fixed[0][0], fixed[0][1]), yi = join(fixed[1][0], fixed[1][1]);
+  const f8 dx = join(residual[0][0], residual[0][1]), dy = join(residual[1][0], residual[1][1]);
+  const f8 key = orthographic ? -depth_view : 1.0f / depth_view;
+  const f8 inv_w_8 = join(inv_w_f[0], inv_w_f[1]);
+
+  // Eight records: an 8x8 transpose of (x, y, dx, dy, key, inv_w, outcode = 0, padding = 0).
+  const i8 r0 = xi, r1 = yi, r2 = float_bits(dx), r3 = float_bits(dy), r4 = float_bits(key),
+           r5 = float_bits(inv_w_8), r6{}, r7{};
+  const i8 t0 = __builtin_shufflevector(r0, r1, 0, 8, 1, 9, 4, 12, 5, 13);
+  const i8 t1 = __builtin_shufflevector(r0, r1, 2, 10, 3, 11, 6, 14, 7, 15);
+  const i8 t2 = __builtin_shufflevector(r2, r3, 0, 8, 1, 9, 4, 12, 5, 13);
+  const i8 t3 = __builtin_shufflevector(r2, r3, 2, 10, 3, 11, 6, 14, 7, 15);
+  const i8 t4 = __builtin_shufflevector(r4, r5, 0, 8, 1, 9, 4, 12, 5, 13);
+  const i8 t5 = __builtin_shufflevector(r4, r5, 2, 10, 3, 11, 6, 14, 7, 15);
+  const i8 t6 = __builtin_shufflevector(r6, r7, 0, 8, 1, 9, 4, 12, 5, 13);
+  const i8 t7 = __builtin_shufflevector(r6, r7, 2, 10, 3, 11, 6, 14, 7, 15);
+  const i8 s0 = __builtin_shufflevector(t0, t2, 0, 1, 8, 9, 4, 5, 12, 13);
+  const i8 s1 = __builtin_shufflevector(t0, t2, 2, 3, 10, 11, 6, 7, 14, 15);
+  const i8 s2 = __builtin_shufflevector(t1, t3, 0, 1, 8, 9, 4, 5, 12, 13);
+  const i8 s3 = __builtin_shufflevector(t1, t3, 2, 3, 10, 11, 6, 7, 14, 15);
+  const i8 s4 = __builtin_shufflevector(t4, t6, 0, 1, 8, 9, 4, 5, 12, 13);
+  const i8 s5 = __builtin_shufflevector(t4, t6, 2, 3, 10, 11, 6, 7, 14, 15);
+  const i8 s6 = __builtin_shufflevector(t5, t7, 0, 1, 8, 9, 4, 5, 12, 13);
+  const i8 s7 = __builtin_shufflevector(t5, t7, 2, 3, 10, 11, 6, 7, 14, 15);
+  ProjectedVertex* o = out + i;
+  store(o + 0, __builtin_shufflevector(s0, s4, 0, 1, 2, 3, 8, 9, 10, 11));
+  store(o + 1, __builtin_shufflevector(s1, s5, 0, 1, 2, 3, 8, 9, 10, 11));
+  store(o + 2, __builtin_shufflevector(s2, s6, 0, 1, 2, 3, 8, 9, 10, 11));
+  store(o + 3, __builtin_shufflevector(s3, s7, 0, 1, 2, 3, 8, 9, 10, 11));
+  store(o + 4, __builtin_shufflevector(s0, s4, 4, 5, 6, 7, 12, 13, 14, 15));
+  store(o + 5, __builtin_shufflevector(s1, s5, 4, 5, 6, 7, 12, 13, 14, 15));
+  store(o + 6, __builtin_shufflevector(s2, s6, 4, 5, 6, 7, 12, 13, 14, 15));
+  store(o + 7, __builtin_shufflevector(s3, s7, 4, 5, 6, 7, 12, 13, 14, 15));
+
+  for (unsigned redo = ~plain & 0xffu; redo != 0; redo &= redo - 1) {
+    const int k = __builtin_ctz(redo);
+    const ClipVertex cv = transform_point(xf, positions[i + k]);
+    project(cv.p_clip, cv.depth_view, planes, viewport, orthographic, false, o[k]);
+  }
+}
+
+SR_INLINE void project_range(const MeshData& mesh, const DrawTransform& xf, std::size_t begin,
+                             std::size_t end, const ClipPlanes& planes, const Viewport& viewport,
+                             bool orthographic, ProjectedVertex* out) {
+  const vec3* positions = mesh.positions.data();
+  std::size_t i = begin;
+  for (; i + kLanes <= end; i += kLanes)
+    project_eight(positions, xf, i, planes, viewport, orthographic, out);
+  for (; i < end; ++i) {
+    const ClipVertex c = transform_point(xf, positions[i]);
+    project(c.p_clip, c.depth_view, planes, viewport, orthographic, false, out[i]);
+  }
+}
+
+SR_TARGET_AVX2 void project_range_avx2(const MeshData& mesh, const DrawTransform& xf,
+                                       std::size_t begin, std::size_t end,
+                                       const ClipPlanes& planes, const Viewport& viewport,
+                                       bool orthographic, ProjectedVertex* out) {
+  project_range(mesh, xf, begin, end, planes, viewport, orthographic, out);
+}
+
+void project_range_generic(const MeshData& mesh, const DrawTransform& xf, std::size_t begin,
+                           std::size_t end, const ClipPlanes& planes, const Viewport& viewport,
+                           bool orthographic, ProjectedVertex* out) {
+  project_range(mesh, xf, begin, end, planes, viewport, orthographic, out);
+}
+
 }  // namespace
 
 void project_vertices(const MeshData& mesh, const DrawTransform& xf, std::size_t begin,
                       std::size_t end, const ClipPlanes& planes, const Viewport& viewport,
-                      bool orthographic, ProjectedVertex* out) {
-  const vec3* positions = mesh.positions.data();
-  for (std::size_t i = begin; i < end; ++i) {
-    const ClipVertex c = transform_point(xf, positions[i]);
-    project(c.p_clip, c.depth_view, planes, viewport, orthographic, false, out[i]);
-  }
+                      bool orthographic, Isa isa, ProjectedVertex* out) {
+  (isa == Isa::Avx2 ? project_range_avx2 : project_range_generic)(mesh, xf, begin, end, planes,
+                                                                  viewport, orthographic, out);
 }
 
 void setup_chunk(const SetupParams& params, std::size_t begin, std::size_t end, SetupChunk& out) {

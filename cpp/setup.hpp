@@ -3,6 +3,7 @@
 
 #include "clip.hpp"
 #include "pipeline.hpp"
+#include "simd.hpp"
 #include "transform.hpp"
 
 namespace sr {
@@ -32,10 +33,11 @@ struct alignas(32) ProjectedVertex {
 };
 constexpr uint8_t kInvalidVertex = 0x80;
 
-// Transforms and projects the draw's vertices [begin, end) into out[begin, end).
+// Transforms and projects the draw's vertices [begin, end) into out[begin, end), eight at a time
+// with the kernel for `isa` (the same bits for either).
 void project_vertices(const MeshData& mesh, const DrawTransform& xf, std::size_t begin,
                       std::size_t end, const ClipPlanes& planes, const Viewport& viewport,
-                      bool orthographic, ProjectedVertex* out);
+                      bool orthographic, Isa isa, ProjectedVertex* out);
 
 // The triangles one chunk of a draw produced, binned to tiles. Records keep primitive order.
 // Cache-line aligned: neighbouring chunks are set up by different threads, and every push_back

@@ -49,7 +49,7 @@ SR_INLINE void store(T* p, V v) {
 template <typename V, typename T>
 SR_INLINE V broadcast(T v) {
   V r;
-  for (int k = 0; k < kLanes; ++k) r[k] = v;
+  for (int k = 0; k < int(sizeof(V) / sizeof(T)); ++k) r[k] = v;
   return r;
 }
 SR_INLINE f8 splat(float v) { return broadcast<f8>(v); }
