@@ -71,6 +71,36 @@ SR_INLINE void rasterize_small(const TriangleSetup& t, int x0, int x1, int y0, i
   }
 }
 
+// A small triangle whose box (within the tile) is at most four pixels wide and more than one
+// row high: two rows of four pixels at a time (SmallEdgePairs), otherwise as rasterize_small.
+template <bool kCoverage>
+SR_INLINE void rasterize_pairs(const TriangleSetup& t, int x0, int x1, int y0, int y1,
+                               const TileRect& rect, uint32_t index, TileScratch& s) {
+  SmallEdgePairs edges(edge_equations(t, x0, y0));
+  i8 bias[3];
+  f8 key_k[3];
+  for (int k = 0; k < 3; ++k) {
+    bias[k] = splat(int32_t(t.bias[k]));
+    key_k[k] = splat(t.key_over_area[k]);
+  }
+  const i8 lane = lane_index(), index_v = splat(int32_t(index));
+  const i8 column = lane & 3, row = lane >> 2;
+  const i8 in_box_x = column < x1 - x0 + 1;
+  for (int y = y0; y <= y1; y += 2, edges.next_rows()) {
+    const int i = (y - rect.y0) * kTileSizePx + (x0 - rect.x0);
+    const i8 inside = (((edges.e[0] - bias[0]) | (edges.e[1] - bias[1]) | (edges.e[2] - bias[2])) >= 0) &
+                      in_box_x & (row < y1 - y + 1);
+    if (!any(inside)) continue;
+    if constexpr (kCoverage)
+      store_pair(s.coverage + i, kTileSizePx, load_pair<i8>(s.coverage + i, kTileSizePx) - inside);
+    const f8 key = edges.edge(0) * key_k[0] + edges.edge(1) * key_k[1] + edges.edge(2) * key_k[2];
+    const f8 old = load_pair<f8>(s.key + i, kTileSizePx);
+    const i8 win = inside & (key > old);  // strict: on a tie the earlier triangle stays
+    store_pair(s.key + i, kTileSizePx, win ? key : old);
+    store_pair(s.visible + i, kTileSizePx, win ? index_v : load_pair<i8>(s.visible + i, kTileSizePx));
+  }
+}
+
 template <bool kCoverage>
 SR_INLINE void rasterize_all(const TileRect& rect, int tile, const std::vector<SetupChunk>& chunks,
                              std::size_t num_chunks, TileScratch& s) {
@@ -83,10 +113,15 @@ SR_INLINE void rasterize_all(const TileRect& rect, int tile, const std::vector<S
       const int x0 = std::max(int(t.x0), rect.x0), x1 = std::min(int(t.x1), rect.x1 - 1);
       const int y0 = std::max(int(t.y0), rect.y0), y1 = std::min(int(t.y1), rect.y1 - 1);
       if (x0 > x1 || y0 > y1) continue;
-      if (is_small(t))
-        rasterize_small<kCoverage>(t, x0, x1, y0, y1, rect, index, s);
-      else
+      if (is_small(t)) {
+        if (x1 - x0 < 4 && y1 > y0)
+          rasterize_pairs<kCoverage>(t, x0, x1, y0, y1, rect, index, s);
+        else
+          rasterize_small<kCoverage>(t, x0, x1, y0, y1, rect, index, s);
+      }
+      else {
         rasterize_large<kCoverage>(t, x0, x1, y0, y1, rect, index, s);
+      }
     }
   }
 }

@@ -28,9 +28,10 @@ constexpr uint32_t kNoTriangle = 0xffffffffu;
 constexpr int kTilePixels = kTileSizePx * kTileSizePx;
 
 // Per-thread scratch, reused from tile to tile (row stride kTileSizePx). The kernels read and
-// write eight pixels at a time from any column, so rows may spill up to kLanes - 1 pixels into the
-// next row (lanes masked off, values kept) and the arrays have that much padding at the end.
-constexpr int kTileScratchPixels = kTilePixels + simd::kLanes;
+// write eight pixels of a row, or four pixels of two rows, at a time from any pixel, so they may
+// spill up to kLanes - 1 pixels into the next row or one row past the last (lanes masked off,
+// values kept): the arrays have that much padding at the end.
+constexpr int kTileScratchPixels = kTilePixels + kTileSizePx + simd::kLanes;
 struct TileScratch {
   float key[kTileScratchPixels];         // depth key of the nearest fragment so far (larger = closer)
   uint32_t visible[kTileScratchPixels];  // index into `triangles`, or kNoTriangle
@@ -93,6 +94,23 @@ struct SmallEdges {
   };
   SR_INLINE Cursor cursor() const { return {{row[0], row[1], row[2]}}; }
   SR_INLINE void next_row() { for (int k = 0; k < 3; ++k) row[k] += step_y[k]; }
+};
+
+// The same for boxes at most four pixels wide: lanes 0-3 are pixels (x .. x + 3, y), lanes 4-7
+// the pixels below them, so a tiny triangle takes half the iterations. The values are those of
+// SmallEdges at the same pixels (the same exact integers).
+struct SmallEdgePairs {
+  simd::i8 e[3], step_y2[3];
+  SR_INLINE explicit SmallEdgePairs(const EdgeEquations& eq) {
+    const simd::i8 lane = simd::lane_index(), dx = lane & 3, dy = lane >> 2;
+    for (int k = 0; k < 3; ++k) {
+      e[k] = simd::splat(int32_t(eq.origin[k])) + dx * int32_t(eq.step_x[k]) +
+             dy * int32_t(eq.step_y[k]);
+      step_y2[k] = simd::splat(int32_t(eq.step_y[k] * 2));
+    }
+  }
+  SR_INLINE simd::f8 edge(int k) const { return simd::to_float(e[k]); }
+  SR_INLINE void next_rows() { for (int k = 0; k < 3; ++k) e[k] += step_y2[k]; }
 };
 
 }  // namespace sr

@@ -102,59 +102,102 @@ SR_INLINE i8 to_unorm8(f8 v) {
   return __builtin_convertvector(c * 255.0f + 0.5f, i8);
 }
 
+// Per-draw constants of shade_group.
+struct ShadeConstants {
+  f8 persp[3], light[3], ambient, diffuse;
+  SR_INLINE ShadeConstants(const ShadeParams& p, const ShadeTriangle& s) {
+    for (int k = 0; k < 3; ++k) {
+      persp[k] = splat(s.persp[k]);
+      light[k] = splat(p.to_light_world[k]);
+    }
+    ambient = splat(p.ambient);
+    diffuse = splat(1.0f - p.ambient);
+  }
+};
+
+// Shades eight pixels of one triangle from their exact edge values e0..e2, writing the lanes in
+// `mine` to the scratch buffers at i: eight pixels of a row, or with kPairs four pixels of row i
+// and four of the row below.
+template <bool kColor, bool kLit, bool kNormal, bool kPairs>
+SR_INLINE void shade_group(const ShadeTriangle& s, const ShadeConstants& c, f8 e0, f8 e1, f8 e2,
+                           i8 mine, int i, ShadeScratch& out) {
+  const auto merge = [&](auto* p, auto v) {
+    using V = decltype(v);
+    if constexpr (kPairs)
+      store_pair(p, kTileSizePx, mine ? v : load_pair<V>(p, kTileSizePx));
+    else
+      store(p, mine ? v : load<V>(p));
+  };
+  // Perspective-correct barycentrics from the exact edge values.
+  f8 b0 = e0 * c.persp[0], b1 = e1 * c.persp[1], b2 = e2 * c.persp[2];
+  const f8 inv_sum = 1.0f / (b0 + b1 + b2);
+  b0 *= inv_sum; b1 *= inv_sum; b2 *= inv_sum;
+  f8 nx{}, ny{}, nz{};
+  if constexpr (kLit || kNormal) {
+    nx = b0 * s.normal[0].x + b1 * s.normal[1].x + b2 * s.normal[2].x;
+    ny = b0 * s.normal[0].y + b1 * s.normal[1].y + b2 * s.normal[2].y;
+    nz = b0 * s.normal[0].z + b1 * s.normal[1].z + b2 * s.normal[2].z;
+    const f8 len2 = nx * nx + ny * ny + nz * nz;
+    const f8 r = 1.0f / simd::sqrt(len2);
+    const i8 nonzero = len2 > 0.0f;
+    nx = nonzero ? nx * r : f8{};
+    ny = nonzero ? ny * r : f8{};
+    nz = nonzero ? nz * r : f8{};
+  }
+  if constexpr (kNormal) {
+    merge(out.normal[0] + i, nx);
+    merge(out.normal[1] + i, ny);
+    merge(out.normal[2] + i, nz);
+  }
+  if constexpr (kColor) {
+    f8 r = b0 * s.color[0].x + b1 * s.color[1].x + b2 * s.color[2].x;
+    f8 g = b0 * s.color[0].y + b1 * s.color[1].y + b2 * s.color[2].y;
+    f8 b = b0 * s.color[0].z + b1 * s.color[1].z + b2 * s.color[2].z;
+    if constexpr (kLit) {
+      const f8 d = nx * c.light[0] + ny * c.light[1] + nz * c.light[2];
+      const f8 f = c.ambient + c.diffuse * (f8{} < d ? d : f8{});
+      r *= f; g *= f; b *= f;
+    }
+    merge(out.rgb + i, to_unorm8(r) | (to_unorm8(g) << 8) | (to_unorm8(b) << 16));
+  }
+}
+
 // Shades the pixels of rows [y0, y1], columns [x0, x1] of the tile that visible triangle `index`
 // owns, into the scratch buffers.
 template <bool kColor, bool kLit, bool kNormal, typename Edges>
 SR_INLINE void shade_pixels(const ShadeParams& p, const ShadeTriangle& s, Edges edges, int x0,
                             int x1, int y0, int y1, const TileRect& rect,
                             const TileScratch& raster, uint32_t index, ShadeScratch& out) {
-  const f8 persp0 = splat(s.persp[0]), persp1 = splat(s.persp[1]), persp2 = splat(s.persp[2]);
-  const f8 light_x = splat(p.to_light_world.x), light_y = splat(p.to_light_world.y),
-           light_z = splat(p.to_light_world.z);
-  const f8 ambient = splat(p.ambient), diffuse = splat(1.0f - p.ambient);
+  const ShadeConstants c(p, s);
   const i8 lane = lane_index(), index_v = splat(int32_t(index));
   const int width = x1 - x0 + 1;
-
   for (int y = y0; y <= y1; ++y, edges.next_row()) {
     int i = (y - rect.y0) * kTileSizePx + (x0 - rect.x0);
     typename Edges::Cursor cursor = edges.cursor();
     for (int dx = 0; dx < width; dx += kLanes, i += kLanes, cursor.next(edges)) {
       const i8 mine = (load<i8>(raster.visible + i) == index_v) & (lane < width - dx);
-      if (!any(mine)) continue;
-      // Perspective-correct barycentrics from the exact edge values.
-      f8 b0 = cursor.edge(0) * persp0, b1 = cursor.edge(1) * persp1, b2 = cursor.edge(2) * persp2;
-      const f8 inv_sum = 1.0f / (b0 + b1 + b2);
-      b0 *= inv_sum; b1 *= inv_sum; b2 *= inv_sum;
-      f8 nx{}, ny{}, nz{};
-      if constexpr (kLit || kNormal) {
-        nx = b0 * s.normal[0].x + b1 * s.normal[1].x + b2 * s.normal[2].x;
-        ny = b0 * s.normal[0].y + b1 * s.normal[1].y + b2 * s.normal[2].y;
-        nz = b0 * s.normal[0].z + b1 * s.normal[1].z + b2 * s.normal[2].z;
-        const f8 len2 = nx * nx + ny * ny + nz * nz;
-        const f8 r = 1.0f / simd::sqrt(len2);
-        const i8 nonzero = len2 > 0.0f;
-        nx = nonzero ? nx * r : f8{};
-        ny = nonzero ? ny * r : f8{};
-        nz = nonzero ? nz * r : f8{};
-      }
-      if constexpr (kNormal) {
-        store(out.normal[0] + i, mine ? nx : load<f8>(out.normal[0] + i));
-        store(out.normal[1] + i, mine ? ny : load<f8>(out.normal[1] + i));
-        store(out.normal[2] + i, mine ? nz : load<f8>(out.normal[2] + i));
-      }
-      if constexpr (kColor) {
-        f8 r = b0 * s.color[0].x + b1 * s.color[1].x + b2 * s.color[2].x;
-        f8 g = b0 * s.color[0].y + b1 * s.color[1].y + b2 * s.color[2].y;
-        f8 b = b0 * s.color[0].z + b1 * s.color[1].z + b2 * s.color[2].z;
-        if constexpr (kLit) {
-          const f8 d = nx * light_x + ny * light_y + nz * light_z;
-          const f8 f = ambient + diffuse * (f8{} < d ? d : f8{});
-          r *= f; g *= f; b *= f;
-        }
-        const i8 packed = to_unorm8(r) | (to_unorm8(g) << 8) | (to_unorm8(b) << 16);
-        store(out.rgb + i, mine ? packed : load<i8>(out.rgb + i));
-      }
+      if (any(mine))
+        shade_group<kColor, kLit, kNormal, false>(s, c, cursor.edge(0), cursor.edge(1),
+                                                  cursor.edge(2), mine, i, out);
     }
+  }
+}
+
+// The same for a small triangle whose box is at most four pixels wide, two rows at a time.
+template <bool kColor, bool kLit, bool kNormal>
+SR_INLINE void shade_pairs(const ShadeParams& p, const ShadeTriangle& s, SmallEdgePairs edges,
+                           int x0, int x1, int y0, int y1, const TileRect& rect,
+                           const TileScratch& raster, uint32_t index, ShadeScratch& out) {
+  const ShadeConstants c(p, s);
+  const i8 lane = lane_index(), index_v = splat(int32_t(index));
+  const i8 in_box_x = (lane & 3) < x1 - x0 + 1, row = lane >> 2;
+  for (int y = y0; y <= y1; y += 2, edges.next_rows()) {
+    const int i = (y - rect.y0) * kTileSizePx + (x0 - rect.x0);
+    const i8 mine = (load_pair<i8>(raster.visible + i, kTileSizePx) == index_v) & in_box_x &
+                    (row < y1 - y + 1);
+    if (any(mine))
+      shade_group<kColor, kLit, kNormal, true>(s, c, edges.edge(0), edges.edge(1),
+                                               edges.edge(2), mine, i, out);
   }
 }
 
@@ -167,7 +210,9 @@ SR_INLINE void shade_triangle(const ShadeParams& p, const TileRect& rect, const 
   const int y0 = std::max(int(t.y0), rect.y0), y1 = std::min(int(t.y1), rect.y1 - 1);
   const ShadeTriangle s = prepare(p, vt);
   const EdgeEquations eq = edge_equations(t, x0, y0);
-  if (is_small(t))
+  if (is_small(t) && x1 - x0 < 4 && y1 > y0)
+    shade_pairs<kColor, kLit, kNormal>(p, s, SmallEdgePairs(eq), x0, x1, y0, y1, rect, raster, index, out);
+  else if (is_small(t))
     shade_pixels<kColor, kLit, kNormal>(p, s, SmallEdges(eq), x0, x1, y0, y1, rect, raster, index, out);
   else
     shade_pixels<kColor, kLit, kNormal>(p, s, LargeEdges(eq), x0, x1, y0, y1, rect, raster, index, out);

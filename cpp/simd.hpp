@@ -44,6 +44,18 @@ template <typename V, typename T>
 SR_INLINE void store(T* p, V v) {
   std::memcpy(p, &v, sizeof v);
 }
+// Four values at p and four at p + stride as one vector (lanes 0-3, 4-7), and back.
+template <typename V, typename T>
+SR_INLINE V load_pair(const T* p, int stride) {
+  typedef T half __attribute__((vector_size(sizeof(V) / 2)));
+  const half lo = load<half>(p), hi = load<half>(p + stride);
+  return V(__builtin_shufflevector(lo, hi, 0, 1, 2, 3, 4, 5, 6, 7));
+}
+template <typename V, typename T>
+SR_INLINE void store_pair(T* p, int stride, V v) {
+  store(p, __builtin_shufflevector(v, v, 0, 1, 2, 3));
+  store(p + stride, __builtin_shufflevector(v, v, 4, 5, 6, 7));
+}
 // Broadcasts written as loops: GCC turns them into one vpbroadcast (an initializer list or
 // `f8{} + v` became a chain of inserts).
 template <typename V, typename T>

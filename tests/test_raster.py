@@ -179,6 +179,21 @@ def test_fill_rule_random_triangles_on_centres(rng):
     np.testing.assert_array_equal(frame.coverage, expected)
 
 
+def test_tiny_triangles_across_tile_borders_match_reference(rng):
+    # Boxes of 1..6 px (the kernels step two rows of four pixels, or rows of eight), vertices on
+    # pixel centres and half-pixel lines so edges pass exactly through centres, many straddling
+    # the 64 px tile borders and the image's edges; overlapping, both windings.
+    w, h = 150, 140
+    n = 3000
+    corner = rng.integers(-4, 154, size=(n, 1, 2)) + rng.integers(0, 2, size=(n, 1, 2)) / 2.0
+    xy = (corner + rng.integers(0, 13, size=(n, 3, 2)) / 2.0).reshape(-1, 2)
+    faces = np.arange(3 * n).reshape(n, 3)
+    frame = render(scene_of(pixel_mesh(xy, faces, w, h)), pixel_ortho(w, h), w, h, cull="none")
+    expected, _ = ref.rasterize(xy, faces, w, h, cull="none")
+    assert expected.max() >= 3
+    np.testing.assert_array_equal(frame.coverage, expected)
+
+
 @pytest.mark.parametrize("quad", [
     [(3.5, 3.5), (20.5, 3.5), (20.5, 17.5), (3.5, 17.5)],      # shared diagonal of slope ~0.8
     [(2.5, 2.5), (14.5, 2.5), (14.5, 14.5), (2.5, 14.5)],      # shared diagonal of slope 1
