@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <map>
+#include <string>
 
 using namespace sr;
 
@@ -45,13 +46,15 @@ static std::shared_ptr<MeshData> icosphere(int subdivisions) {
 
 int main(int argc, char** argv) {
   if (argc < 6) {
-    std::fprintf(stderr, "usage: core_bench SUBDIV WIDTH HEIGHT OUTPUT_BITS RENDERS [THREADS [SIMD]]\n");
+    std::fprintf(stderr, "usage: core_bench SUBDIV WIDTH HEIGHT OUTPUT_BITS RENDERS [THREADS [SIMD [PATH [CULL]]]]\n"
+                 "  PATH: auto | forward | deferred shading; CULL: back | none\n");
     return 2;
   }
   const int sub = std::atoi(argv[1]), width = std::atoi(argv[2]), height = std::atoi(argv[3]);
   const uint32_t outputs = uint32_t(std::atoi(argv[4]));
   const int renders = std::atoi(argv[5]), threads = argc > 6 ? std::atoi(argv[6]) : 0;
   const bool simd = argc > 7 ? std::atoi(argv[7]) != 0 : true;
+  const std::string path = argc > 8 ? argv[8] : "auto", cull = argc > 9 ? argv[9] : "back";
 
   Renderer renderer(width, height, threads, simd);
   std::vector<Draw> draws(1);
@@ -70,6 +73,10 @@ int main(int argc, char** argv) {
   camera.far = fa;
   RenderOptions options;
   options.outputs = outputs;
+  options.shading_path = path == "forward"    ? ShadingPath::Forward
+                         : path == "deferred" ? ShadingPath::Deferred
+                                              : ShadingPath::Auto;
+  options.cull = cull == "none" ? Cull::None : Cull::Back;
   // Frames reused across renders, as the Python benchmarks do with `out=` (a fresh frame costs
   // page faults, not rendering).
   std::vector<std::unique_ptr<std::byte[]>> frames;
@@ -88,6 +95,7 @@ int main(int argc, char** argv) {
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     best = std::min(best, ms);
   }
-  std::printf("ico%d %dx%d outputs=%u threads=%d %s faces=%zu: best %.2f ms\n", sub, width, height,
-              outputs, renderer.threads(), isa_name(renderer.isa()), draws[0].mesh->faces.size(), best);
+  std::printf("ico%d %dx%d outputs=%u threads=%d %s %s cull=%s faces=%zu: best %.2f ms\n", sub,
+              width, height, outputs, renderer.threads(), isa_name(renderer.isa()), path.c_str(),
+              cull.c_str(), draws[0].mesh->faces.size(), best);
 }

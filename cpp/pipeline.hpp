@@ -38,6 +38,10 @@ constexpr int kTriangleChunk = 8192;
 
 enum class Cull : uint8_t { None, Back, Front };
 enum class Shading : uint8_t { Unlit, Lambert };
+// When fragments are shaded: as they win the depth test (forward), or once per visible pixel
+// after the tile is rasterized (deferred). The same bits either way; Auto picks per tile by
+// its expected overdraw.
+enum class ShadingPath : uint8_t { Auto, Forward, Deferred };
 
 // Output buffers, as bits of RenderOptions::outputs.
 enum OutputBit : uint32_t {
@@ -83,6 +87,7 @@ struct RenderOptions {
   uint32_t outputs = kOutColor | kOutDepth;
   Cull cull = Cull::Back;
   Shading shading = Shading::Lambert;
+  ShadingPath shading_path = ShadingPath::Auto;
   vec3 background{0.0f};  // colour of uncovered pixels, [0, 1]
   float ambient = 0.25f;  // Lambert: ambient + (1 - ambient) * max(0, n . l)
 };

@@ -169,10 +169,16 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   shade.framebuffer = framebuffer.get();
   const bool want_coverage = options.outputs & kOutCoverage;
   const std::size_t num_chunks = chunk_ranges.size();
+  const bool forward = options.shading_path != ShadingPath::Deferred && can_shade_forward(shade);
   pool_.parallel_for(viewport_.num_tiles(), [&](std::size_t tile, int worker) {
     TileScratch& scratch = *tile_scratch_[worker];
-    rasterize_tile(viewport_, int(tile), chunks_, num_chunks, want_coverage, isa_, scratch);
-    shade_tile(shade, viewport_, int(tile), scratch, isa_, *shade_scratch_[worker]);
+    if (forward) {
+      rasterize_and_shade_tile(shade, viewport_, int(tile), chunks_, num_chunks, want_coverage,
+                               isa_, scratch, *shade_scratch_[worker]);
+    } else {
+      rasterize_tile(viewport_, int(tile), chunks_, num_chunks, want_coverage, isa_, scratch);
+      shade_tile(shade, viewport_, int(tile), scratch, isa_, *shade_scratch_[worker]);
+    }
   });
   return framebuffer;
 }

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <stdexcept>
 #include <immintrin.h>
 
 namespace sr {
@@ -102,9 +103,10 @@ SR_INLINE i8 to_unorm8(f8 v) {
   return __builtin_convertvector(c * 255.0f + 0.5f, i8);
 }
 
-// Per-draw constants of shade_group.
+// Per-triangle constants of shade_group.
 struct ShadeConstants {
   f8 persp[3], light[3], ambient, diffuse;
+  ShadeConstants() = default;
   SR_INLINE ShadeConstants(const ShadeParams& p, const ShadeTriangle& s) {
     for (int k = 0; k < 3; ++k) {
       persp[k] = splat(s.persp[k]);
@@ -254,6 +256,77 @@ using ShadeFn = void (*)(const ShadeParams&, const TileRect&, const TileScratch&
 constexpr ShadeFn kShadeTable[2][2][2][2] = {SR_SHADE_TABLE(generic), SR_SHADE_TABLE(avx2)};
 #undef SR_SHADE_TABLE
 
+// Forward shading: the raster kernels' hook (rasterize.hpp) that shades the lanes a triangle wins
+// as it wins them, preparing the triangle on its first win. Triangles on the int64 raster path
+// are noted and shaded afterwards, from the visibility buffer, as in deferred shading. A pixel
+// overwritten later was shaded in vain (overdraw); its final value is the same either way, since
+// a pixel's shade depends only on the triangle and the pixel.
+template <bool kColor, bool kLit, bool kNormal>
+struct ForwardShading {
+  static constexpr bool kShades = true;
+  const ShadeParams& p;
+  ShadeScratch& out;
+  VisibleTriangle current{};
+  bool ready = false;
+  ShadeTriangle s{};
+  ShadeConstants c{};
+
+  SR_INLINE void triangle(const VisibleTriangle& vt) {
+    current = vt;
+    ready = false;
+  }
+  template <bool kPairs>
+  SR_INLINE void shade(i8 win, int i, f8 e0, f8 e1, f8 e2) {
+    if (!ready) {
+      s = prepare(p, current);
+      c = ShadeConstants(p, s);
+      ready = true;
+    }
+    shade_group<kColor, kLit, kNormal, kPairs>(s, c, e0, e1, e2, win, i, out);
+  }
+  SR_INLINE void large_won(uint32_t index) { out.large.push_back(index); }
+};
+
+template <bool kColor, bool kLit, bool kNormal, bool kCoverage>
+SR_INLINE void forward_tile(const ShadeParams& p, const TileRect& rect, int tile,
+                            const std::vector<SetupChunk>& chunks, std::size_t num_chunks,
+                            TileScratch& raster, ShadeScratch& scratch) {
+  scratch.large.clear();
+  ForwardShading<kColor, kLit, kNormal> hook{p, scratch};
+  raster::rasterize_all<kCoverage>(rect, tile, chunks, num_chunks, raster, hook);
+  for (const uint32_t index : scratch.large)
+    shade_triangle<kColor, kLit, kNormal>(p, rect, raster, index, scratch);
+}
+
+template <bool kColor, bool kLit, bool kNormal, bool kCoverage>
+SR_TARGET_AVX2 void forward_tile_avx2(const ShadeParams& p, const TileRect& rect, int tile,
+                                      const std::vector<SetupChunk>& chunks,
+                                      std::size_t num_chunks, TileScratch& raster,
+                                      ShadeScratch& scratch) {
+  forward_tile<kColor, kLit, kNormal, kCoverage>(p, rect, tile, chunks, num_chunks, raster, scratch);
+}
+
+template <bool kColor, bool kLit, bool kNormal, bool kCoverage>
+void forward_tile_generic(const ShadeParams& p, const TileRect& rect, int tile,
+                          const std::vector<SetupChunk>& chunks, std::size_t num_chunks,
+                          TileScratch& raster, ShadeScratch& scratch) {
+  forward_tile<kColor, kLit, kNormal, kCoverage>(p, rect, tile, chunks, num_chunks, raster, scratch);
+}
+
+using ForwardFn = void (*)(const ShadeParams&, const TileRect&, int, const std::vector<SetupChunk>&,
+                           std::size_t, TileScratch&, ShadeScratch&);
+
+// [isa][color][lit][normal][coverage]; nothing to shade without colour or normals.
+#define SR_FORWARD_PAIR(suffix, c, l, n) {forward_tile_##suffix<c, l, n, false>, forward_tile_##suffix<c, l, n, true>}
+#define SR_FORWARD_TABLE(suffix)                                                                \
+  {{{{nullptr, nullptr}, SR_FORWARD_PAIR(suffix, false, false, true)},                          \
+    {{nullptr, nullptr}, SR_FORWARD_PAIR(suffix, false, false, true)}},                         \
+   {{SR_FORWARD_PAIR(suffix, true, false, false), SR_FORWARD_PAIR(suffix, true, false, true)},  \
+    {SR_FORWARD_PAIR(suffix, true, true, false), SR_FORWARD_PAIR(suffix, true, true, true)}}}
+constexpr ForwardFn kForwardTable[2][2][2][2][2] = {SR_FORWARD_TABLE(generic), SR_FORWARD_TABLE(avx2)};
+#undef SR_FORWARD_TABLE
+#undef SR_FORWARD_PAIR
+
 // Depth of the visible pixels of one row, eight at a time.
 SR_INLINE void resolve_depth_row(const float* key, const uint32_t* visible, int n,
                                  bool orthographic, float* depth) {
@@ -343,6 +416,26 @@ void world_normals(const MeshData& mesh, const dmat3& normal_to_world, std::size
                    std::size_t end, vec3* out) {
   // Normals are transformed and normalised in double: a scaled normal can overflow float.
   for (std::size_t i = begin; i < end; ++i) out[i] = unit(normal_to_world * dvec3(mesh.normals[i]));
+}
+
+bool can_shade_forward(const ShadeParams& params) {
+  const Framebuffer& fb = *params.framebuffer;
+  return fb.color != nullptr || fb.normal != nullptr;
+}
+
+void rasterize_and_shade_tile(const ShadeParams& params, const Viewport& viewport, int tile,
+                              const std::vector<SetupChunk>& chunks, std::size_t num_chunks,
+                              bool want_coverage, Isa isa, TileScratch& raster,
+                              ShadeScratch& scratch) {
+  const Framebuffer& fb = *params.framebuffer;
+  const TileRect rect = tile_rect(viewport, tile);
+  const ForwardFn fn = kForwardTable[isa == Isa::Avx2][fb.color != nullptr]
+                                    [params.shading == Shading::Lambert][fb.normal != nullptr]
+                                    [want_coverage];
+  if (!fn) throw std::logic_error("rasterize_and_shade_tile: nothing to shade");
+  raster.clear(want_coverage);
+  fn(params, rect, tile, chunks, num_chunks, raster, scratch);
+  write_tile(params, rect, raster, scratch, isa);
 }
 
 void shade_tile(const ShadeParams& params, const Viewport& viewport, int tile,

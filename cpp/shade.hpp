@@ -42,9 +42,20 @@ struct ShadeTriangle {
 // values (row stride kTileSizePx, padded like TileScratch) before they go to the framebuffer.
 struct ShadeScratch {
   std::vector<uint8_t> used;  // per binned-triangle index: owns at least one pixel of the tile
+  std::vector<uint32_t> large;  // forward shading: int64-path triangles left to a deferred pass
   uint32_t rgb[kTileScratchPixels];  // packed 8-bit colour, r | g << 8 | b << 16
   float normal[3][kTileScratchPixels];
 };
+
+// Forward shading: rasterizes `tile` (as rasterize_tile) and shades each fragment as it wins the
+// depth test, then writes the outputs as shade_tile does. The same bits as rasterize_tile +
+// shade_tile; faster without overdraw (no second walk over each triangle), slower with much.
+// Only when can_shade_forward(): colour or normals requested.
+bool can_shade_forward(const ShadeParams& params);
+void rasterize_and_shade_tile(const ShadeParams& params, const Viewport& viewport, int tile,
+                              const std::vector<SetupChunk>& chunks, std::size_t num_chunks,
+                              bool want_coverage, Isa isa, TileScratch& raster,
+                              ShadeScratch& scratch);
 
 // Writes every pixel of `tile` in each requested output. Each visible pixel is shaded once, by
 // the kernel for `isa` (the same bits for either).
