@@ -93,6 +93,13 @@ Shading parse_shading(const std::string& s) {
   throw py::value_error("shading must be 'lambert' or 'unlit', got '" + s + "'");
 }
 
+ShadingPath parse_shading_path(const std::string& s) {
+  if (s == "auto") return ShadingPath::Auto;
+  if (s == "forward") return ShadingPath::Forward;
+  if (s == "deferred") return ShadingPath::Deferred;
+  throw py::value_error("shading_path must be 'auto', 'forward' or 'deferred', got '" + s + "'");
+}
+
 py::dtype output_dtype(const OutputLayout& layout) {
   switch (layout.bit) {
     case kOutColor: return py::dtype::of<uint8_t>();
@@ -138,7 +145,7 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::handle& 
                 const py::handle& proj, bool orthographic, double near, double far,
                 const std::vector<std::string>& outputs, const std::string& cull,
                 const std::string& shading, const std::array<float, 3>& background,
-                float ambient, const py::object& out) {
+                float ambient, const py::object& out, const std::string& shading_path) {
   std::vector<Draw> draws;
   for (std::size_t d = 0; d < py::len(draws_in); ++d) {
     const std::string where = "draws[" + std::to_string(d) + "]";
@@ -162,6 +169,7 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::handle& 
   options.outputs = parse_outputs(outputs);
   options.cull = parse_cull(cull);
   options.shading = parse_shading(shading);
+  options.shading_path = parse_shading_path(shading_path);
   for (int c = 0; c < 3; ++c) {
     if (!(background[c] >= 0.0f && background[c] <= 1.0f))
       throw py::value_error("background components must be in [0, 1]");
@@ -223,5 +231,5 @@ PYBIND11_MODULE(_core, m) {
       .def("render", &render, "draws"_a, "view"_a, "proj"_a, "orthographic"_a, "near"_a, "far"_a,
            "outputs"_a, "cull"_a = "back", "shading"_a = "lambert",
            "background"_a = std::array<float, 3>{0.0f, 0.0f, 0.0f}, "ambient"_a = 0.25f,
-           "out"_a = py::none());
+           "out"_a = py::none(), "shading_path"_a = "auto");
 }

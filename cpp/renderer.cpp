@@ -169,9 +169,20 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   shade.framebuffer = framebuffer.get();
   const bool want_coverage = options.outputs & kOutCoverage;
   const std::size_t num_chunks = chunk_ranges.size();
-  const bool forward = options.shading_path != ShadingPath::Deferred && can_shade_forward(shade);
+  const bool can_forward = options.shading_path != ShadingPath::Deferred && can_shade_forward(shade);
   pool_.parallel_for(viewport_.num_tiles(), [&](std::size_t tile, int worker) {
     TileScratch& scratch = *tile_scratch_[worker];
+    bool forward = can_forward;
+    if (forward && options.shading_path == ShadingPath::Auto) {
+      // Forward shading shades every fragment that wins the depth test, deferred each visible
+      // pixel once after a second walk over its triangle: forward wins up to about this much
+      // overdraw (benchmarks/RESULTS.md, the crossover).
+      constexpr float kForwardMaxOverdraw = 1.5f;
+      float area = 0.0f;
+      for (std::size_t c = 0; c < num_chunks; ++c) area += chunks_[c].tile_area[tile];
+      const TileRect rect = tile_rect(viewport_, int(tile));
+      forward = area <= kForwardMaxOverdraw * float((rect.x1 - rect.x0) * (rect.y1 - rect.y0));
+    }
     if (forward) {
       rasterize_and_shade_tile(shade, viewport_, int(tile), chunks_, num_chunks, want_coverage,
                                isa_, scratch, *shade_scratch_[worker]);

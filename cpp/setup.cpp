@@ -169,16 +169,29 @@ bool setup_triangle(const ProjectedVertex* const v[3], const SetupParams& params
 // Appends a record and does the first pass of binning while the record is at hand: counts it in
 // every tile it overlaps (at tile_begin[tile + 2], see bin_records) and notes those tiles as
 // first tile | (columns - 1) << 16 | (rows - 1) << 24 (num_tiles <= 2^16, tiles_x, tiles_y <= 2^8).
+// Also adds its area to tile_area, split between tiles as its box is (for the choice of shading
+// path: the sum estimates a tile's overdraw).
 void emit(const TriangleSetup& t, const Viewport& vp, SetupChunk& out) {
   const uint32_t tx0 = uint32_t(t.x0) / kTileSizePx, tx1 = uint32_t(t.x1) / kTileSizePx;
   const uint32_t ty0 = uint32_t(t.y0) / kTileSizePx, ty1 = uint32_t(t.y1) / kTileSizePx;
   const uint32_t first = ty0 * uint32_t(vp.tiles_x) + tx0;
   uint32_t* count = out.tile_begin.data() + 2;
+  const float area = float(t.area2) * (0.5f / float(kSubpixelOne * kSubpixelOne));
   if (tx0 == tx1 && ty0 == ty1) {  // the common case: inside one tile
     ++count[first];
+    out.tile_area[first] += area;
   } else {
-    for (uint32_t ty = ty0; ty <= ty1; ++ty)
-      for (uint32_t tx = tx0; tx <= tx1; ++tx) ++count[ty * uint32_t(vp.tiles_x) + tx];
+    const float per_pixel = area / (float(t.x1 - t.x0 + 1) * float(t.y1 - t.y0 + 1));
+    for (uint32_t ty = ty0; ty <= ty1; ++ty) {
+      const int rows = std::min(t.y1, int32_t(ty + 1) * kTileSizePx - 1) -
+                       std::max(t.y0, int32_t(ty) * kTileSizePx) + 1;
+      for (uint32_t tx = tx0; tx <= tx1; ++tx) {
+        const int columns = std::min(t.x1, int32_t(tx + 1) * kTileSizePx - 1) -
+                            std::max(t.x0, int32_t(tx) * kTileSizePx) + 1;
+        ++count[ty * uint32_t(vp.tiles_x) + tx];
+        out.tile_area[ty * uint32_t(vp.tiles_x) + tx] += per_pixel * float(rows * columns);
+      }
+    }
   }
   out.records.push_back(t);
   out.record_tiles.push_back(first | (tx1 - tx0) << 16 | (ty1 - ty0) << 24);
@@ -410,6 +423,7 @@ void setup_chunk(const SetupParams& params, std::size_t begin, std::size_t end, 
   out.record_tiles.clear();
   out.clip_bary.clear();
   out.tile_begin.assign(params.viewport.num_tiles() + 2, 0);
+  out.tile_area.assign(params.viewport.num_tiles(), 0.0f);
   const ivec3* faces = params.mesh->faces.data();
   for (std::size_t f = begin; f < end; ++f) {
     const ProjectedVertex* const v[3] = {&params.vertices[faces[f].x],

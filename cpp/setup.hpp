@@ -48,6 +48,7 @@ struct alignas(64) SetupChunk {
   std::vector<uint32_t> tile_begin;      // num_tiles + 1 offsets into tile_records
   std::vector<uint32_t> tile_records;    // record indices, grouped by tile, ascending
   std::vector<uint32_t> record_tiles;    // scratch: tiles each record overlaps (setup.cpp)
+  std::vector<float> tile_area;          // per tile: records' area in it, px^2 (an estimate)
 };
 
 struct SetupParams {

@@ -145,3 +145,31 @@ def test_vertex_pass_matches_the_scalar_projection(rng, simd, camera):
     b = renderer.render(split, cam, outputs=outputs, cull="none")
     assert a.mask.mean() > 0.2
     _assert_same_bits(a, b, outputs)
+
+
+@pytest.mark.parametrize("cull", ["back", "none"])
+def test_forward_and_deferred_shading_same_bits(rng, cull):
+    # Forward shading shades fragments as they win the depth test, deferred shading each visible
+    # pixel after it; "auto" picks per tile. A pixel's shade depends only on its triangle and
+    # itself, so all three give the same bits: small and large triangles, clipped ones, overdraw
+    # (the soup, and with cull="none" the spheres' back faces), vertex colours and flat faces.
+    p = rng.normal(size=(1500, 3)) * 0.7
+    soup = sr.Mesh(p, np.arange(1500).reshape(-1, 3), colors=rng.random((1500, 4)))
+    floor = trimesh.creation.box(extents=(60.0, 0.1, 60.0))
+    scene = scene_of(icosphere(4, radius=0.5), soup, sr.Mesh(floor.vertices, floor.faces),
+                     icosphere(2, radius=0.3))
+    cam = _perspective((0.3, 0.9, 2.5), target=(0.0, 0.2, 0.0), near=0.01, far=100.0)
+    renderer = sr.Renderer(221, 157, threads=2)
+    frames = {path: renderer.render(scene, cam, outputs=ALL_OUTPUTS, cull=cull, shading_path=path)
+              for path in ("forward", "deferred", "auto")}
+    assert (frames["auto"].coverage > 2).any()
+    _assert_same_bits(frames["forward"], frames["deferred"])
+    _assert_same_bits(frames["auto"], frames["deferred"])
+    for outputs in (("color",), ("normal",), ("depth", "mask")):
+        a = renderer.render(scene, cam, outputs=outputs, cull=cull, shading_path="forward")
+        _assert_same_bits(a, frames["deferred"], outputs)
+
+
+def test_shading_path_is_checked():
+    with pytest.raises(ValueError, match="shading_path"):
+        sr.Renderer(8, 8).render(scene_of(icosphere(1)), _perspective((0, 0, 3)), shading_path="fast")

@@ -69,6 +69,7 @@ class Renderer:
         background: Sequence[float] = (0.0, 0.0, 0.0),
         ambient: float = 0.25,
         out: dict[str, np.ndarray] | None = None,
+        shading_path: str = "auto",
     ) -> dict[str, np.ndarray]:
         """Render ``draws`` = [(mesh, model (4, 4) float64 model-to-world, instance_id, rgba)].
 
@@ -87,4 +88,5 @@ class Renderer:
         writeable) and returned as they are. The GIL is released.
         cull: "none" | "back" | "front" (front = counter-clockwise in NDC, OpenGL's default).
         shading: "lambert" (headlight: directional light along the view axis) | "unlit".
+        shading_path: "auto" | "forward" | "deferred" (same bits; see Renderer.render).
         """
