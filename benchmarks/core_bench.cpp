@@ -12,9 +12,9 @@
 using namespace sr;
 
 static std::shared_ptr<MeshData> icosphere(int subdivisions) {
-  auto mesh = std::make_shared<MeshData>();
+  MeshVectors mesh;
   const float t = (1.0f + std::sqrt(5.0f)) / 2.0f;
-  std::vector<vec3>& p = mesh->positions;
+  std::vector<vec3>& p = mesh.positions;
   p = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
        {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
   std::vector<ivec3> f = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
@@ -38,10 +38,11 @@ static std::shared_ptr<MeshData> icosphere(int subdivisions) {
     f = std::move(next);
   }
   for (vec3& v : p) v = glm::normalize(v);
-  mesh->normals = p;
-  mesh->faces = std::move(f);
-  mesh->validate();
-  return mesh;
+  mesh.normals = p;
+  mesh.faces = std::move(f);
+  auto data = MeshData::from_vectors(std::move(mesh));
+  data->validate();
+  return data;
 }
 
 int main(int argc, char** argv) {

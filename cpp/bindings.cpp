@@ -1,5 +1,5 @@
 // Python bindings (the only file that includes pybind11): argument checks, GIL release, and
-// zero-copy hand-over of framebuffers to NumPy.
+// zero-copy hand-over of framebuffers to NumPy and of immutable mesh arrays to the core.
 #include "framebuffer.hpp"
 #include "pipeline.hpp"
 #include "renderer.hpp"
@@ -9,6 +9,7 @@
 #include <pybind11/stl.h>
 
 #include <algorithm>
+#include <cstdint>
 #include <cstring>
 #include <string>
 
@@ -20,11 +21,62 @@ namespace {
 
 static_assert(sizeof(vec3) == 3 * sizeof(float) && sizeof(ivec3) == 3 * sizeof(int32_t) &&
               sizeof(vec4) == 4 * sizeof(float) && sizeof(vec2) == 2 * sizeof(float),
-              "GLM vectors must be tightly packed to be filled from NumPy rows");
+              "GLM vectors must be tightly packed to view NumPy rows");
 
-// Copies a (n, cols) array of exactly dtype T into a vector of V (V = cols packed T's).
+// Owns what a MeshData built from Python views: bytes objects under NumPy arrays (viewed in
+// place) and copies of the arrays that could not be viewed.
+struct PyMeshOwner {
+  MeshVectors copies;
+  std::vector<PyObject*> viewed;  // strong references
+};
+
+bool interpreter_finalizing() {
+#if PY_VERSION_HEX >= 0x030D0000
+  return Py_IsFinalizing();
+#else
+  return _Py_IsFinalizing();
+#endif
+}
+
+// The last reference to a MeshData may go on a thread without the GIL (rendering releases it)
+// => take the GIL to drop the Python references. Once the interpreter is shutting down, taking
+// it could block or end the thread => leak them instead (the process is exiting).
+void release_owner(PyMeshOwner* owner) {
+  if (PyGILState_Check()) {
+    for (PyObject* obj : owner->viewed) Py_DECREF(obj);
+  } else if (!owner->viewed.empty() && Py_IsInitialized() && !interpreter_finalizing()) {
+    py::gil_scoped_acquire gil;
+    for (PyObject* obj : owner->viewed) Py_DECREF(obj);
+  }
+  delete owner;
+}
+
+// The bytes object holding the `nbytes` that `arr` views, if nothing can ever write them; else
+// null. NumPy refuses to make an array writeable whose chain of bases is read-only views ending
+// in a bytes object, and bytes are immutable. A read-only array that owns its memory does not
+// qualify: anyone may set it writeable again (and mutation after validation could send face
+// indices out of range).
+PyObject* immutable_bytes_base(const py::array& arr, std::size_t nbytes) {
+  PyObject* obj = arr.ptr();
+  while (py::isinstance<py::array>(py::handle(obj))) {
+    auto view = py::reinterpret_borrow<py::array>(obj);
+    if (view.writeable() || view.owndata()) return nullptr;
+    obj = view.base().ptr();  // kept alive by the chain `arr` holds
+    if (!obj) return nullptr;  // wraps foreign memory
+  }
+  if (!PyBytes_CheckExact(obj)) return nullptr;
+  const char* begin = PyBytes_AS_STRING(obj);
+  const char* data = static_cast<const char*>(arr.data());
+  const std::size_t size = std::size_t(PyBytes_GET_SIZE(obj));
+  return data >= begin && std::size_t(data - begin) + nbytes <= size ? obj : nullptr;
+}
+
+// A (n, cols) array of exactly dtype T as n V's (V = cols packed T's). Viewed in place when
+// C-contiguous, aligned and immutable (its bytes object joins owner.viewed); else copied into
+// `copy`, so no later write to the caller's array can reach a validated mesh.
 template <typename T, typename V>
-std::vector<V> rows_from_array(const py::handle& obj, const char* name, int cols) {
+ConstSpan<V> rows_from_array(const py::handle& obj, const char* name, int cols,
+                             std::vector<V>& copy, PyMeshOwner& owner) {
   const std::string arg(name);
   if (!py::isinstance<py::array>(obj)) throw py::type_error(arg + " must be a numpy array");
   auto arr = py::reinterpret_borrow<py::array>(obj);
@@ -33,10 +85,18 @@ std::vector<V> rows_from_array(const py::handle& obj, const char* name, int cols
                          ", got " + std::string(py::str(arr.dtype())));
   if (arr.ndim() != 2 || arr.shape(1) != cols)
     throw py::value_error(arg + " must have shape (n, " + std::to_string(cols) + ")");
+  const std::size_t n = std::size_t(arr.shape(0));
+  const bool in_place = (arr.flags() & py::array::c_style) &&
+                        reinterpret_cast<std::uintptr_t>(arr.data()) % alignof(V) == 0;
+  if (PyObject* bytes = in_place ? immutable_bytes_base(arr, n * sizeof(V)) : nullptr) {
+    owner.viewed.push_back(bytes);
+    Py_INCREF(bytes);
+    return {static_cast<const V*>(arr.data()), n};
+  }
   auto contiguous = py::array_t<T, py::array::c_style>::ensure(arr);
-  std::vector<V> out(std::size_t(arr.shape(0)));
-  if (!out.empty()) std::memcpy(out.data(), contiguous.data(), out.size() * sizeof(V));
-  return out;
+  copy.resize(n);
+  if (n > 0) std::memcpy(copy.data(), contiguous.data(), n * sizeof(V));
+  return view_of(copy);
 }
 
 dmat4 matrix_from_array(const py::handle& obj, const std::string& name) {
@@ -53,12 +113,17 @@ dmat4 matrix_from_array(const py::handle& obj, const std::string& name) {
 std::shared_ptr<MeshData> make_mesh(const py::handle& positions, const py::handle& faces,
                                     const py::handle& normals, const py::handle& colors,
                                     const py::handle& uvs) {
+  std::shared_ptr<PyMeshOwner> owner(new PyMeshOwner, release_owner);
+  MeshVectors& copies = owner->copies;
   auto mesh = std::make_shared<MeshData>();
-  mesh->positions = rows_from_array<float, vec3>(positions, "positions", 3);
-  mesh->faces = rows_from_array<int32_t, ivec3>(faces, "faces", 3);
-  if (!normals.is_none()) mesh->normals = rows_from_array<float, vec3>(normals, "normals", 3);
-  if (!colors.is_none()) mesh->colors = rows_from_array<float, vec4>(colors, "colors", 4);
-  if (!uvs.is_none()) mesh->uvs = rows_from_array<float, vec2>(uvs, "uvs", 2);
+  mesh->positions = rows_from_array<float, vec3>(positions, "positions", 3, copies.positions, *owner);
+  mesh->faces = rows_from_array<int32_t, ivec3>(faces, "faces", 3, copies.faces, *owner);
+  if (!normals.is_none())
+    mesh->normals = rows_from_array<float, vec3>(normals, "normals", 3, copies.normals, *owner);
+  if (!colors.is_none())
+    mesh->colors = rows_from_array<float, vec4>(colors, "colors", 4, copies.colors, *owner);
+  if (!uvs.is_none()) mesh->uvs = rows_from_array<float, vec2>(uvs, "uvs", 2, copies.uvs, *owner);
+  mesh->owner = std::move(owner);
   mesh->validate();
   return mesh;
 }
@@ -217,8 +282,9 @@ PYBIND11_MODULE(_core, m) {
   py::class_<MeshData, std::shared_ptr<MeshData>>(m, "MeshData")
       .def(py::init(&make_mesh), "positions"_a, "faces"_a, "normals"_a = py::none(),
            "colors"_a = py::none(), "uvs"_a = py::none(),
-           "Copies and validates (n,3) float32 positions, (m,3) int32 faces and optional "
-           "(n,3) float32 normals, (n,4) float32 colors, (n,2) float32 uvs.")
+           "Validates (n,3) float32 positions, (m,3) int32 faces and optional (n,3) float32 "
+           "normals, (n,4) float32 colors, (n,2) float32 uvs. Views immutable arrays (read-only "
+           "views of a bytes object) in place and copies any other.")
       .def_property_readonly("num_vertices", [](const MeshData& m) { return m.positions.size(); })
       .def_property_readonly("num_faces", [](const MeshData& m) { return m.faces.size(); });
 

@@ -56,16 +56,65 @@ enum OutputBit : uint32_t {
 constexpr int kNumOutputs = 7;
 extern const char* const kOutputNames[kNumOutputs];
 
-// Geometry uploaded once; validated by its constructor (throws std::invalid_argument).
-struct MeshData {
-  std::vector<vec3> positions;  // model space
-  std::vector<ivec3> faces;     // counter-clockwise = front, indices in [0, positions.size())
-  std::vector<vec3> normals;    // model space, per vertex; empty => flat face normals
-  std::vector<vec4> colors;     // linear RGBA in [0, 1], per vertex; empty => material colour
-  std::vector<vec2> uvs;        // per vertex; kept for the texture stage
+// Read-only view of `size` contiguous T's that something else owns (C++20's std::span<const T>,
+// as much of it as the stages use).
+template <typename T>
+class ConstSpan {
+ public:
+  ConstSpan() = default;
+  ConstSpan(const T* data, std::size_t size) : data_(data), size_(size) {}
+  const T* data() const { return data_; }
+  std::size_t size() const { return size_; }
+  bool empty() const { return size_ == 0; }
+  const T& operator[](std::size_t i) const { return data_[i]; }
+  const T* begin() const { return data_; }
+  const T* end() const { return data_ + size_; }
 
+ private:
+  const T* data_ = nullptr;
+  std::size_t size_ = 0;
+};
+
+// Mesh arrays held in std::vectors: how C++ callers (benchmarks, the fuzzer) build geometry.
+struct MeshVectors {
+  std::vector<vec3> positions;
+  std::vector<ivec3> faces;
+  std::vector<vec3> normals;
+  std::vector<vec4> colors;
+  std::vector<vec2> uvs;
+};
+
+// Geometry uploaded once and checked by validate() (throws std::invalid_argument) before it is
+// drawn. The fields view memory kept alive by `owner`, which nobody may write to afterwards:
+// validation (indices in range) must stay true. From Python the views are NumPy arrays' memory
+// (no copy), in C++ the vectors of a MeshVectors.
+struct MeshData {
+  ConstSpan<vec3> positions;  // model space
+  ConstSpan<ivec3> faces;     // counter-clockwise = front, indices in [0, positions.size())
+  ConstSpan<vec3> normals;    // model space, per vertex; empty => flat face normals
+  ConstSpan<vec4> colors;     // linear RGBA in [0, 1], per vertex; empty => material colour
+  ConstSpan<vec2> uvs;        // per vertex; kept for the texture stage
+  std::shared_ptr<const void> owner;  // keeps the viewed memory alive
+
+  // A mesh viewing `arrays`, which it takes over; not validated yet.
+  static std::shared_ptr<MeshData> from_vectors(MeshVectors arrays);
   void validate() const;
 };
+
+template <typename T>
+ConstSpan<T> view_of(const std::vector<T>& v) { return {v.data(), v.size()}; }
+
+inline std::shared_ptr<MeshData> MeshData::from_vectors(MeshVectors arrays) {
+  auto owned = std::make_shared<const MeshVectors>(std::move(arrays));
+  auto mesh = std::make_shared<MeshData>();
+  mesh->positions = view_of(owned->positions);
+  mesh->faces = view_of(owned->faces);
+  mesh->normals = view_of(owned->normals);
+  mesh->colors = view_of(owned->colors);
+  mesh->uvs = view_of(owned->uvs);
+  mesh->owner = std::move(owned);
+  return mesh;
+}
 
 // One mesh instance in a draw call.
 struct Draw {

@@ -1,7 +1,9 @@
 """Mesh validation, trimesh conversion and file loading (checked against an independent OBJ parse)."""
 from __future__ import annotations
 
+import os
 import pathlib
+import subprocess
 import sys
 import types
 
@@ -161,6 +163,162 @@ def test_core_data_with_compiled_core():
     data = mesh._core_data()
     assert isinstance(data, _core.MeshData)
     assert (data.num_vertices, data.num_faces) == (4, 2)
+
+
+# -- the core views the stored arrays in place ---------------------------------------------------
+
+# A quad at z = -3 filling most of a 16x16 image seen by QUAD_PROJ (camera at the origin).
+QUAD_POS = np.array([[-1, -1, -3], [1, -1, -3], [1, 1, -3], [-1, 1, -3]], np.float32)
+QUAD_FACES = np.array([[0, 1, 2], [0, 2, 3]], np.int32)
+QUAD_PROJ = np.array([[2.4, 0, 0, 0], [0, 2.4, 0, 0], [0, 0, -1, -0.2], [0, 0, -1, 0]])
+
+
+def _immutable(values: np.ndarray) -> np.ndarray:
+    """An array as Mesh stores them: a read-only view of a bytes object."""
+    return np.frombuffer(values.tobytes(), values.dtype).reshape(values.shape)
+
+
+def _bytes_under(arr: np.ndarray) -> object:
+    while isinstance(arr, np.ndarray):
+        arr = arr.base
+    return arr
+
+
+def _core_render(data) -> dict[str, np.ndarray]:
+    from softrast import _core
+
+    return _core.Renderer(16, 16, 1).render([(data, np.eye(4), 0, (1.0, 1.0, 1.0, 1.0))], np.eye(4),
+                                            QUAD_PROJ, False, 0.1, 100.0, ["depth", "triangle_id"], "none")
+
+
+def _attributes_mesh() -> Mesh:
+    return Mesh(TRI_POS, TRI_FACES, normals=np.ones((4, 3)), uvs=np.zeros((4, 2)), colors=np.ones((4, 3)))
+
+
+def test_stored_arrays_can_never_be_made_writeable():
+    # The core views them: an edit after validation could send face indices out of range. A
+    # read-only array owning its memory could be set writeable again; these view a bytes object.
+    mesh = _attributes_mesh()
+    for arr in (mesh.positions, mesh.faces, mesh.normals, mesh.uvs, mesh.colors):
+        while isinstance(arr, np.ndarray):
+            with pytest.raises(ValueError):
+                arr.flags.writeable = True
+            arr = arr.base
+        assert type(arr) is bytes
+
+
+def test_core_views_the_stored_arrays_instead_of_copying():
+    # Each bytes object gains one reference, the core mesh's, and loses it with the core mesh.
+    mesh = _attributes_mesh()
+    under = [_bytes_under(a) for a in (mesh.positions, mesh.faces, mesh.normals, mesh.uvs, mesh.colors)]
+    counts = [sys.getrefcount(b) for b in under]
+    data = mesh._core_data()
+    assert [sys.getrefcount(b) for b in under] == [c + 1 for c in counts]
+    mesh._core = None
+    del data
+    assert [sys.getrefcount(b) for b in under] == counts
+
+
+NO_COPY_CHILD = r"""
+import numpy as np
+from softrast import _core
+
+def rss_mib():
+    with open("/proc/self/status") as f:
+        return next(int(line.split()[1]) for line in f if line.startswith("VmRSS:")) / 1024
+
+def immutable(a):
+    return np.frombuffer(a.tobytes(), a.dtype).reshape(a.shape)
+
+n = 1 << 21  # 24 MiB per array
+positions, faces = immutable(np.ones((n, 3), np.float32)), immutable(np.zeros((n, 3), np.int32))
+before = rss_mib()
+viewed = _core.MeshData(positions, faces)
+grown_viewed = rss_mib() - before
+writeable = np.ones((n, 3), np.float32)
+before = rss_mib()
+copied = _core.MeshData(writeable, faces)
+print(grown_viewed, rss_mib() - before)
+"""
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/status"), reason="measures RSS in /proc")
+def test_core_mesh_of_immutable_arrays_allocates_no_copy():
+    # In a fresh process, so that the copy (when there is one) lands in new pages.
+    proc = subprocess.run([sys.executable, "-c", NO_COPY_CHILD], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    grown_viewed, grown_copied = map(float, proc.stdout.split())
+    assert grown_copied > 20  # the measurement sees a 24 MiB copy of positions...
+    assert grown_viewed < 4  # ...and there is none of 48 MiB of immutable arrays
+
+
+def test_edits_to_the_inputs_after_creation_never_reach_a_render():
+    # Exact dtype and C-contiguous: Mesh still copies, so the caller's arrays stay theirs.
+    positions, faces = QUAD_POS.copy(), QUAD_FACES.copy()
+    data = Mesh(positions, faces)._core_data()
+    expected = _core_render(data)
+    assert (expected["triangle_id"] >= 0).any()
+    positions *= 0.5
+    faces[:] = 0  # degenerate: would cover nothing
+    for name, arr in _core_render(data).items():
+        np.testing.assert_array_equal(arr, expected[name])
+
+
+# Arrays the core must copy: (argument, an array through which its memory can still be written).
+def _writeable(a):
+    return a, a
+
+
+def _read_only_owner(a):
+    a.setflags(write=False)  # its owner may set it writeable again
+    return a, a
+
+
+def _read_only_view_of_writeable(a):
+    view = a.view()
+    view.setflags(write=False)
+    return view, a
+
+
+def _strided(a):
+    rows = np.repeat(a, 2, axis=0)[::2]
+    return rows, rows
+
+
+def _fortran_order(a):
+    f = np.asfortranarray(a)
+    return f, f
+
+
+@pytest.mark.parametrize("kind", [_writeable, _read_only_owner, _read_only_view_of_writeable, _strided,
+                                  _fortran_order])
+def test_core_copies_arrays_that_could_still_be_written(kind):
+    from softrast import _core
+
+    (positions, positions_memory), (faces, faces_memory) = kind(QUAD_POS.copy()), kind(QUAD_FACES.copy())
+    counts = sys.getrefcount(positions), sys.getrefcount(faces)
+    data = _core.MeshData(positions, faces)
+    assert (sys.getrefcount(positions), sys.getrefcount(faces)) == counts  # not kept: copied
+    expected = _core_render(_core.MeshData(_immutable(QUAD_POS), _immutable(QUAD_FACES)))
+    for memory, values in ((positions_memory, 0.5 * QUAD_POS), (faces_memory, 0)):
+        memory.setflags(write=True)
+        memory[...] = values  # faces all 0: degenerate, would cover nothing
+    for name, arr in _core_render(data).items():
+        np.testing.assert_array_equal(arr, expected[name])
+
+
+def test_core_copies_misaligned_immutable_arrays():
+    # Immutable but not aligned for float / int32 loads => copied (UBSan checks the loads).
+    from softrast import _core
+
+    def misaligned(a):
+        return np.frombuffer(b"\0" + a.tobytes(), a.dtype, offset=1).reshape(a.shape)
+
+    positions, faces = misaligned(QUAD_POS), misaligned(QUAD_FACES)
+    assert not positions.flags.aligned and not faces.flags.aligned
+    expected = _core_render(_core.MeshData(_immutable(QUAD_POS), _immutable(QUAD_FACES)))
+    for name, arr in _core_render(_core.MeshData(positions, faces)).items():
+        np.testing.assert_array_equal(arr, expected[name])
 
 
 # -- trimesh ------------------------------------------------------------------------------------

@@ -3,11 +3,14 @@ from __future__ import annotations
 
 import threading
 import time
+import weakref
 
 import numpy as np
+import pytest
 import trimesh
 
 import softrast as sr
+from softrast import _core
 
 OUTPUTS = ("color", "depth", "normal", "triangle_id", "coverage")
 
@@ -122,3 +125,50 @@ def test_eight_threads_eight_scenes_mixed_outputs_match_one_by_one():
     _run_in_threads(work, len(jobs))
     assert mismatches == []
     assert len({name for job in jobs for name in job[2]}) >= 5  # the outputs really are mixed
+
+
+def test_core_mesh_dropped_by_python_while_a_render_reads_it():
+    # The core views a mesh's arrays without copying them. Here Python drops every reference to
+    # a core mesh (and so to its arrays) while a render in another thread, GIL released, still
+    # reads it: the render's own reference must keep the arrays alive (ASan checks the reads).
+    tm = trimesh.creation.icosphere(subdivisions=7)  # ~50 ms per render
+
+    def immutable(values, dtype):
+        a = np.ascontiguousarray(values, dtype)
+        return np.frombuffer(a.tobytes(), dtype).reshape(a.shape)
+
+    def draws():
+        data = _core.MeshData(immutable(tm.vertices, np.float32), immutable(tm.faces, np.int32),
+                              immutable(tm.vertex_normals, np.float32))
+        return [(data, np.eye(4), 0, (1.0, 1.0, 1.0, 1.0))]
+
+    cam = sr.PerspectiveCamera(fov_y=45.0).look_at(eye=(0.0, 0.0, 3.0), target=(0.0, 0.0, 0.0))
+    renderer = _core.Renderer(512, 512, 1)
+    args = (cam.view_matrix(), cam.projection_matrix(512, 512), False, cam.near, cam.far, ["color", "depth"])
+    expected = renderer.render(draws(), *args)
+    for attempt in range(20):
+        pending = draws()
+        probe = weakref.ref(pending[0][0])
+        out: dict = {}
+        started = threading.Event()
+
+        def work() -> None:
+            started.set()
+            out.update(renderer.render(pending, *args))
+            out["end"] = time.perf_counter()
+
+        thread = threading.Thread(target=work)
+        thread.start()
+        started.wait()
+        time.sleep(0.002 * attempt)
+        pending.clear()  # frees the Python object at once (refcount), no gc pass needed
+        dropped = time.perf_counter()
+        assert probe() is None
+        thread.join()
+        # Retry if the render began after the drop (nothing drawn) or ended before it.
+        if out["depth"].any() and dropped < out["end"]:
+            break
+    else:
+        pytest.fail("never dropped the mesh during a render")
+    for name in ("color", "depth"):
+        np.testing.assert_array_equal(out[name], expected[name])

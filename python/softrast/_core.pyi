@@ -22,7 +22,11 @@ MAX_FRAMEBUFFER_BYTES: int  # refuse a render whose requested outputs need more 
 OUTPUTS: tuple[str, ...]  # every output name render() accepts
 
 class MeshData:
-    """Geometry uploaded once into C++ memory (the arrays are copied and validated).
+    """Geometry uploaded once and validated.
+
+    Arrays that are C-contiguous, aligned and immutable (read-only views of a bytes object, as
+    ``softrast.Mesh`` stores them) are viewed in place and kept alive; any other array is copied,
+    so that no later write to it can reach the validated mesh.
 
     positions : (n, 3) float32, C-contiguous, finite
     faces     : (m, 3) int32, every index in [0, n)

@@ -1,8 +1,8 @@
 """Triangle meshes: validated, read-only geometry that is uploaded to the C++ core once.
 
-A ``Mesh`` owns copies of its arrays (marked read-only) so the cached ``softrast._core.MeshData``
-can never go stale. Vertex order is kept exactly as given (or as the file lists it), so
-``triangle_id`` outputs index ``Mesh.faces`` directly.
+A ``Mesh`` owns immutable copies of its arrays; the cached ``softrast._core.MeshData`` views them
+in place (no second copy), and they can never change under it. Vertex order is kept exactly as
+given (or as the file lists it), so ``triangle_id`` outputs index ``Mesh.faces`` directly.
 """
 from __future__ import annotations
 
@@ -59,10 +59,14 @@ def _check_finite(arr: np.ndarray, name: str) -> None:
 
 
 def _frozen(arr: np.ndarray, dtype: npt.DTypeLike) -> np.ndarray:
-    """A private C-contiguous copy that nobody (including the caller) can modify."""
-    out = np.array(arr, dtype=dtype, order="C", copy=True)
-    out.setflags(write=False)
-    return out
+    """A private C-contiguous copy that nobody (including the caller) can modify.
+
+    Its memory is a bytes object: NumPy refuses to make such an array writeable again, whereas
+    an array owning its memory can be, even once marked read-only. The core relies on this to
+    view it without a copy (mutation after validation could send face indices out of range).
+    """
+    contiguous = np.ascontiguousarray(arr, dtype=dtype)  # no copy if already so
+    return np.frombuffer(contiguous.tobytes(), dtype=dtype).reshape(contiguous.shape)
 
 
 def _vertex_attribute(value: Any, name: str, cols: int, n: int) -> np.ndarray:
@@ -122,7 +126,7 @@ class Mesh:
         stored as (n, 4) float32 RGBA in [0, 1] (alpha 1 when absent).
     color : 3 or 4 floats in [0, 1], the base colour used when ``colors`` is None.
 
-    All stored arrays are read-only copies, so later edits to the inputs never reach the mesh.
+    All stored arrays are immutable copies, so later edits to the inputs never reach the mesh.
     """
 
     __slots__ = ("_positions", "_faces", "_normals", "_uvs", "_colors", "_color", "_core")
@@ -153,7 +157,8 @@ class Mesh:
         if hi >= n:
             raise ValueError(f"faces contains index {int(hi)}, but there are only {n} vertices")
 
-        # Bytes of the float32 / int32 copies below; the core holds one more copy of each.
+        # Bytes of the float32 / int32 copies below, twice: a copy may be converted in a temporary
+        # first. The core views the copies in place.
         check_budget(2 * 4 * (3 * n + 3 * m + sum(
             k * n for k, v in ((3, normals), (2, uvs), (4, colors)) if v is not None)),
             f"mesh with {n} vertices and {m} triangles")

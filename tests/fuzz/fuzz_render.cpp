@@ -229,15 +229,16 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
   camera.near = near;
   camera.far = far;
 
-  auto mesh = std::make_shared<MeshData>();
-  mesh->positions.resize(in.u8());
-  for (vec3& p : mesh->positions) p = vec3(in.value_f(), in.value_f(), in.value_f());
-  const int32_t n = int32_t(mesh->positions.size());
-  mesh->faces.resize(in.u8());
-  for (ivec3& f : mesh->faces) f = ivec3(in.index(n), in.index(n), in.index(n));
-  fill(in, mesh->normals, n, 3);
-  fill(in, mesh->colors, n, 4);
-  fill(in, mesh->uvs, n, 2);
+  MeshVectors arrays;
+  arrays.positions.resize(in.u8());
+  for (vec3& p : arrays.positions) p = vec3(in.value_f(), in.value_f(), in.value_f());
+  const int32_t n = int32_t(arrays.positions.size());
+  arrays.faces.resize(in.u8());
+  for (ivec3& f : arrays.faces) f = ivec3(in.index(n), in.index(n), in.index(n));
+  fill(in, arrays.normals, n, 3);
+  fill(in, arrays.colors, n, 4);
+  fill(in, arrays.uvs, n, 2);
+  const std::shared_ptr<MeshData> mesh = MeshData::from_vectors(std::move(arrays));
 
   std::vector<Draw> draws(in.u8() % 4);
   for (Draw& d : draws) {
