@@ -9,6 +9,8 @@ table, not across runs):
   pixels    icosphere sub 6 at 256..4096 square: cost per covered pixel (raster + shade + clear)
   outputs   depth only vs colour+depth vs unlit vs every output: differences estimate shading and
             output-writing cost
+  paths     forward vs deferred shading as overdraw grows (layers of spheres drawn back to front,
+            the worst order for forward shading): the crossover behind shading_path="auto"
   threads   1 vs 2 threads
   overhead  Python cost per call: a 1x1 render of a 1-triangle scene
   memory    peak RSS of rendering the 1.3M-face sphere at 1024x1024 (a fresh subprocess) against
@@ -40,7 +42,7 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FOV_Y_DEG, NEAR, FAR = 45.0, 0.05, 100.0
 SILHOUETTE_FRACTION = 0.8  # as bench_vs_pyrender.py: the sphere spans 0.8 of the image height
 ALL_OUTPUTS = ("color", "depth", "mask", "normal", "triangle_id", "instance_id", "coverage")
-SECTIONS = ("faces", "pixels", "outputs", "threads", "overhead", "memory", "callgrind")
+SECTIONS = ("faces", "pixels", "outputs", "paths", "threads", "overhead", "memory", "callgrind")
 
 
 def camera_distance() -> float:
@@ -171,6 +173,46 @@ def section_outputs(opts):
             j = by[(sc, name)]
             extra = j.ms - base.ms
             print(f"  {name:<22}{j.ms:>8.2f}{extra:>12.2f}{1e6 * extra / base.covered:>27.2f}")
+
+
+class PathJob(Job):
+    """`layers` icospheres one behind another (same silhouette), drawn back to front."""
+
+    def __init__(self, key, sub, layers, size, path):
+        super().__init__(key, sub, size, size)
+        self.scene = sr.Scene()
+        d = camera_distance()
+        for k in reversed(range(layers)):  # farthest first: every layer wins its pixels in turn
+            z = -0.6 * k
+            scale = (d - z) / d  # keeps the silhouette the same size
+            self.scene.add(_MESHES[sub], pose=np.diag([scale, scale, scale, 1.0]) @ _translate(0, 0, z / scale),
+                           color=(1.0, 1.0, 1.0))
+        self.kwargs = dict(outputs=("color", "depth"), shading_path=path)
+        self.frame = self.renderer.render(self.scene, self.cam, **self.kwargs)
+
+
+def _translate(x, y, z):
+    m = np.eye(4)
+    m[:3, 3] = (x, y, z)
+    return m
+
+
+def section_paths(opts):
+    print("\n## Shading path: forward vs deferred as overdraw grows (colour+depth, threads 2, out=)")
+    print("layers of ico5 spheres with the same silhouette, drawn back to front (forward shading's"
+          " worst order); auto = per tile, forward while the tile's triangle area <= 1.5x its pixels")
+    cases = [(5, layers, 1024) for layers in (1, 2, 3, 4)] + [(3, 1, 256), (6, 1, 640)]
+    if opts.quick:
+        cases = cases[:3]
+    paths = ("forward", "deferred", "auto")
+    jobs = [PathJob((c, p), c[0], c[1], c[2], p) for c in cases for p in paths]
+    run_interleaved(jobs, opts.target, opts.rounds)
+    by = {j.key: j for j in jobs}
+    print(f"{'scene':<26}{'forward':>9}{'deferred':>10}{'auto':>8}{'fwd/def':>9}")
+    for c in cases:
+        f, d, a = (by[(c, p)].ms for p in paths)
+        name = f"ico{c[0]} x{c[1]} layer{'s' if c[1] > 1 else ''} {c[2]}px"
+        print(f"{name:<26}{f:>9.2f}{d:>10.2f}{a:>8.2f}{f / d:>9.2f}")
 
 
 def section_threads(opts):
