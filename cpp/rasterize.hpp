@@ -163,19 +163,29 @@ SR_INLINE void rasterize_large(const TriangleSetup& t, int x0, int x1, int y0, i
   if (won) hook.large_won(index);
 }
 
+// A triangle's per-pixel constants in every lane: edge biases, depth-key weights, its index.
+struct TriangleLanes {
+  i8 bias[3];
+  f8 key_k[3];
+  i8 index;
+  SR_INLINE TriangleLanes(const TriangleSetup& t, uint32_t i) : index(splat(int32_t(i))) {
+    for (int k = 0; k < 3; ++k) {
+      bias[k] = splat(int32_t(t.bias[k]));
+      key_k[k] = splat(t.key_over_area[k]);
+    }
+  }
+};
+
 // A small triangle (is_small), eight pixels of a row at a time in int32: the same integer edge
 // values and the same float operations per pixel as rasterize_large, so the same bits.
 template <bool kCoverage, typename Hook>
 SR_INLINE void rasterize_small(const TriangleSetup& t, int x0, int x1, int y0, int y1,
                                const TileRect& rect, uint32_t index, TileScratch& s, Hook& hook) {
   SmallEdges edges(edge_equations(t, x0, y0));
-  i8 bias[3];
-  f8 key_k[3];
-  for (int k = 0; k < 3; ++k) {
-    bias[k] = splat(int32_t(t.bias[k]));
-    key_k[k] = splat(t.key_over_area[k]);
-  }
-  const i8 lane = lane_index(), index_v = splat(int32_t(index));
+  const TriangleLanes lanes(t, index);
+  const i8 (&bias)[3] = lanes.bias;
+  const f8 (&key_k)[3] = lanes.key_k;
+  const i8 lane = lane_index(), index_v = lanes.index;
   const int width = x1 - x0 + 1;
 
   for (int y = y0; y <= y1; ++y, edges.next_row()) {
@@ -204,13 +214,10 @@ template <bool kCoverage, typename Hook>
 SR_INLINE void rasterize_pairs(const TriangleSetup& t, int x0, int x1, int y0, int y1,
                                const TileRect& rect, uint32_t index, TileScratch& s, Hook& hook) {
   SmallEdgePairs edges(edge_equations(t, x0, y0));
-  i8 bias[3];
-  f8 key_k[3];
-  for (int k = 0; k < 3; ++k) {
-    bias[k] = splat(int32_t(t.bias[k]));
-    key_k[k] = splat(t.key_over_area[k]);
-  }
-  const i8 lane = lane_index(), index_v = splat(int32_t(index));
+  const TriangleLanes lanes(t, index);
+  const i8 (&bias)[3] = lanes.bias;
+  const f8 (&key_k)[3] = lanes.key_k;
+  const i8 lane = lane_index(), index_v = lanes.index;
   const i8 column = lane & 3, row = lane >> 2;
   const i8 in_box_x = column < x1 - x0 + 1;
   for (int y = y0; y <= y1; y += 2, edges.next_rows()) {
