@@ -176,34 +176,56 @@ struct TriangleLanes {
   }
 };
 
-// A small triangle (is_small), eight pixels of a row at a time in int32: the same integer edge
-// values and the same float operations per pixel as rasterize_large, so the same bits.
+// Eight lanes of a tile buffer at index i: a row of eight pixels, or (kPairs) four pixels of the
+// row and the four below them.
+template <bool kPairs, typename V, typename T>
+SR_INLINE V load_lanes(const T* p) {
+  if constexpr (kPairs) return load_pair<V>(p, kTileSizePx);
+  else return load<V>(p);
+}
+template <bool kPairs, typename V, typename T>
+SR_INLINE void store_lanes(T* p, V v) {
+  if constexpr (kPairs) store_pair(p, kTileSizePx, v);
+  else store(p, v);
+}
+
+// Counts, depth-tests and records the lanes `covered` (edge tests passed) of one triangle with
+// exact edge values e (see lane layouts above), and hands the winners to the hook. The same
+// float operations per pixel as rasterize_large, so the same bits.
+template <bool kCoverage, bool kPairs, typename Hook>
+SR_INLINE void depth_test(i8 covered, int i, f8 e0, f8 e1, f8 e2, const TriangleLanes& lanes,
+                          TileScratch& s, Hook& hook) {
+  if constexpr (kCoverage)
+    store_lanes<kPairs>(s.coverage + i, load_lanes<kPairs, i8>(s.coverage + i) - covered);
+  const f8 key = e0 * lanes.key_k[0] + e1 * lanes.key_k[1] + e2 * lanes.key_k[2];
+  const f8 old = load_lanes<kPairs, f8>(s.key + i);
+  const i8 win = covered & (key > old);  // strict: on a tie the earlier triangle stays
+  store_lanes<kPairs>(s.key + i, win ? key : old);
+  store_lanes<kPairs>(s.visible + i, win ? lanes.index : load_lanes<kPairs, i8>(s.visible + i));
+  if constexpr (Hook::kShades)
+    if (any(win)) hook.template shade<kPairs>(win, i, e0, e1, e2);
+}
+
+// The edge tests of eight lanes: inside <=> E_k - bias_k >= 0 for every edge.
+SR_INLINE i8 edges_cover(const i8 (&e)[3], const TriangleLanes& lanes) {
+  return ((e[0] - lanes.bias[0]) | (e[1] - lanes.bias[1]) | (e[2] - lanes.bias[2])) >= 0;
+}
+
+// A small triangle (is_small), eight pixels of a row at a time in exact int32.
 template <bool kCoverage, typename Hook>
 SR_INLINE void rasterize_small(const TriangleSetup& t, int x0, int x1, int y0, int y1,
                                const TileRect& rect, uint32_t index, TileScratch& s, Hook& hook) {
   SmallEdges edges(edge_equations(t, x0, y0));
   const TriangleLanes lanes(t, index);
-  const i8 (&bias)[3] = lanes.bias;
-  const f8 (&key_k)[3] = lanes.key_k;
-  const i8 lane = lane_index(), index_v = lanes.index;
+  const i8 lane = lane_index();
   const int width = x1 - x0 + 1;
-
   for (int y = y0; y <= y1; ++y, edges.next_row()) {
     int i = (y - rect.y0) * kTileSizePx + (x0 - rect.x0);
     SmallEdges::Cursor c = edges.cursor();
     for (int dx = 0; dx < width; dx += kLanes, i += kLanes, c.next(edges)) {
-      const i8 inside = (((c.e[0] - bias[0]) | (c.e[1] - bias[1]) | (c.e[2] - bias[2])) >= 0) &
-                        (lane < width - dx);
-      if (!any(inside)) continue;
-      if constexpr (kCoverage) store(s.coverage + i, load<i8>(s.coverage + i) - inside);
-      const f8 e0 = c.edge(0), e1 = c.edge(1), e2 = c.edge(2);
-      const f8 key = e0 * key_k[0] + e1 * key_k[1] + e2 * key_k[2];
-      const f8 old = load<f8>(s.key + i);
-      const i8 win = inside & (key > old);  // strict: on a tie the earlier triangle stays
-      store(s.key + i, win ? key : old);
-      store(s.visible + i, win ? index_v : load<i8>(s.visible + i));
-      if constexpr (Hook::kShades)
-        if (any(win)) hook.template shade<false>(win, i, e0, e1, e2);
+      const i8 covered = edges_cover(c.e, lanes) & (lane < width - dx);
+      if (any(covered))
+        depth_test<kCoverage, false>(covered, i, c.edge(0), c.edge(1), c.edge(2), lanes, s, hook);
     }
   }
 }
@@ -215,26 +237,14 @@ SR_INLINE void rasterize_pairs(const TriangleSetup& t, int x0, int x1, int y0, i
                                const TileRect& rect, uint32_t index, TileScratch& s, Hook& hook) {
   SmallEdgePairs edges(edge_equations(t, x0, y0));
   const TriangleLanes lanes(t, index);
-  const i8 (&bias)[3] = lanes.bias;
-  const f8 (&key_k)[3] = lanes.key_k;
-  const i8 lane = lane_index(), index_v = lanes.index;
-  const i8 column = lane & 3, row = lane >> 2;
-  const i8 in_box_x = column < x1 - x0 + 1;
+  const i8 lane = lane_index(), row = lane >> 2;
+  const i8 in_box_x = (lane & 3) < x1 - x0 + 1;
   for (int y = y0; y <= y1; y += 2, edges.next_rows()) {
     const int i = (y - rect.y0) * kTileSizePx + (x0 - rect.x0);
-    const i8 inside = (((edges.e[0] - bias[0]) | (edges.e[1] - bias[1]) | (edges.e[2] - bias[2])) >= 0) &
-                      in_box_x & (row < y1 - y + 1);
-    if (!any(inside)) continue;
-    if constexpr (kCoverage)
-      store_pair(s.coverage + i, kTileSizePx, load_pair<i8>(s.coverage + i, kTileSizePx) - inside);
-    const f8 e0 = edges.edge(0), e1 = edges.edge(1), e2 = edges.edge(2);
-    const f8 key = e0 * key_k[0] + e1 * key_k[1] + e2 * key_k[2];
-    const f8 old = load_pair<f8>(s.key + i, kTileSizePx);
-    const i8 win = inside & (key > old);  // strict: on a tie the earlier triangle stays
-    store_pair(s.key + i, kTileSizePx, win ? key : old);
-    store_pair(s.visible + i, kTileSizePx, win ? index_v : load_pair<i8>(s.visible + i, kTileSizePx));
-    if constexpr (Hook::kShades)
-      if (any(win)) hook.template shade<true>(win, i, e0, e1, e2);
+    const i8 covered = edges_cover(edges.e, lanes) & in_box_x & (row < y1 - y + 1);
+    if (any(covered))
+      depth_test<kCoverage, true>(covered, i, edges.edge(0), edges.edge(1), edges.edge(2), lanes,
+                                  s, hook);
   }
 }
 

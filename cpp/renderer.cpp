@@ -128,11 +128,14 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
       chunk_ranges.push_back({uint32_t(d), b, std::min(m, b + kTriangleChunk)});
   }
   if (chunks_.size() < chunk_ranges.size()) chunks_.resize(chunk_ranges.size());
+  // The "auto" shading path picks per tile, from overdraw estimated in setup; only when shading.
+  const bool choose_path = options.shading_path == ShadingPath::Auto &&
+                           (options.outputs & (kOutColor | kOutNormal)) != 0;
   pool_.parallel_for(chunk_ranges.size(), [&](std::size_t item, int) {
     const Block& blk = chunk_ranges[item];
     SetupParams params{draws[blk.draw].mesh.get(), &transforms[blk.draw],
                        vertices_[blk.draw].data(), blk.draw, camera.orthographic, options.cull,
-                       &planes, viewport_};
+                       &planes, viewport_, choose_path};
     setup_chunk(params, blk.begin, blk.end, chunks_[item]);
   });
 
@@ -173,7 +176,7 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   pool_.parallel_for(viewport_.num_tiles(), [&](std::size_t tile, int worker) {
     TileScratch& scratch = *tile_scratch_[worker];
     bool forward = can_forward;
-    if (forward && options.shading_path == ShadingPath::Auto) {
+    if (choose_path) {
       // Forward shading shades every fragment that wins the depth test, deferred each visible
       // pixel once after a second walk over its triangle: forward wins up to about this much
       // overdraw (benchmarks/RESULTS.md, the crossover).

@@ -177,9 +177,10 @@ void emit(const TriangleSetup& t, const Viewport& vp, SetupChunk& out) {
   const uint32_t first = ty0 * uint32_t(vp.tiles_x) + tx0;
   uint32_t* count = out.tile_begin.data() + 2;
   const float area = float(t.area2) * (0.5f / float(kSubpixelOne * kSubpixelOne));
+  const bool estimate = !out.tile_area.empty();
   if (tx0 == tx1 && ty0 == ty1) {  // the common case: inside one tile
     ++count[first];
-    out.tile_area[first] += area;
+    if (estimate) out.tile_area[first] += area;
   } else {
     const float per_pixel = area / (float(t.x1 - t.x0 + 1) * float(t.y1 - t.y0 + 1));
     for (uint32_t ty = ty0; ty <= ty1; ++ty) {
@@ -189,7 +190,7 @@ void emit(const TriangleSetup& t, const Viewport& vp, SetupChunk& out) {
         const int columns = std::min(t.x1, int32_t(tx + 1) * kTileSizePx - 1) -
                             std::max(t.x0, int32_t(tx) * kTileSizePx) + 1;
         ++count[ty * uint32_t(vp.tiles_x) + tx];
-        out.tile_area[ty * uint32_t(vp.tiles_x) + tx] += per_pixel * float(rows * columns);
+        if (estimate) out.tile_area[ty * uint32_t(vp.tiles_x) + tx] += per_pixel * float(rows * columns);
       }
     }
   }
@@ -423,7 +424,7 @@ void setup_chunk(const SetupParams& params, std::size_t begin, std::size_t end, 
   out.record_tiles.clear();
   out.clip_bary.clear();
   out.tile_begin.assign(params.viewport.num_tiles() + 2, 0);
-  out.tile_area.assign(params.viewport.num_tiles(), 0.0f);
+  out.tile_area.assign(params.estimate_overdraw ? params.viewport.num_tiles() : 0, 0.0f);
   const ivec3* faces = params.mesh->faces.data();
   for (std::size_t f = begin; f < end; ++f) {
     const ProjectedVertex* const v[3] = {&params.vertices[faces[f].x],

@@ -48,7 +48,8 @@ struct alignas(64) SetupChunk {
   std::vector<uint32_t> tile_begin;      // num_tiles + 1 offsets into tile_records
   std::vector<uint32_t> tile_records;    // record indices, grouped by tile, ascending
   std::vector<uint32_t> record_tiles;    // scratch: tiles each record overlaps (setup.cpp)
-  std::vector<float> tile_area;          // per tile: records' area in it, px^2 (an estimate)
+  std::vector<float> tile_area;          // per tile: records' area in it, px^2 (an estimate);
+                                         // empty unless SetupParams::estimate_overdraw
 };
 
 struct SetupParams {
@@ -60,6 +61,7 @@ struct SetupParams {
   Cull cull;
   const ClipPlanes* planes;
   Viewport viewport;
+  bool estimate_overdraw;  // fill SetupChunk::tile_area (the "auto" shading path's choice)
 };
 
 // Sets up faces [begin, end) of one draw and bins them (out is cleared first).

@@ -124,11 +124,7 @@ template <bool kColor, bool kLit, bool kNormal, bool kPairs>
 SR_INLINE void shade_group(const ShadeTriangle& s, const ShadeConstants& c, f8 e0, f8 e1, f8 e2,
                            i8 mine, int i, ShadeScratch& out) {
   const auto merge = [&](auto* p, auto v) {
-    using V = decltype(v);
-    if constexpr (kPairs)
-      store_pair(p, kTileSizePx, mine ? v : load_pair<V>(p, kTileSizePx));
-    else
-      store(p, mine ? v : load<V>(p));
+    raster::store_lanes<kPairs>(p, mine ? v : raster::load_lanes<kPairs, decltype(v)>(p));
   };
   // Perspective-correct barycentrics from the exact edge values.
   f8 b0 = e0 * c.persp[0], b1 = e1 * c.persp[1], b2 = e2 * c.persp[2];
@@ -195,7 +191,7 @@ SR_INLINE void shade_pairs(const ShadeParams& p, const ShadeTriangle& s, SmallEd
   const i8 in_box_x = (lane & 3) < x1 - x0 + 1, row = lane >> 2;
   for (int y = y0; y <= y1; y += 2, edges.next_rows()) {
     const int i = (y - rect.y0) * kTileSizePx + (x0 - rect.x0);
-    const i8 mine = (load_pair<i8>(raster.visible + i, kTileSizePx) == index_v) & in_box_x &
+    const i8 mine = (raster::load_lanes<true, i8>(raster.visible + i) == index_v) & in_box_x &
                     (row < y1 - y + 1);
     if (any(mine))
       shade_group<kColor, kLit, kNormal, true>(s, c, edges.edge(0), edges.edge(1),
