@@ -135,7 +135,7 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
     const Block& blk = chunk_ranges[item];
     SetupParams params{draws[blk.draw].mesh.get(), &transforms[blk.draw],
                        vertices_[blk.draw].data(), blk.draw, camera.orthographic, options.cull,
-                       &planes, viewport_, choose_path};
+                       &planes, viewport_, choose_path, isa_};
     setup_chunk(params, blk.begin, blk.end, chunks_[item]);
   });
 

@@ -166,7 +166,7 @@ bool setup_triangle(const ProjectedVertex* const v[3], const SetupParams& params
   return true;
 }
 
-// Appends a record and does the first pass of binning while the record is at hand: counts it in
+// The first pass of binning, done while a just-appended record is at hand: counts it in
 // every tile it overlaps (at tile_begin[tile + 2], see bin_records) and notes those tiles as
 // first tile | (columns - 1) << 16 | (rows - 1) << 24 (num_tiles <= 2^16, tiles_x, tiles_y <= 2^8).
 // Also adds its area to tile_area, split between tiles as its box is (for the choice of shading
@@ -194,7 +194,6 @@ void emit(const TriangleSetup& t, const Viewport& vp, SetupChunk& out) {
       }
     }
   }
-  out.records.push_back(t);
   out.record_tiles.push_back(first | (tx1 - tx0) << 16 | (ty1 - ty0) << 24);
 }
 
@@ -249,6 +248,7 @@ void clip_and_setup(const ivec3& face, uint8_t planes_mask, const SetupParams& p
     t.clip_ref = uint32_t(out.clip_bary.size() / 3);
     const int ids[3] = {0, swapped ? i + 1 : i, swapped ? i : i + 1};
     for (int k = 0; k < 3; ++k) out.clip_bary.push_back(poly[ids[k]].bary_source);
+    out.records.push_back(t);
     emit(t, params.viewport, out);
   }
 }
@@ -275,6 +275,34 @@ SR_INLINE unsigned mask_bits(l4 mask) {
   const __m128d lo = __m128d(__builtin_shufflevector(mask, mask, 0, 1));
   const __m128d hi = __m128d(__builtin_shufflevector(mask, mask, 2, 3));
   return unsigned(_mm_movemask_pd(lo) | _mm_movemask_pd(hi) << 2);
+}
+
+// Eight rows of eight 32-bit words become eight columns (records <-> fields).
+SR_INLINE void transpose8(i8 (&r)[8]) {
+  const i8 t0 = __builtin_shufflevector(r[0], r[1], 0, 8, 1, 9, 4, 12, 5, 13);
+  const i8 t1 = __builtin_shufflevector(r[0], r[1], 2, 10, 3, 11, 6, 14, 7, 15);
+  const i8 t2 = __builtin_shufflevector(r[2], r[3], 0, 8, 1, 9, 4, 12, 5, 13);
+  const i8 t3 = __builtin_shufflevector(r[2], r[3], 2, 10, 3, 11, 6, 14, 7, 15);
+  const i8 t4 = __builtin_shufflevector(r[4], r[5], 0, 8, 1, 9, 4, 12, 5, 13);
+  const i8 t5 = __builtin_shufflevector(r[4], r[5], 2, 10, 3, 11, 6, 14, 7, 15);
+  const i8 t6 = __builtin_shufflevector(r[6], r[7], 0, 8, 1, 9, 4, 12, 5, 13);
+  const i8 t7 = __builtin_shufflevector(r[6], r[7], 2, 10, 3, 11, 6, 14, 7, 15);
+  const i8 s0 = __builtin_shufflevector(t0, t2, 0, 1, 8, 9, 4, 5, 12, 13);
+  const i8 s1 = __builtin_shufflevector(t0, t2, 2, 3, 10, 11, 6, 7, 14, 15);
+  const i8 s2 = __builtin_shufflevector(t1, t3, 0, 1, 8, 9, 4, 5, 12, 13);
+  const i8 s3 = __builtin_shufflevector(t1, t3, 2, 3, 10, 11, 6, 7, 14, 15);
+  const i8 s4 = __builtin_shufflevector(t4, t6, 0, 1, 8, 9, 4, 5, 12, 13);
+  const i8 s5 = __builtin_shufflevector(t4, t6, 2, 3, 10, 11, 6, 7, 14, 15);
+  const i8 s6 = __builtin_shufflevector(t5, t7, 0, 1, 8, 9, 4, 5, 12, 13);
+  const i8 s7 = __builtin_shufflevector(t5, t7, 2, 3, 10, 11, 6, 7, 14, 15);
+  r[0] = __builtin_shufflevector(s0, s4, 0, 1, 2, 3, 8, 9, 10, 11);
+  r[1] = __builtin_shufflevector(s1, s5, 0, 1, 2, 3, 8, 9, 10, 11);
+  r[2] = __builtin_shufflevector(s2, s6, 0, 1, 2, 3, 8, 9, 10, 11);
+  r[3] = __builtin_shufflevector(s3, s7, 0, 1, 2, 3, 8, 9, 10, 11);
+  r[4] = __builtin_shufflevector(s0, s4, 4, 5, 6, 7, 12, 13, 14, 15);
+  r[5] = __builtin_shufflevector(s1, s5, 4, 5, 6, 7, 12, 13, 14, 15);
+  r[6] = __builtin_shufflevector(s2, s6, 4, 5, 6, 7, 12, 13, 14, 15);
+  r[7] = __builtin_shufflevector(s3, s7, 4, 5, 6, 7, 12, 13, 14, 15);
 }
 
 // Eight vertices [i, i + 8) at once, lane by lane the operations of transform_point and project
@@ -349,33 +377,10 @@ SR_INLINE void project_eight(const vec3* positions, const DrawTransform& xf, std
   const f8 inv_w_8 = join(inv_w_f[0], inv_w_f[1]);
 
   // Eight records: an 8x8 transpose of (x, y, dx, dy, key, inv_w, outcode = 0, padding = 0).
-  const i8 r0 = xi, r1 = yi, r2 = float_bits(dx), r3 = float_bits(dy), r4 = float_bits(key),
-           r5 = float_bits(inv_w_8), r6{}, r7{};
-  const i8 t0 = __builtin_shufflevector(r0, r1, 0, 8, 1, 9, 4, 12, 5, 13);
-  const i8 t1 = __builtin_shufflevector(r0, r1, 2, 10, 3, 11, 6, 14, 7, 15);
-  const i8 t2 = __builtin_shufflevector(r2, r3, 0, 8, 1, 9, 4, 12, 5, 13);
-  const i8 t3 = __builtin_shufflevector(r2, r3, 2, 10, 3, 11, 6, 14, 7, 15);
-  const i8 t4 = __builtin_shufflevector(r4, r5, 0, 8, 1, 9, 4, 12, 5, 13);
-  const i8 t5 = __builtin_shufflevector(r4, r5, 2, 10, 3, 11, 6, 14, 7, 15);
-  const i8 t6 = __builtin_shufflevector(r6, r7, 0, 8, 1, 9, 4, 12, 5, 13);
-  const i8 t7 = __builtin_shufflevector(r6, r7, 2, 10, 3, 11, 6, 14, 7, 15);
-  const i8 s0 = __builtin_shufflevector(t0, t2, 0, 1, 8, 9, 4, 5, 12, 13);
-  const i8 s1 = __builtin_shufflevector(t0, t2, 2, 3, 10, 11, 6, 7, 14, 15);
-  const i8 s2 = __builtin_shufflevector(t1, t3, 0, 1, 8, 9, 4, 5, 12, 13);
-  const i8 s3 = __builtin_shufflevector(t1, t3, 2, 3, 10, 11, 6, 7, 14, 15);
-  const i8 s4 = __builtin_shufflevector(t4, t6, 0, 1, 8, 9, 4, 5, 12, 13);
-  const i8 s5 = __builtin_shufflevector(t4, t6, 2, 3, 10, 11, 6, 7, 14, 15);
-  const i8 s6 = __builtin_shufflevector(t5, t7, 0, 1, 8, 9, 4, 5, 12, 13);
-  const i8 s7 = __builtin_shufflevector(t5, t7, 2, 3, 10, 11, 6, 7, 14, 15);
+  i8 rows[8] = {xi, yi, float_bits(dx), float_bits(dy), float_bits(key), float_bits(inv_w_8), i8{}, i8{}};
+  transpose8(rows);
   ProjectedVertex* o = out + i;
-  store(o + 0, __builtin_shufflevector(s0, s4, 0, 1, 2, 3, 8, 9, 10, 11));
-  store(o + 1, __builtin_shufflevector(s1, s5, 0, 1, 2, 3, 8, 9, 10, 11));
-  store(o + 2, __builtin_shufflevector(s2, s6, 0, 1, 2, 3, 8, 9, 10, 11));
-  store(o + 3, __builtin_shufflevector(s3, s7, 0, 1, 2, 3, 8, 9, 10, 11));
-  store(o + 4, __builtin_shufflevector(s0, s4, 4, 5, 6, 7, 12, 13, 14, 15));
-  store(o + 5, __builtin_shufflevector(s1, s5, 4, 5, 6, 7, 12, 13, 14, 15));
-  store(o + 6, __builtin_shufflevector(s2, s6, 4, 5, 6, 7, 12, 13, 14, 15));
-  store(o + 7, __builtin_shufflevector(s3, s7, 4, 5, 6, 7, 12, 13, 14, 15));
+  for (int k = 0; k < 8; ++k) store(o + k, rows[k]);
 
   for (unsigned redo = ~plain & 0xffu; redo != 0; redo &= redo - 1) {
     const int k = __builtin_ctz(redo);
@@ -410,6 +415,210 @@ void project_range_generic(const MeshData& mesh, const DrawTransform& xf, std::s
   project_range(mesh, xf, begin, end, planes, viewport, orthographic, out);
 }
 
+// One face on its own: what the eight-lane path leaves over (the last faces of a chunk, and any
+// face with a vertex outside a plane or not finite).
+void setup_face(const SetupParams& params, std::size_t f, SetupChunk& out) {
+  const ivec3& face = params.mesh->faces[f];
+  const ProjectedVertex* const v[3] = {&params.vertices[face.x], &params.vertices[face.y],
+                                       &params.vertices[face.z]};
+  const uint8_t any_out = v[0]->outcode | v[1]->outcode | v[2]->outcode;
+  if (any_out & kInvalidVertex) return;  // Non-finite after transform => drop.
+  if (v[0]->outcode & v[1]->outcode & v[2]->outcode) return;  // All outside one plane => cull.
+  if (any_out == 0) {
+    TriangleSetup t;
+    bool swapped;
+    if (setup_triangle(v, params, uint32_t(f), t, swapped)) {
+      out.records.push_back(t);
+      emit(t, params.viewport, out);
+    }
+  } else {
+    clip_and_setup(face, any_out, params, uint32_t(f), out);
+  }
+}
+
+SR_INLINE i8 select(i8 mask, i8 a, i8 b) { return (a & mask) | (b & ~mask); }
+SR_INLINE f8 select(i8 mask, f8 a, f8 b) { return f8(select(mask, i8(a), i8(b))); }
+SR_INLINE d4 select(l4 mask, d4 a, d4 b) { return d4((l4(a) & mask) | (l4(b) & ~mask)); }
+SR_INLINE i8 min(i8 a, i8 b) { return a < b ? a : b; }
+SR_INLINE i8 max(i8 a, i8 b) { return a < b ? b : a; }
+SR_INLINE d4 abs(d4 v) { return d4(l4(v) & ~broadcast<l4>(int64_t(0x8000000000000000ull))); }
+// Half h (lanes 4h .. 4h + 3) of eight lanes, widened to double (exactly).
+SR_INLINE d4 wide(i8 v, int h) {
+  return __builtin_convertvector(h == 0 ? __builtin_shufflevector(v, v, 0, 1, 2, 3)
+                                        : __builtin_shufflevector(v, v, 4, 5, 6, 7), d4);
+}
+SR_INLINE d4 wide(f8 v, int h) {
+  return __builtin_convertvector(h == 0 ? low_half(v) : high_half(v), d4);
+}
+
+// One corner of eight faces: the ProjectedVertex records as fields, one face per lane.
+struct CornerLanes {
+  i8 x, y;
+  f8 dx, dy, key, inv_w;
+  i8 outcode;
+};
+
+SR_INLINE CornerLanes gather_corner(const ProjectedVertex* vertices, const int32_t* face_index,
+                                    int corner) {
+  i8 rows[8];
+  for (int j = 0; j < 8; ++j) rows[j] = load<i8>(vertices + face_index[3 * j + corner]);
+  transpose8(rows);
+  return {rows[0], rows[1], f8(rows[2]), f8(rows[3]), f8(rows[4]), f8(rows[5]),
+          rows[6] & splat(0xff)};
+}
+
+// Faces [f, f + 8) at once: setup_triangle and plane_keys_over_area lane by lane, with the same
+// IEEE operations in the same order (area2, a product of 25-bit integers, is exact in double),
+// so the same records. Integer tests (culling, the empty bounding box) come first for all eight;
+// the floating-point work only if some face survives. Faces with a vertex outside a plane or not
+// finite go to setup_face, in order, so records keep primitive order.
+SR_INLINE void setup_eight(const SetupParams& params, std::size_t f, SetupChunk& out) {
+  const int32_t* face_index = &params.mesh->faces[f].x;
+  CornerLanes v[3];
+  for (int k = 0; k < 3; ++k) v[k] = gather_corner(params.vertices, face_index, k);
+  const unsigned special = mask_bits((v[0].outcode | v[1].outcode | v[2].outcode) != 0);
+
+  const i8 ex1 = v[1].x - v[0].x, ey1 = v[1].y - v[0].y;
+  const i8 ex2 = v[2].x - v[0].x, ey2 = v[2].y - v[0].y;
+  d4 area2[2];
+  unsigned negative = 0, nonzero = 0;
+  for (int h = 0; h < 2; ++h) {
+    area2[h] = wide(ex1, h) * wide(ey2, h) - wide(ey1, h) * wide(ex2, h);
+    negative |= mask_bits(area2[h] < 0.0) << (4 * h);
+    nonzero |= mask_bits(area2[h] != 0.0) << (4 * h);
+  }
+  const unsigned front = negative ^ (params.transform->mirrored ? 0xffu : 0u);
+  const unsigned facing = params.cull == Cull::Back ? front
+                          : params.cull == Cull::Front ? ~front : 0xffu;
+  const i8 x_min = min(min(v[0].x, v[1].x), v[2].x), x_max = max(max(v[0].x, v[1].x), v[2].x);
+  const i8 y_min = min(min(v[0].y, v[1].y), v[2].y), y_max = max(max(v[0].y, v[1].y), v[2].y);
+  const i8 zero{}, half = splat(kSubpixelHalf), round_up = splat(kSubpixelOne - 1 - kSubpixelHalf);
+  const i8 x0 = max((x_min + round_up) >> kSubpixelBits, zero);
+  const i8 y0 = max((y_min + round_up) >> kSubpixelBits, zero);
+  const i8 x1 = min((x_max - half) >> kSubpixelBits, splat(params.viewport.width - 1));
+  const i8 y1 = min((y_max - half) >> kSubpixelBits, splat(params.viewport.height - 1));
+  const unsigned nonempty = mask_bits((x0 <= x1) & (y0 <= y1));
+  const unsigned keep = ~special & nonzero & facing & nonempty & 0xffu;
+  if ((keep | special) == 0) return;  // the common case in a dense mesh
+
+  alignas(32) int32_t lane_x[3][8], lane_y[3][8], lane_box[4][8], lane_bias[3][8];
+  alignas(32) float lane_key[3][8], lane_inv_w[3][8];
+  alignas(32) double lane_area2[8];
+  if (keep != 0) {
+    // Orient: vertices 1 and 2 swap where area2 < 0.
+    const i8 swapped = (splat(int32_t(negative)) & i8{1, 2, 4, 8, 16, 32, 64, 128}) != zero;
+    const CornerLanes* o[3] = {&v[0], &v[1], &v[2]};
+    i8 ox[3], oy[3];
+    f8 odx[3], ody[3], okey[3];
+    for (int k = 0; k < 3; ++k) {
+      const CornerLanes& a = *o[k];
+      const CornerLanes& b = *o[k == 0 ? 0 : 3 - k];  // the vertex it swaps with
+      ox[k] = select(swapped, b.x, a.x);
+      oy[k] = select(swapped, b.y, a.y);
+      odx[k] = select(swapped, b.dx, a.dx);
+      ody[k] = select(swapped, b.dy, a.dy);
+      okey[k] = select(swapped, b.key, a.key);
+      store(lane_x[k], ox[k]);
+      store(lane_y[k], oy[k]);
+      store(lane_inv_w[k], select(swapped, b.inv_w, a.inv_w));
+    }
+    // plane_keys_over_area, four lanes at a time.
+    constexpr double kMinArea = 1e-6 * kSubpixelOne * kSubpixelOne;
+    f4 key_over_area[3][2];
+    for (int h = 0; h < 2; ++h) {
+      const d4 t_area2 = abs(area2[h]);
+      store(lane_area2 + 4 * h, t_area2);
+      const d4 dx0 = wide(odx[0], h), dy0 = wide(ody[0], h);
+      const d4 ex1 = wide(ox[1] - ox[0], h) + (wide(odx[1], h) - dx0);
+      const d4 ey1 = wide(oy[1] - oy[0], h) + (wide(ody[1], h) - dy0);
+      const d4 ex2 = wide(ox[2] - ox[0], h) + (wide(odx[2], h) - dx0);
+      const d4 ey2 = wide(oy[2] - oy[0], h) + (wide(ody[2], h) - dy0);
+      const d4 area = ex1 * ey2 - ey1 * ex2;
+      const d4 r = 1.0 / (area * t_area2);
+      const d4 inv_area = t_area2 * r, inv_area2 = area * r;
+      const d4 key0 = wide(okey[0], h);
+      const d4 dkey1 = wide(okey[1], h) - key0, dkey2 = wide(okey[2], h) - key0;
+      l4 well_shaped = abs(area) > kMinArea;
+      d4 fitted[3];
+      for (int k = 0; k < 3; ++k) {
+        const d4 key = wide(okey[k], h);
+        const d4 sx = -wide(odx[k], h), sy = -wide(ody[k], h);
+        const d4 mu1 = (sx * ey2 - sy * ex2) * inv_area, mu2 = (ex1 * sy - ey1 * sx) * inv_area;
+        const d4 mu0 = -(mu1 + mu2);
+        fitted[k] = key + (mu1 * dkey1 + mu2 * dkey2);
+        well_shaped &= (abs(mu0) <= 0.25) & (abs(mu1) <= 0.25) & (abs(mu2) <= 0.25) &
+                       ((fitted[k] > 0.0) == (key > 0.0));
+      }
+      const d4 inv_t_area2 = 1.0 / t_area2;
+      for (int k = 0; k < 3; ++k)
+        key_over_area[k][h] = __builtin_convertvector(
+            select(well_shaped, fitted[k] * inv_area2, wide(okey[k], h) * inv_t_area2), f4);
+    }
+    for (int k = 0; k < 3; ++k) {
+      store(lane_key[k], __builtin_shufflevector(key_over_area[k][0], key_over_area[k][1],
+                                                 0, 1, 2, 3, 4, 5, 6, 7));
+      // The top-left rule, as in setup_triangle: bias 0 for top and left edges, else 1.
+      const int a = kEdgeStart[k], b = kEdgeEnd[k];
+      const i8 dx = ox[b] - ox[a], dy = oy[b] - oy[a];
+      const i8 top_left = (dy < zero) | ((dy == zero) & (dx > zero));
+      store(lane_bias[k], top_left + splat(1));
+    }
+    store(lane_box[0], x0);
+    store(lane_box[1], y0);
+    store(lane_box[2], x1);
+    store(lane_box[3], y1);
+  }
+
+  for (unsigned todo = keep | special; todo != 0; todo &= todo - 1) {
+    const int j = __builtin_ctz(todo);
+    if (special >> j & 1) {
+      setup_face(params, f + j, out);
+      continue;
+    }
+    // Written in place: a record built on the stack with narrow stores and copied with wide
+    // loads stalled store-to-load forwarding.
+    TriangleSetup& t = out.records.emplace_back();
+    for (int k = 0; k < 3; ++k) {
+      t.x[k] = lane_x[k][j];
+      t.y[k] = lane_y[k][j];
+      t.key_over_area[k] = lane_key[k][j];
+      t.bias[k] = uint8_t(lane_bias[k][j]);
+      t.inv_w[k] = lane_inv_w[k][j];
+    }
+    t.x0 = lane_box[0][j];
+    t.y0 = lane_box[1][j];
+    t.x1 = lane_box[2][j];
+    t.y1 = lane_box[3][j];
+    const bool swapped = negative >> j & 1;
+    t.corner[0] = 0;
+    t.corner[1] = swapped ? 2 : 1;
+    t.corner[2] = swapped ? 1 : 2;
+    t.back_facing = (front >> j & 1) ? 0 : 1;
+    t.area2 = int64_t(lane_area2[j]);
+    t.prim = uint32_t(f + j);
+    t.draw = params.draw;
+    t.clip_ref = kNoClip;
+    emit(t, params.viewport, out);
+  }
+}
+
+SR_INLINE void setup_range(const SetupParams& params, std::size_t begin, std::size_t end,
+                           SetupChunk& out) {
+  std::size_t f = begin;
+  for (; f + kLanes <= end; f += kLanes) setup_eight(params, f, out);
+  for (; f < end; ++f) setup_face(params, f, out);
+}
+
+SR_TARGET_AVX2 void setup_range_avx2(const SetupParams& params, std::size_t begin,
+                                     std::size_t end, SetupChunk& out) {
+  setup_range(params, begin, end, out);
+}
+
+void setup_range_generic(const SetupParams& params, std::size_t begin, std::size_t end,
+                         SetupChunk& out) {
+  setup_range(params, begin, end, out);
+}
+
 }  // namespace
 
 void project_vertices(const MeshData& mesh, const DrawTransform& xf, std::size_t begin,
@@ -425,22 +634,7 @@ void setup_chunk(const SetupParams& params, std::size_t begin, std::size_t end, 
   out.clip_bary.clear();
   out.tile_begin.assign(params.viewport.num_tiles() + 2, 0);
   out.tile_area.assign(params.estimate_overdraw ? params.viewport.num_tiles() : 0, 0.0f);
-  const ivec3* faces = params.mesh->faces.data();
-  for (std::size_t f = begin; f < end; ++f) {
-    const ProjectedVertex* const v[3] = {&params.vertices[faces[f].x],
-                                         &params.vertices[faces[f].y],
-                                         &params.vertices[faces[f].z]};
-    const uint8_t any_out = v[0]->outcode | v[1]->outcode | v[2]->outcode;
-    if (any_out & kInvalidVertex) continue;  // Non-finite after transform => drop.
-    if (v[0]->outcode & v[1]->outcode & v[2]->outcode) continue;  // All outside one plane => cull.
-    if (any_out == 0) {
-      TriangleSetup t;
-      bool swapped;
-      if (setup_triangle(v, params, uint32_t(f), t, swapped)) emit(t, params.viewport, out);
-    } else {
-      clip_and_setup(faces[f], any_out, params, uint32_t(f), out);
-    }
-  }
+  (params.isa == Isa::Avx2 ? setup_range_avx2 : setup_range_generic)(params, begin, end, out);
   bin_records(params.viewport, out);
 }
 
