@@ -355,17 +355,27 @@ void write_rgb_generic(const uint32_t* rgb, const uint32_t* visible, int n, uint
   }
 }
 // The same, four pixels per byte shuffle (each 16-byte store spills 4 bytes into the next pixel,
-// written afterwards; the loop stops where a spill would leave the row).
+// written afterwards; where a spill would leave the row, the last four go as 8 + 4 bytes).
+SR_TARGET_AVX2 SR_INLINE __m128i rgb_four(const uint32_t* rgb, const uint32_t* visible,
+                                           __m128i background) {
+  const __m128i pack = _mm_setr_epi8(0, 1, 2, 4, 5, 6, 8, 9, 10, 12, 13, 14, -1, -1, -1, -1);
+  const __m128i c = _mm_loadu_si128(reinterpret_cast<const __m128i*>(rgb));
+  const __m128i v = _mm_loadu_si128(reinterpret_cast<const __m128i*>(visible));
+  const __m128i none = _mm_cmpeq_epi32(v, _mm_set1_epi32(int32_t(kNoTriangle)));
+  return _mm_shuffle_epi8(_mm_blendv_epi8(c, background, none), pack);
+}
 SR_TARGET_AVX2 void write_rgb_avx2(const uint32_t* rgb, const uint32_t* visible, int n,
                                    uint32_t background, uint8_t* out) {
-  const __m128i pack = _mm_setr_epi8(0, 1, 2, 4, 5, 6, 8, 9, 10, 12, 13, 14, -1, -1, -1, -1);
-  const __m128i none = _mm_set1_epi32(int32_t(kNoTriangle)), bg = _mm_set1_epi32(int32_t(background));
+  const __m128i bg = _mm_set1_epi32(int32_t(background));
   int x = 0;
-  for (; x + 6 <= n; x += 4) {
-    const __m128i c = _mm_loadu_si128(reinterpret_cast<const __m128i*>(rgb + x));
-    const __m128i v = _mm_loadu_si128(reinterpret_cast<const __m128i*>(visible + x));
-    const __m128i px = _mm_blendv_epi8(c, bg, _mm_cmpeq_epi32(v, none));
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(out + 3 * x), _mm_shuffle_epi8(px, pack));
+  for (; x + 6 <= n; x += 4)
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(out + 3 * x), rgb_four(rgb + x, visible + x, bg));
+  if (x + 4 <= n) {
+    const __m128i last = rgb_four(rgb + x, visible + x, bg);
+    _mm_storel_epi64(reinterpret_cast<__m128i*>(out + 3 * x), last);
+    const int32_t tail = _mm_extract_epi32(last, 2);
+    std::memcpy(out + 3 * x + 8, &tail, 4);
+    x += 4;
   }
   write_rgb_generic(rgb + x, visible + x, n - x, background, out + 3 * x);
 }
