@@ -157,7 +157,7 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   pool_.parallel_for(normal_blocks.size(), [&](std::size_t item, int) {
     const Block& blk = normal_blocks[item];
     world_normals(*draws[blk.draw].mesh, transforms[blk.draw].normal_to_world, blk.begin, blk.end,
-                  world_normals_[blk.draw].data());
+                  isa_, world_normals_[blk.draw].data());
   });
   ShadeParams shade{};
   shade.draws = shade_draws.data();

@@ -416,12 +416,55 @@ void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& r
   }
 }
 
+// Four normals at a time: lane by lane the double operations of unit(m * dvec3(n)) (GLM's order:
+// (m0 x + m1 y) + m2 z, length sqrt((x x + y y) + z z), a division per component), so the same
+// bits as the scalar loop that finishes the range.
+SR_INLINE void world_normals_range(const MeshData& mesh, const dmat3& m, std::size_t begin,
+                                   std::size_t end, vec3* out) {
+  const vec3* normals = mesh.normals.data();
+  std::size_t i = begin;
+  for (; i + 4 <= end; i += 4) {
+    const f4 a = load<f4>(&normals[i].x), b = load<f4>(&normals[i].x + 4),
+             c = load<f4>(&normals[i].x + 8);
+    const f4 ab_x = __builtin_shufflevector(a, b, 0, 3, 6, 0), ab_y = __builtin_shufflevector(a, b, 1, 4, 7, 0);
+    const f4 ab_z = __builtin_shufflevector(a, b, 2, 5, 0, 0);
+    const d4 x = __builtin_convertvector(__builtin_shufflevector(ab_x, c, 0, 1, 2, 5), d4);
+    const d4 y = __builtin_convertvector(__builtin_shufflevector(ab_y, c, 0, 1, 2, 6), d4);
+    const d4 z = __builtin_convertvector(__builtin_shufflevector(ab_z, c, 0, 1, 4, 7), d4);
+    d4 w[3];
+    for (int r = 0; r < 3; ++r)
+      w[r] = (broadcast<d4>(m[0][r]) * x + broadcast<d4>(m[1][r]) * y) + broadcast<d4>(m[2][r]) * z;
+    const d4 len = sqrt((w[0] * w[0] + w[1] * w[1]) + w[2] * w[2]);
+    // unit(): zero unless 0 < len < inf (NaN fails both).
+    const auto ok = (len > 0.0) & (len < broadcast<d4>(HUGE_VAL));
+    f4 u[3];
+    for (int r = 0; r < 3; ++r) u[r] = __builtin_convertvector(ok ? w[r] / len : d4{}, f4);
+    // Back to x y z triples.
+    const f4 xy = __builtin_shufflevector(u[0], u[1], 0, 4, 1, 5), xy_hi = __builtin_shufflevector(u[0], u[1], 2, 6, 3, 7);
+    store(&out[i].x, __builtin_shufflevector(xy, u[2], 0, 1, 4, 2));
+    store(&out[i].x + 4, __builtin_shufflevector(__builtin_shufflevector(xy, xy_hi, 3, 4, 5, 0), u[2], 0, 5, 1, 2));
+    store(&out[i].x + 8, __builtin_shufflevector(xy_hi, u[2], 6, 2, 3, 7));
+  }
+  for (; i < end; ++i) out[i] = unit(m * dvec3(normals[i]));
+}
+
+SR_TARGET_AVX2 void world_normals_avx2(const MeshData& mesh, const dmat3& m, std::size_t begin,
+                                       std::size_t end, vec3* out) {
+  world_normals_range(mesh, m, begin, end, out);
+}
+
+void world_normals_generic(const MeshData& mesh, const dmat3& m, std::size_t begin,
+                           std::size_t end, vec3* out) {
+  world_normals_range(mesh, m, begin, end, out);
+}
+
 }  // namespace
 
 void world_normals(const MeshData& mesh, const dmat3& normal_to_world, std::size_t begin,
-                   std::size_t end, vec3* out) {
+                   std::size_t end, Isa isa, vec3* out) {
   // Normals are transformed and normalised in double: a scaled normal can overflow float.
-  for (std::size_t i = begin; i < end; ++i) out[i] = unit(normal_to_world * dvec3(mesh.normals[i]));
+  (isa == Isa::Avx2 ? world_normals_avx2 : world_normals_generic)(mesh, normal_to_world, begin,
+                                                                  end, out);
 }
 
 bool can_shade_forward(const ShadeParams& params) {

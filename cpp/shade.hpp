@@ -18,7 +18,7 @@ struct ShadeDraw {
 // World-space unit normals of vertices [begin, end) of a mesh with vertex normals, once per
 // render rather than once per triangle corner and tile.
 void world_normals(const MeshData& mesh, const dmat3& normal_to_world, std::size_t begin,
-                   std::size_t end, vec3* out);
+                   std::size_t end, Isa isa, vec3* out);
 
 struct ShadeParams {
   const ShadeDraw* draws;

@@ -83,6 +83,13 @@ SR_INLINE f8 sqrt(f8 v) {
   return __builtin_shufflevector(a, b, 0, 1, 2, 3, 4, 5, 6, 7);
 }
 
+SR_INLINE d4 sqrt(d4 v) {
+  typedef double d2 __attribute__((vector_size(16)));
+  const d2 lo = __builtin_shufflevector(v, v, 0, 1), hi = __builtin_shufflevector(v, v, 2, 3);
+  const d2 a = d2(_mm_sqrt_pd(__m128d(lo))), b = d2(_mm_sqrt_pd(__m128d(hi)));
+  return __builtin_shufflevector(a, b, 0, 1, 2, 3);
+}
+
 // Two times four integer-valued doubles to eight floats (each rounded once, to nearest).
 SR_INLINE f8 to_float(d4 lo, d4 hi) {
   const f4 a = __builtin_convertvector(lo, f4), b = __builtin_convertvector(hi, f4);

@@ -117,9 +117,10 @@ def test_each_output_subset_same_bits(outputs):
 @pytest.mark.parametrize("simd", [True, False])
 @pytest.mark.parametrize("camera", ["perspective", "orthographic"])
 def test_vertex_pass_matches_the_scalar_projection(rng, simd, camera):
-    # Vertices are transformed and projected eight at a time; the last (count % 8) of a mesh, and
-    # any vertex outside a plane, behind the camera, past the guard band or not finite after the
-    # pose, go through the scalar code. One triangle per mesh puts every vertex on the scalar path:
+    # Vertices are transformed and projected eight at a time, normals taken to world space four at
+    # a time; the last (count % 8) of a mesh, any vertex outside a plane, behind the camera, past
+    # the guard band or not finite after the pose, and the last (count % 4) normals go through
+    # the scalar code. One triangle per mesh puts every vertex on the scalar path:
     # the frames must equal those of one mesh holding all the triangles, to the bit.
     n, m = 1500, 1200
     p = rng.normal(size=(n, 3)) * 0.6
@@ -128,6 +129,8 @@ def test_vertex_pass_matches_the_scalar_projection(rng, simd, camera):
     p[huge] = np.sign(p[huge]) * rng.uniform(2e37, 3e38, size=(huge.sum(), 3))
     faces = rng.integers(0, n, size=(m, 3))
     colors = rng.random((n, 3))
+    normals = rng.normal(size=(n, 3)) * rng.choice([1e-30, 1.0, 1e30], size=(n, 1))
+    normals[rng.random(n) < 0.05] = 0.0  # no direction: unit() gives the zero vector
     pose = np.diag([20.0, 20.0, 20.0, 1.0])
     pose[:3, 3] = (0.0, 0.0, -1.0)
     if camera == "perspective":
@@ -136,9 +139,10 @@ def test_vertex_pass_matches_the_scalar_projection(rng, simd, camera):
         cam = sr.OrthographicCamera(xmag=20.0, ymag=15.0, near=0.1, far=40.0)
     cam.look_at(eye=(0.3, 0.2, 30.0), target=(0.0, 0.0, 0.0))
     whole, split = sr.Scene(), sr.Scene()
-    whole.add(sr.Mesh(p, faces, colors=colors), pose=pose)
+    whole.add(sr.Mesh(p, faces, colors=colors, normals=normals), pose=pose)
     for f in faces:
-        split.add(sr.Mesh(p[f], np.arange(3).reshape(1, 3), colors=colors[f]), pose=pose)
+        split.add(sr.Mesh(p[f], np.arange(3).reshape(1, 3), colors=colors[f], normals=normals[f]),
+                  pose=pose)
     renderer = sr.Renderer(173, 131, threads=2, simd=simd)
     outputs = ("color", "depth", "mask", "normal", "coverage")
     a = renderer.render(whole, cam, outputs=outputs, cull="none")
