@@ -38,8 +38,8 @@ class ThreadPool {
   const std::function<void(std::size_t, int)>* job_ = nullptr;
   std::size_t count_ = 0;
   std::atomic<std::size_t> next_{0};
-  std::size_t generation_ = 0;
-  int busy_ = 0;
+  std::atomic<std::size_t> generation_{0};  // written under mutex_, read by spinning workers
+  std::atomic<int> busy_{0};                 // workers still in the current loop
   bool stop_ = false;
   std::exception_ptr error_;
 };
