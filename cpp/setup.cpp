@@ -508,8 +508,8 @@ SR_INLINE void setup_eight(const SetupParams& params, std::size_t f, SetupChunk&
   unsigned negative = 0, nonzero = 0;
   for (int h = 0; h < 2; ++h) {
     area2[h] = wide(ex1, h) * wide(ey2, h) - wide(ey1, h) * wide(ex2, h);
-    negative |= mask_bits(area2[h] < 0.0) << (4 * h);
-    nonzero |= mask_bits(area2[h] != 0.0) << (4 * h);
+    negative |= mask_bits(l4(area2[h] < 0.0)) << (4 * h);
+    nonzero |= mask_bits(l4(area2[h] != 0.0)) << (4 * h);
   }
   const unsigned front = negative ^ (params.transform->mirrored ? 0xffu : 0u);
   const unsigned facing = params.cull == Cull::Back ? front
