@@ -271,6 +271,9 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::handle& 
 PYBIND11_MODULE(_core, m) {
   using namespace sr;
   m.doc() = "softrast's C++ core (private: use the softrast package).";
+  // Load NumPy's C API at import, as extension modules conventionally do: pybind11 otherwise
+  // loads it on first use (~0.1 ms of imports and version checks), in the first mesh upload.
+  (void)py::dtype::of<float>();
   m.attr("SUBPIXEL_BITS") = kSubpixelBits;
   m.attr("TILE_SIZE_PX") = kTileSizePx;
   m.attr("MAX_IMAGE_SIDE") = kMaxImageSide;

@@ -31,6 +31,8 @@ constexpr int kTilePixels = kTileSizePx * kTileSizePx;
 // write eight pixels of a row, or four pixels of two rows, at a time from any pixel, so they may
 // spill up to kLanes - 1 pixels into the next row or one row past the last (lanes masked off,
 // values kept): the arrays have that much padding at the end.
+// Allocate default-initialised (new TileScratch): clear() writes what a tile reads, so zeroing
+// would only page-fault `coverage` in a first frame that does not ask for it.
 constexpr int kTileScratchPixels = kTilePixels + kTileSizePx + simd::kLanes;
 struct TileScratch {
   float key[kTileScratchPixels];         // depth key of the nearest fragment so far (larger = closer)

@@ -6,6 +6,7 @@
 #include "framebuffer.hpp"
 #include "pipeline.hpp"
 #include "rasterize.hpp"
+#include "scratch.hpp"
 #include "setup.hpp"
 #include "shade.hpp"
 #include "thread_pool.hpp"
@@ -41,11 +42,13 @@ class Renderer {
   Isa isa_;
   std::mutex mutex_;
   // Scratch reused across renders: no per-frame allocation once sizes settle.
-  std::vector<std::vector<ProjectedVertex>> vertices_;  // per draw
+  std::vector<ScratchArray<ProjectedVertex>> vertices_;  // per draw
   std::vector<SetupChunk> chunks_;
-  std::vector<std::vector<vec3>> world_normals_;  // per draw, when shading needs them
-  std::vector<std::unique_ptr<TileScratch>> tile_scratch_;  // per worker
-  std::vector<std::unique_ptr<ShadeScratch>> shade_scratch_;  // per worker
+  std::vector<ScratchArray<vec3>> world_normals_;  // per draw, when shading needs them
+  // Per worker, allocated by the worker itself on its first tile: first touched in parallel,
+  // and only by workers that take part (ThreadPool::parallel_for).
+  std::vector<std::unique_ptr<TileScratch>> tile_scratch_;
+  std::vector<std::unique_ptr<ShadeScratch>> shade_scratch_;
 };
 
 void validate_camera(const CameraParams& camera);

@@ -627,9 +627,7 @@ SR_INLINE void setup_eight(const SetupParams& params, std::size_t f, SetupChunk&
       setup_face(params, f + j, out);
       continue;
     }
-    // Written in place: a record built on the stack with narrow stores and copied with wide
-    // loads stalled store-to-load forwarding.
-    TriangleSetup& t = out.records.emplace_back();
+    TriangleSetup& t = out.records.emplace_back();  // written in place, every field
     for (int k = 0; k < 3; ++k) {
       t.x[k] = lane_x[k][j];
       t.y[k] = lane_y[k][j];

@@ -3,12 +3,10 @@
 
 #include "clip.hpp"
 #include "pipeline.hpp"
+#include "scratch.hpp"
 #include "simd.hpp"
 #include "transform.hpp"
 
-#include <memory>
-#include <new>
-#include <utility>
 #include <vector>
 
 namespace sr {
@@ -44,31 +42,15 @@ void project_vertices(const MeshData& mesh, const DrawTransform& xf, std::size_t
                       std::size_t end, const ClipPlanes& planes, const Viewport& viewport,
                       bool orthographic, Isa isa, ProjectedVertex* out);
 
-// std::allocator, except that emplace_back() / resize() leave a trivial T uninitialised: the
-// setup pass appends a record and writes every field (value-initialising zeroed each record
-// first, with a `rep stos` that cost a tenth of the pass).
-template <typename T>
-struct UninitializedAllocator : std::allocator<T> {
-  template <typename U>
-  struct rebind { using other = UninitializedAllocator<U>; };
-  UninitializedAllocator() = default;
-  template <typename U>
-  UninitializedAllocator(const UninitializedAllocator<U>&) noexcept {}
-  template <typename U>
-  void construct(U* p) noexcept { ::new (static_cast<void*>(p)) U; }
-  template <typename U, typename... Args>
-  void construct(U* p, Args&&... args) { ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...); }
-};
-
 // The triangles one chunk of a draw produced, binned to tiles. Records keep primitive order.
 // Cache-line aligned: neighbouring chunks are set up by different threads, and every push_back
-// writes a vector's end pointer (sharing a line made the setup pass scale 1.1x on 2 threads).
+// writes an array's end (sharing a line made the setup pass scale 1.1x on 2 threads).
 struct alignas(64) SetupChunk {
-  std::vector<TriangleSetup, UninitializedAllocator<TriangleSetup>> records;
+  GrowingArray<TriangleSetup> records;   // (grown without copies: a first frame grows them all)
   std::vector<vec3> clip_bary;           // 3 per clipped record: source weights of its vertices
   std::vector<uint32_t> tile_begin;      // num_tiles + 1 offsets into tile_records
   std::vector<uint32_t> tile_records;    // record indices, grouped by tile, ascending
-  std::vector<uint32_t> record_tiles;    // scratch: tiles each record overlaps (setup.cpp)
+  GrowingArray<uint32_t> record_tiles;   // scratch: tiles each record overlaps (setup.cpp)
   std::vector<float> tile_area;          // per tile: records' area in it, px^2 (an estimate);
                                          // empty unless SetupParams::estimate_overdraw
 };

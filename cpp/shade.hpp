@@ -40,10 +40,13 @@ struct ShadeTriangle {
 
 // Per-thread scratch for shade_tile: which binned triangles own a pixel, and the tile's shaded
 // values (row stride kTileSizePx, padded like TileScratch) before they go to the framebuffer.
+// Allocate default-initialised (new ShadeScratch): `normal` is then left untouched, which spares
+// a first frame its page faults unless normals are an output (read only where shaded).
 struct ShadeScratch {
   std::vector<uint8_t> used;  // per binned-triangle index: owns at least one pixel of the tile
   std::vector<uint32_t> large;  // forward shading: int64-path triangles left to a deferred pass
-  uint32_t rgb[kTileScratchPixels];  // packed 8-bit colour, r | g << 8 | b << 16
+  uint32_t rgb[kTileScratchPixels] = {};  // packed 8-bit colour, r | g << 8 | b << 16 (whole
+                                          // rows are read, background pixels' values discarded)
   float normal[3][kTileScratchPixels];
 };
 

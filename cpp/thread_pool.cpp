@@ -61,6 +61,8 @@ void ThreadPool::worker_loop(int worker) {
       wake_.wait(lock, [&] { return stop_ || generation_ != seen; });
       if (stop_) return;
       seen = generation_;
+      if (!open_) continue;  // woke after the caller finished that loop: nothing left to join
+      ++busy_;
     }
     run_items(worker);
     if (busy_.fetch_sub(1, std::memory_order_acq_rel) == 1) {
@@ -82,7 +84,7 @@ void ThreadPool::parallel_for(std::size_t count, const std::function<void(std::s
     count_ = count;
     next_.store(0, std::memory_order_relaxed);
     error_ = nullptr;
-    busy_ = int(workers_.size());
+    open_ = true;
     ++generation_;
   }
   wake_.notify_all();
@@ -90,7 +92,9 @@ void ThreadPool::parallel_for(std::size_t count, const std::function<void(std::s
   spin_until([&] { return busy_.load(std::memory_order_acquire) == 0; });
   std::exception_ptr error;
   {
+    // Every item is taken: close the loop to workers not yet awake, wait for those running one.
     std::unique_lock<std::mutex> lock(mutex_);
+    open_ = false;
     done_.wait(lock, [&] { return busy_ == 0; });
     job_ = nullptr;
     error = error_;

@@ -24,7 +24,10 @@ class ThreadPool {
   int size() const { return int(workers_.size()) + 1; }
 
   // Calls fn(item, worker) for every item in [0, count), items handed out dynamically. Which
-  // worker runs an item must not change its result (callers write disjoint outputs).
+  // worker runs an item must not change its result (callers write disjoint outputs), nor how
+  // many take part: a worker that has not woken up by the time the caller runs out of items
+  // sits the loop out (so a thread just started, or not scheduled on a busy machine, never
+  // delays the caller; a Renderer's first frame need not wait for its threads to start).
   // Rethrows the first exception an item threw, after every worker has stopped.
   void parallel_for(std::size_t count, const std::function<void(std::size_t, int)>& fn);
 
@@ -39,7 +42,8 @@ class ThreadPool {
   std::size_t count_ = 0;
   std::atomic<std::size_t> next_{0};
   std::atomic<std::size_t> generation_{0};  // written under mutex_, read by spinning workers
-  std::atomic<int> busy_{0};                 // workers still in the current loop
+  bool open_ = false;          // workers may still join the current loop
+  std::atomic<int> busy_{0};   // workers that joined it and are running items
   bool stop_ = false;
   std::exception_ptr error_;
 };

@@ -319,6 +319,37 @@ def test_core_copies_misaligned_immutable_arrays():
         np.testing.assert_array_equal(arr, expected[name])
 
 
+@pytest.mark.parametrize("where", [0, 1, 1365, 1366, 2999])  # the core scans 4096 values a block
+def test_core_validation_reports_the_first_bad_value(where):
+    # The core checks what it views itself (sr.Mesh checks first, _core.MeshData may be called
+    # directly); its block-wise scans must still name the first offending vertex and index.
+    from softrast import _core
+
+    n = 3000
+    positions = np.zeros((n, 3), np.float32)
+    faces = np.tile(np.array([[0, 1, 2]], np.int32), (n, 1))
+    for value in (np.nan, np.inf, -np.inf):
+        bad = positions.copy()
+        bad[where, 2] = value
+        bad[min(where + 700, n - 1), 0] = np.nan  # a later one is not the one reported
+        with pytest.raises(ValueError, match=f"positions contains NaN or inf at vertex {where}$"):
+            _core.MeshData(bad, faces)
+    for index in (-1, n, 2**31 - 1, -2**31):
+        bad = faces.copy()
+        bad[where, 1] = index
+        bad[min(where + 900, n - 1), 2] = n + 5
+        with pytest.raises(ValueError, match=rf"faces: index {index} in face {where} is outside \[0, {n}\)"):
+            _core.MeshData(positions, bad)
+    for name, cols in (("normals", 3), ("colors", 4), ("uvs", 2)):
+        values = np.zeros((n, cols), np.float32)
+        values[where, cols - 1] = np.nan
+        args = {"normals": None, "colors": None, "uvs": None, name: values}
+        with pytest.raises(ValueError, match=f"{name} contains NaN or inf"):
+            _core.MeshData(positions, faces, args["normals"], args["colors"], args["uvs"])
+    _core.MeshData(positions, faces, np.ones((n, 3), np.float32), np.ones((n, 4), np.float32),
+                   np.ones((n, 2), np.float32))  # all finite, all in range: accepted
+
+
 # -- trimesh ------------------------------------------------------------------------------------
 
 def test_from_trimesh_icosphere():
