@@ -17,13 +17,42 @@ inline vec3 unit(const dvec3& v) {
   return len > 0.0 && std::isfinite(len) ? vec3(v / len) : vec3(0.0f);
 }
 
+// std::clamp(v, 0, 1) * 255 + 0.5 truncated.
+inline uint32_t to_unorm8(float v) { return uint32_t(std::clamp(v, 0.0f, 1.0f) * 255.0f + 0.5f); }
+
+// Picks a prepared triangle's per-pixel work (ShadeTriangle) and its per-triangle values.
+void classify(const ShadeParams& p, ShadeTriangle& s) {
+  const bool lit = p.shading == Shading::Lambert;
+  const bool uniform_color = s.color[0] == s.color[1] && s.color[0] == s.color[2];
+  s.one_normal = s.normal[0] == s.normal[1] && s.normal[0] == s.normal[2];
+  if (s.one_normal) {
+    const vec3 n = s.normal[0];
+    const float len2 = glm::dot(n, n);
+    s.unit_normal = len2 > 0.0f ? n * (1.0f / std::sqrt(len2)) : vec3(0.0f);
+  }
+  if (uniform_color && (!lit || s.one_normal)) {
+    s.color_kind = ShadeTriangle::kConstantColor;
+    vec3 c = s.color[0];
+    if (lit) c *= p.ambient + (1.0f - p.ambient) *
+                                  std::max(glm::dot(s.unit_normal, p.to_light_world), 0.0f);
+    s.rgb = to_unorm8(c.x) | to_unorm8(c.y) << 8 | to_unorm8(c.z) << 16;
+  } else if (uniform_color) {
+    s.color_kind = ShadeTriangle::kUniformLit;
+    for (int k = 0; k < 3; ++k) s.light_dot[k] = glm::dot(s.normal[k], p.to_light_world);
+  } else {
+    s.color_kind = ShadeTriangle::kVaryingColor;
+  }
+}
+
 // Prepares one visible triangle: its perspective weights and its attributes at its own three
 // vertices. A clipped triangle's vertices carry weights of the source face's corners; attributes are linear in those weights, so they are mapped here once.
 ShadeTriangle prepare(const ShadeParams& p, const VisibleTriangle& vt) {
   const TriangleSetup& t = *vt.tri;
   const ShadeDraw& d = p.draws[t.draw];
   ShadeTriangle s;
-  for (int k = 0; k < 3; ++k) s.persp[k] = float(double(t.inv_w[k]) / double(t.area2));
+  const double max_inv_w = std::max({double(t.inv_w[0]), double(t.inv_w[1]), double(t.inv_w[2])});
+  for (int k = 0; k < 3; ++k)
+    s.persp[k] = float(double(t.inv_w[k]) / max_inv_w / double(t.area2));
   {
     const MeshData& mesh = *d.mesh;
     const ivec3 f = mesh.faces[t.prim];
@@ -56,6 +85,7 @@ ShadeTriangle prepare(const ShadeParams& p, const VisibleTriangle& vt) {
       }
     }
   }
+  classify(p, s);
   return s;
 }
 
@@ -110,7 +140,8 @@ struct ShadeConstants {
   SR_INLINE ShadeConstants(const ShadeParams& p, const ShadeTriangle& s) {
     for (int k = 0; k < 3; ++k) {
       persp[k] = splat(s.persp[k]);
-      light[k] = splat(p.to_light_world[k]);
+      light[k] = s.color_kind == ShadeTriangle::kUniformLit ? splat(s.light_dot[k])
+                                                            : splat(p.to_light_world[k]);
     }
     ambient = splat(p.ambient);
     diffuse = splat(1.0f - p.ambient);
@@ -126,37 +157,62 @@ SR_INLINE void shade_group(const ShadeTriangle& s, const ShadeConstants& c, f8 e
   const auto merge = [&](auto* p, auto v) {
     raster::store_lanes<kPairs>(p, mine ? v : raster::load_lanes<kPairs, decltype(v)>(p));
   };
-  // Perspective-correct barycentrics from the exact edge values.
-  f8 b0 = e0 * c.persp[0], b1 = e1 * c.persp[1], b2 = e2 * c.persp[2];
-  const f8 inv_sum = 1.0f / (b0 + b1 + b2);
-  b0 *= inv_sum; b1 *= inv_sum; b2 *= inv_sum;
-  f8 nx{}, ny{}, nz{};
-  if constexpr (kLit || kNormal) {
-    nx = b0 * s.normal[0].x + b1 * s.normal[1].x + b2 * s.normal[2].x;
-    ny = b0 * s.normal[0].y + b1 * s.normal[1].y + b2 * s.normal[2].y;
-    nz = b0 * s.normal[0].z + b1 * s.normal[1].z + b2 * s.normal[2].z;
-    const f8 len2 = nx * nx + ny * ny + nz * nz;
-    const f8 r = 1.0f / simd::sqrt(len2);
-    const i8 nonzero = len2 > 0.0f;
-    nx = nonzero ? nx * r : f8{};
-    ny = nonzero ? ny * r : f8{};
-    nz = nonzero ? nz * r : f8{};
+  const bool varying_color = kColor && s.color_kind == ShadeTriangle::kVaryingColor;
+  const bool varying_normal = kNormal && !s.one_normal;
+  if (varying_color || varying_normal) {
+    // Perspective-correct barycentrics from the exact edge values.
+    f8 b0 = e0 * c.persp[0], b1 = e1 * c.persp[1], b2 = e2 * c.persp[2];
+    const f8 inv_sum = 1.0f / (b0 + b1 + b2);
+    b0 *= inv_sum; b1 *= inv_sum; b2 *= inv_sum;
+    f8 nx{}, ny{}, nz{};
+    if (varying_normal || (kLit && varying_color)) {
+      nx = b0 * s.normal[0].x + b1 * s.normal[1].x + b2 * s.normal[2].x;
+      ny = b0 * s.normal[0].y + b1 * s.normal[1].y + b2 * s.normal[2].y;
+      nz = b0 * s.normal[0].z + b1 * s.normal[1].z + b2 * s.normal[2].z;
+      const f8 len2 = nx * nx + ny * ny + nz * nz;
+      const f8 r = 1.0f / simd::sqrt(len2);
+      const i8 nonzero = len2 > 0.0f;
+      nx = nonzero ? nx * r : f8{};
+      ny = nonzero ? ny * r : f8{};
+      nz = nonzero ? nz * r : f8{};
+    }
+    if (varying_normal) {
+      merge(out.normal[0] + i, nx);
+      merge(out.normal[1] + i, ny);
+      merge(out.normal[2] + i, nz);
+    }
+    if (varying_color) {
+      f8 r = b0 * s.color[0].x + b1 * s.color[1].x + b2 * s.color[2].x;
+      f8 g = b0 * s.color[0].y + b1 * s.color[1].y + b2 * s.color[2].y;
+      f8 b = b0 * s.color[0].z + b1 * s.color[1].z + b2 * s.color[2].z;
+      if constexpr (kLit) {
+        const f8 d = nx * c.light[0] + ny * c.light[1] + nz * c.light[2];
+        const f8 f = c.ambient + c.diffuse * (f8{} < d ? d : f8{});
+        r *= f; g *= f; b *= f;
+      }
+      merge(out.rgb + i, to_unorm8(r) | (to_unorm8(g) << 8) | (to_unorm8(b) << 16));
+    }
   }
   if constexpr (kNormal) {
-    merge(out.normal[0] + i, nx);
-    merge(out.normal[1] + i, ny);
-    merge(out.normal[2] + i, nz);
+    if (!varying_normal)
+      for (int k = 0; k < 3; ++k) merge(out.normal[k] + i, splat(s.unit_normal[k]));
   }
   if constexpr (kColor) {
-    f8 r = b0 * s.color[0].x + b1 * s.color[1].x + b2 * s.color[2].x;
-    f8 g = b0 * s.color[0].y + b1 * s.color[1].y + b2 * s.color[2].y;
-    f8 b = b0 * s.color[0].z + b1 * s.color[1].z + b2 * s.color[2].z;
-    if constexpr (kLit) {
-      const f8 d = nx * c.light[0] + ny * c.light[1] + nz * c.light[2];
+    if (s.color_kind == ShadeTriangle::kConstantColor) {
+      merge(out.rgb + i, splat(int32_t(s.rgb)));
+    } else if (kLit && s.color_kind == ShadeTriangle::kUniformLit) {
+      // Unnormalised perspective weights: the normal's length and dot(n, L) share their scale.
+      const f8 b0 = e0 * c.persp[0], b1 = e1 * c.persp[1], b2 = e2 * c.persp[2];
+      const f8 nx = b0 * s.normal[0].x + b1 * s.normal[1].x + b2 * s.normal[2].x;
+      const f8 ny = b0 * s.normal[0].y + b1 * s.normal[1].y + b2 * s.normal[2].y;
+      const f8 nz = b0 * s.normal[0].z + b1 * s.normal[1].z + b2 * s.normal[2].z;
+      const f8 len2 = nx * nx + ny * ny + nz * nz;
+      const f8 dot = b0 * c.light[0] + b1 * c.light[1] + b2 * c.light[2];
+      const f8 d = dot / simd::sqrt(len2);  // NaN for a zero normal: no diffuse term
       const f8 f = c.ambient + c.diffuse * (f8{} < d ? d : f8{});
-      r *= f; g *= f; b *= f;
+      merge(out.rgb + i, to_unorm8(f * s.color[0].x) | (to_unorm8(f * s.color[0].y) << 8) |
+                             (to_unorm8(f * s.color[0].z) << 16));
     }
-    merge(out.rgb + i, to_unorm8(r) | (to_unorm8(g) << 8) | (to_unorm8(b) << 16));
   }
 }
 

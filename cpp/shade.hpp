@@ -31,11 +31,27 @@ struct ShadeParams {
 };
 
 // A triangle visible in the tile being shaded, prepared once for all its pixels.
+// What varies across it picks the work per pixel (shade_group); each output is decided on its
+// own, so an output's bits do not depend on which other outputs were requested:
+//   colour  kConstantColor  one base colour, unlit or lit with one normal: a precomputed value;
+//           kUniformLit     one base colour, lit, normals varying (smooth shading): the Lambert
+//                           term dot(n, L) / |n| of the unnormalised interpolated normal, without
+//                           normalising the weights (both are scale-invariant) or interpolating
+//                           colours;
+//           kVaryingColor   vertex colours: normalised weights, every attribute interpolated;
+//   normal  one_normal: the precomputed unit normal, else the normalised interpolated normal.
 struct ShadeTriangle {
-  float persp[3];   // 1 / (w_k * area2): E_k * persp[k] ~ perspective-correct weight
+  enum ColorKind : uint8_t { kVaryingColor, kUniformLit, kConstantColor };
+  float persp[3];   // 1 / (w_k * area2) / max_k(1 / w_k): E_k * persp[k] ~ perspective-correct
+                    // weight, scaled so that the largest is about 1 (no float underflow)
   vec3 normal[3];   // world-space normal at each vertex (the face normal if flat), facing the
                     // camera's side for back faces
   vec3 color[3];    // base colour at each vertex
+  ColorKind color_kind;
+  bool one_normal;     // the three normals are equal
+  uint32_t rgb;        // kConstantColor: the packed colour of every pixel (r | g << 8 | b << 16)
+  vec3 unit_normal;    // one_normal: the unit normal of every pixel (zero if the normal is zero)
+  float light_dot[3];  // kUniformLit: dot(normal[k], to_light_world)
 };
 
 // Per-thread scratch for shade_tile: which binned triangles own a pixel, and the tile's shaded

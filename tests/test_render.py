@@ -12,6 +12,7 @@ import textwrap
 
 import numpy as np
 import pytest
+import trimesh
 
 import softrast as sr
 from conftest import (
@@ -579,3 +580,46 @@ def test_lambert_headlight_follows_cosine(tilt_deg):
         expected = 255 * base * (ambient + (1 - ambient) * math.cos(a))
         assert np.abs(frame.color - expected).max() <= 0.5 + 1e-3, (angle, frame.color[0, 0], expected)
     assert (results[0.0] > results[tilt_deg]).all()
+
+
+@pytest.mark.parametrize("camera", ["perspective", "orthographic"])
+def test_smooth_lambert_matches_the_interpolated_normal(camera):
+    # Smooth shading with one base colour takes its own kernel (dot(n, L) / |n| of the
+    # unnormalised interpolated normal); the normal output is interpolated and normalised by the
+    # general one. The colour must be the Lambert term of that normal, to rounding.
+    ambient = 0.2
+    m = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
+    mesh = sr.Mesh(np.asarray(m.vertices), np.asarray(m.faces), normals=np.asarray(m.vertices))
+    pose = np.eye(4)
+    pose[:3, :3] = trimesh.transformations.rotation_matrix(0.4, [1.0, 2.0, 0.5])[:3, :3]
+    pose[:3, 3] = [0.3, -0.2, -3.0]
+    base = np.array([0.9, 0.6, 0.3])
+    scene = sr.Scene()
+    scene.add(mesh, pose=pose, color=tuple(base))
+    if camera == "perspective":
+        cam = _origin_cam()
+    else:
+        cam = sr.OrthographicCamera(xmag=1.4, ymag=1.2, near=0.5, far=100.0)
+        cam.pose = np.eye(4)
+    frame = render(scene, cam, 96, 80, outputs=("color", "normal", "mask"), ambient=ambient)
+    assert frame.mask.sum() > 1000
+    n = frame.normal[frame.mask].astype(np.float64)
+    np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-5)
+    light = np.array([0.0, 0.0, 1.0])  # the headlight, toward the camera (identity pose)
+    expected = 255 * base * (ambient + (1 - ambient) * np.maximum(n @ light, 0.0))[:, None]
+    got = frame.color[frame.mask].astype(np.float64)
+    assert np.abs(got - expected).max() <= 0.5 + 1e-3
+    # The normals do vary across faces (the smooth kernel was taken, not the one-normal one).
+    assert len(np.unique(frame.color[frame.mask], axis=0)) > 200
+
+
+def test_flat_lambert_is_constant_per_face():
+    # Without vertex normals every pixel of a face has the face's colour, exactly.
+    scene = sr.Scene()
+    pose = np.eye(4)
+    pose[:3, 3] = [0.0, 0.0, -3.0]
+    scene.add(icosphere(2), pose=pose, color=(0.8, 0.7, 0.2))
+    frame = render(scene, _origin_cam(), 128, 128, outputs=("color", "triangle_id"))
+    ids = frame.triangle_id
+    for face in np.unique(ids[ids >= 0]):
+        assert len(np.unique(frame.color[ids == face], axis=0)) == 1, face
