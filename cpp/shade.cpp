@@ -39,6 +39,7 @@ void classify(const ShadeParams& p, ShadeTriangle& s) {
   } else if (uniform_color) {
     s.color_kind = ShadeTriangle::kUniformLit;
     for (int k = 0; k < 3; ++k) s.light_dot[k] = glm::dot(s.normal[k], p.to_light_world);
+    s.color255 = glm::clamp(s.color[0], 0.0f, 1.0f) * 255.0f;
   } else {
     s.color_kind = ShadeTriangle::kVaryingColor;
   }
@@ -210,8 +211,10 @@ SR_INLINE void shade_group(const ShadeTriangle& s, const ShadeConstants& c, f8 e
       const f8 dot = b0 * c.light[0] + b1 * c.light[1] + b2 * c.light[2];
       const f8 d = dot / simd::sqrt(len2);  // NaN for a zero normal: no diffuse term
       const f8 f = c.ambient + c.diffuse * (f8{} < d ? d : f8{});
-      merge(out.rgb + i, to_unorm8(f * s.color[0].x) | (to_unorm8(f * s.color[0].y) << 8) |
-                             (to_unorm8(f * s.color[0].z) << 16));
+      // f lies in [0, 1] up to rounding, so f * color255 + 0.5 in [0, 256): no clamp needed.
+      const auto unorm8 = [&](float c255) { return __builtin_convertvector(f * c255 + 0.5f, i8); };
+      merge(out.rgb + i, unorm8(s.color255.x) | (unorm8(s.color255.y) << 8) |
+                             (unorm8(s.color255.z) << 16));
     }
   }
 }

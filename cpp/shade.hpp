@@ -52,6 +52,7 @@ struct ShadeTriangle {
   uint32_t rgb;        // kConstantColor: the packed colour of every pixel (r | g << 8 | b << 16)
   vec3 unit_normal;    // one_normal: the unit normal of every pixel (zero if the normal is zero)
   float light_dot[3];  // kUniformLit: dot(normal[k], to_light_world)
+  vec3 color255;       // kUniformLit: the base colour clamped to [0, 1], times 255
 };
 
 // Per-thread scratch for shade_tile: which binned triangles own a pixel, and the tile's shaded

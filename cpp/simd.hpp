@@ -76,18 +76,19 @@ SR_INLINE bool any(i8 mask) {
   return _mm_movemask_epi8(__m128i(lo | hi)) != 0;
 }
 
-// Correctly rounded square root per lane (as std::sqrt).
+// Correctly rounded square root per lane (as std::sqrt). Lane by lane, so that the compiler picks
+// the widest instruction the function's target has (one vsqrtps ymm for AVX2, two sqrtps for
+// SSE2); needs -fno-math-errno, else each lane may call sqrtf.
 SR_INLINE f8 sqrt(f8 v) {
-  const f4 lo = __builtin_shufflevector(v, v, 0, 1, 2, 3), hi = __builtin_shufflevector(v, v, 4, 5, 6, 7);
-  const f4 a = f4(_mm_sqrt_ps(__m128(lo))), b = f4(_mm_sqrt_ps(__m128(hi)));
-  return __builtin_shufflevector(a, b, 0, 1, 2, 3, 4, 5, 6, 7);
+  f8 r;
+  for (int i = 0; i < 8; ++i) r[i] = __builtin_sqrtf(v[i]);
+  return r;
 }
 
 SR_INLINE d4 sqrt(d4 v) {
-  typedef double d2 __attribute__((vector_size(16)));
-  const d2 lo = __builtin_shufflevector(v, v, 0, 1), hi = __builtin_shufflevector(v, v, 2, 3);
-  const d2 a = d2(_mm_sqrt_pd(__m128d(lo))), b = d2(_mm_sqrt_pd(__m128d(hi)));
-  return __builtin_shufflevector(a, b, 0, 1, 2, 3);
+  d4 r;
+  for (int i = 0; i < 4; ++i) r[i] = __builtin_sqrt(v[i]);
+  return r;
 }
 
 // Two times four integer-valued doubles to eight floats (each rounded once, to nearest).
