@@ -52,8 +52,8 @@ ShadeTriangle prepare(const ShadeParams& p, const VisibleTriangle& vt) {
   const ShadeDraw& d = p.draws[t.draw];
   ShadeTriangle s;
   const double max_inv_w = std::max({double(t.inv_w[0]), double(t.inv_w[1]), double(t.inv_w[2])});
-  for (int k = 0; k < 3; ++k)
-    s.persp[k] = float(double(t.inv_w[k]) / max_inv_w / double(t.area2));
+  const double scale = 1.0 / (max_inv_w * double(t.area2));
+  for (int k = 0; k < 3; ++k) s.persp[k] = float(double(t.inv_w[k]) * scale);
   {
     const MeshData& mesh = *d.mesh;
     const ivec3 f = mesh.faces[t.prim];
