@@ -213,6 +213,7 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   for (int c = 0; c < 3; ++c)
     shade.background[c] = uint8_t(std::clamp(options.background[c], 0.0f, 1.0f) * 255.0f + 0.5f);
   shade.orthographic = camera.orthographic;
+  shade.stream = bytes >= kStreamFrameBytes;
   shade.framebuffer = framebuffer.get();
   const bool want_coverage = options.outputs & kOutCoverage;
   const std::size_t num_chunks = chunk_ranges.size();

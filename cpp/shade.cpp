@@ -401,6 +401,19 @@ void resolve_depth_row_generic(const float* key, const uint32_t* visible, int n,
                                bool orthographic, float* depth) {
   resolve_depth_row(key, visible, n, orthographic, depth);
 }
+// The same values with non-temporal stores, where the row is 16-byte aligned and whole vectors.
+SR_TARGET_AVX2 void resolve_depth_row_stream(const float* key, const uint32_t* visible, int n,
+                                             bool orthographic, float* depth) {
+  if ((reinterpret_cast<uintptr_t>(depth) & 15) != 0 || n % kLanes != 0)
+    return resolve_depth_row(key, visible, n, orthographic, depth);
+  for (int x = 0; x < n; x += kLanes) {
+    const f8 k = load<f8>(key + x);
+    const f8 d = orthographic ? -k : 1.0f / k;
+    const __m256 v = __m256(load<i8>(visible + x) != int32_t(kNoTriangle) ? d : f8{});
+    _mm_stream_ps(depth + x, _mm256_castps256_ps128(v));
+    _mm_stream_ps(depth + x + 4, _mm256_extractf128_ps(v, 1));
+  }
+}
 
 // Unpacks a row of packed colours (r | g << 8 | b << 16) to 3-byte pixels, background where
 // nothing is visible.
@@ -439,14 +452,38 @@ SR_TARGET_AVX2 void write_rgb_avx2(const uint32_t* rgb, const uint32_t* visible,
   write_rgb_generic(rgb + x, visible + x, n - x, background, out + 3 * x);
 }
 
+// The same values with non-temporal stores: sixteen pixels as three aligned 16-byte stores,
+// where the row is 16-byte aligned and whole groups of sixteen.
+SR_TARGET_AVX2 void write_rgb_stream(const uint32_t* rgb, const uint32_t* visible, int n,
+                                     uint32_t background, uint8_t* out) {
+  if ((reinterpret_cast<uintptr_t>(out) & 15) != 0 || n % 16 != 0)
+    return write_rgb_avx2(rgb, visible, n, background, out);
+  const __m128i bg = _mm_set1_epi32(int32_t(background));
+  for (int x = 0; x < n; x += 16) {
+    // Twelve bytes each, the top four zero.
+    const __m128i p0 = rgb_four(rgb + x, visible + x, bg);
+    const __m128i p1 = rgb_four(rgb + x + 4, visible + x + 4, bg);
+    const __m128i p2 = rgb_four(rgb + x + 8, visible + x + 8, bg);
+    const __m128i p3 = rgb_four(rgb + x + 12, visible + x + 12, bg);
+    __m128i* o = reinterpret_cast<__m128i*>(out + 3 * x);
+    _mm_stream_si128(o, _mm_or_si128(p0, _mm_slli_si128(p1, 12)));
+    _mm_stream_si128(o + 1, _mm_or_si128(_mm_srli_si128(p1, 4), _mm_slli_si128(p2, 8)));
+    _mm_stream_si128(o + 2, _mm_or_si128(_mm_srli_si128(p2, 8), _mm_slli_si128(p3, 4)));
+  }
+}
+
 // Copies the tile's resolved values to the requested outputs, background where nothing is visible.
 void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
                 const ShadeScratch& shaded, Isa isa) {
   const Framebuffer& fb = *p.framebuffer;
   const std::size_t width = std::size_t(fb.width);
   const int n = rect.x1 - rect.x0;
-  const auto resolve_depth = isa == Isa::Avx2 ? resolve_depth_row_avx2 : resolve_depth_row_generic;
-  const auto write_rgb = isa == Isa::Avx2 ? write_rgb_avx2 : write_rgb_generic;
+  const bool stream = p.stream && isa == Isa::Avx2;
+  const auto resolve_depth = stream                ? resolve_depth_row_stream
+                             : isa == Isa::Avx2    ? resolve_depth_row_avx2
+                                                   : resolve_depth_row_generic;
+  const auto write_rgb = stream ? write_rgb_stream
+                         : isa == Isa::Avx2 ? write_rgb_avx2 : write_rgb_generic;
   for (int y = rect.y0; y < rect.y1; ++y) {
     const int row = (y - rect.y0) * kTileSizePx;
     const std::size_t o = std::size_t(y) * width + std::size_t(rect.x0);
@@ -473,6 +510,7 @@ void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& r
       write_rgb(shaded.rgb + row, visible, n, background, fb.color + 3 * o);
     }
   }
+  if (stream) _mm_sfence();  // order the non-temporal stores before the tile is done
 }
 
 // Four normals at a time: lane by lane the double operations of unit(m * dvec3(n)) (GLM's order:

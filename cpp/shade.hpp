@@ -27,8 +27,14 @@ struct ShadeParams {
   float ambient;
   uint8_t background[3];
   bool orthographic;
+  bool stream;  // write depth and colour with non-temporal stores (frames larger than caches)
   Framebuffer* framebuffer;
 };
+// Frames of at least this many output bytes are written with non-temporal stores: measured here
+// (benchmarks/RESULTS.md), they spare a 16 MB depth frame the read of every line it overwrites
+// (ico7 at 2048x2048 depth-only: -13% at 2 threads), while a 4 MB frame, which stays in cache
+// from one render to the next, gets slower (+15%).
+constexpr std::size_t kStreamFrameBytes = std::size_t(12) << 20;
 
 // A triangle visible in the tile being shaded, prepared once for all its pixels.
 // What varies across it picks the work per pixel (shade_group); each output is decided on its

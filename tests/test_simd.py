@@ -67,6 +67,27 @@ def test_icosphere_same_bits(shading, cull, size):
     assert a.mask.any() and not a.mask.all()
 
 
+@pytest.mark.parametrize("size", [(1536, 1536), (1500, 1700)])
+def test_streamed_large_frames_same_bits(size):
+    # Frames of 12 MB and more are written with non-temporal stores (AVX2 only): whole aligned
+    # rows of the tile streamed, the rest (the last tile column, a colour row not 16-byte
+    # aligned at width 1500) written as usual. The same bits as the generic kernels, and as the
+    # same frame written into arrays the renderer did not allocate (out=, a misaligned view).
+    scene = scene_of(icosphere(4), icosphere(2, radius=0.6))
+    cam = _perspective((0.4, 0.7, 2.4))
+    w, h = size
+    outputs = ("color", "depth", "mask")
+    assert w * h * 7 >= 12 << 20
+    a, b = _both(scene, cam, w, h, outputs=outputs)
+    _assert_same_bits(a, b, outputs)
+    assert a.mask.any() and not a.mask.all()
+    buf = np.empty(4 * w * h + 4, np.uint8)
+    depth = buf[4:].view(np.float32).reshape(h, w)  # 4-byte but not 16-byte aligned
+    c = sr.Renderer(w, h, threads=2).render(scene, cam, outputs=outputs, out={"depth": depth})
+    assert c.depth.ctypes.data == depth.ctypes.data
+    _assert_same_bits(a, c, outputs)
+
+
 def test_large_and_clipped_triangles_same_bits():
     # A floor reaching past the near plane and far beyond the image: triangles thousands of
     # pixels wide (the non-small edge path), clipped at near, grazing at the horizon.
