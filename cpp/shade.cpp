@@ -406,10 +406,14 @@ SR_TARGET_AVX2 void resolve_depth_row_stream(const float* key, const uint32_t* v
                                              bool orthographic, float* depth) {
   if ((reinterpret_cast<uintptr_t>(depth) & 15) != 0 || n % kLanes != 0)
     return resolve_depth_row(key, visible, n, orthographic, depth);
+  // Intrinsics rather than f8: clang rejects non-AVX helpers returning 32-byte vectors here.
+  const __m256 one = _mm256_set1_ps(1.0f), sign = _mm256_set1_ps(-0.0f);
+  const __m256i none = _mm256_set1_epi32(int32_t(kNoTriangle));
   for (int x = 0; x < n; x += kLanes) {
-    const f8 k = load<f8>(key + x);
-    const f8 d = orthographic ? -k : 1.0f / k;
-    const __m256 v = __m256(load<i8>(visible + x) != int32_t(kNoTriangle) ? d : f8{});
+    const __m256 k = _mm256_loadu_ps(key + x);
+    const __m256 d = orthographic ? _mm256_xor_ps(k, sign) : _mm256_div_ps(one, k);
+    const __m256i vis = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(visible + x));
+    const __m256 v = _mm256_andnot_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(vis, none)), d);
     _mm_stream_ps(depth + x, _mm256_castps256_ps128(v));
     _mm_stream_ps(depth + x + 4, _mm256_extractf128_ps(v, 1));
   }
