@@ -134,9 +134,20 @@ SR_INLINE i8 to_unorm8(f8 v) {
   return __builtin_convertvector(c * 255.0f + 0.5f, i8);
 }
 
+// b0 v[0] + b1 v[1] + b2 v[2] per component, eight pixels at a time.
+struct Lanes3 {
+  f8 x, y, z;
+};
+SR_INLINE Lanes3 weighted(const vec3 (&v)[3], f8 b0, f8 b1, f8 b2) {
+  return {b0 * v[0].x + b1 * v[1].x + b2 * v[2].x, b0 * v[0].y + b1 * v[1].y + b2 * v[2].y,
+          b0 * v[0].z + b1 * v[1].z + b2 * v[2].z};
+}
+
 // Per-triangle constants of shade_group.
 struct ShadeConstants {
-  f8 persp[3], light[3], ambient, diffuse;
+  f8 persp[3];
+  f8 light[3];  // to_light_world, or for kUniformLit the vertices' dot(normal[k], to_light_world)
+  f8 ambient, diffuse;
   ShadeConstants() = default;
   SR_INLINE ShadeConstants(const ShadeParams& p, const ShadeTriangle& s) {
     for (int k = 0; k < 3; ++k) {
@@ -167,9 +178,8 @@ SR_INLINE void shade_group(const ShadeTriangle& s, const ShadeConstants& c, f8 e
     b0 *= inv_sum; b1 *= inv_sum; b2 *= inv_sum;
     f8 nx{}, ny{}, nz{};
     if (varying_normal || (kLit && varying_color)) {
-      nx = b0 * s.normal[0].x + b1 * s.normal[1].x + b2 * s.normal[2].x;
-      ny = b0 * s.normal[0].y + b1 * s.normal[1].y + b2 * s.normal[2].y;
-      nz = b0 * s.normal[0].z + b1 * s.normal[1].z + b2 * s.normal[2].z;
+      const Lanes3 n = weighted(s.normal, b0, b1, b2);
+      nx = n.x; ny = n.y; nz = n.z;
       const f8 len2 = nx * nx + ny * ny + nz * nz;
       const f8 r = 1.0f / simd::sqrt(len2);
       const i8 nonzero = len2 > 0.0f;
@@ -183,9 +193,8 @@ SR_INLINE void shade_group(const ShadeTriangle& s, const ShadeConstants& c, f8 e
       merge(out.normal[2] + i, nz);
     }
     if (varying_color) {
-      f8 r = b0 * s.color[0].x + b1 * s.color[1].x + b2 * s.color[2].x;
-      f8 g = b0 * s.color[0].y + b1 * s.color[1].y + b2 * s.color[2].y;
-      f8 b = b0 * s.color[0].z + b1 * s.color[1].z + b2 * s.color[2].z;
+      const Lanes3 rgb = weighted(s.color, b0, b1, b2);
+      f8 r = rgb.x, g = rgb.y, b = rgb.z;
       if constexpr (kLit) {
         const f8 d = nx * c.light[0] + ny * c.light[1] + nz * c.light[2];
         const f8 f = c.ambient + c.diffuse * (f8{} < d ? d : f8{});
@@ -204,10 +213,8 @@ SR_INLINE void shade_group(const ShadeTriangle& s, const ShadeConstants& c, f8 e
     } else if (kLit && s.color_kind == ShadeTriangle::kUniformLit) {
       // Unnormalised perspective weights: the normal's length and dot(n, L) share their scale.
       const f8 b0 = e0 * c.persp[0], b1 = e1 * c.persp[1], b2 = e2 * c.persp[2];
-      const f8 nx = b0 * s.normal[0].x + b1 * s.normal[1].x + b2 * s.normal[2].x;
-      const f8 ny = b0 * s.normal[0].y + b1 * s.normal[1].y + b2 * s.normal[2].y;
-      const f8 nz = b0 * s.normal[0].z + b1 * s.normal[1].z + b2 * s.normal[2].z;
-      const f8 len2 = nx * nx + ny * ny + nz * nz;
+      const Lanes3 n = weighted(s.normal, b0, b1, b2);
+      const f8 len2 = n.x * n.x + n.y * n.y + n.z * n.z;
       const f8 dot = b0 * c.light[0] + b1 * c.light[1] + b2 * c.light[2];
       const f8 d = dot / simd::sqrt(len2);  // NaN for a zero normal: no diffuse term
       const f8 f = c.ambient + c.diffuse * (f8{} < d ? d : f8{});
