@@ -154,24 +154,28 @@ struct ClipPoint {
   vec3 bary_source;  // weights of the original triangle's corners (linear in clip space)
 };
 
-// A triangle ready for rasterization: everything per-triangle that the hot loop needs.
-// Vertices are ordered so that `area2 > 0` in y-down window coordinates (a back face in
+// A triangle ready for rasterization: everything per-triangle that the hot loop needs, and what
+// shading needs to find its attributes without going back to the mesh's faces.
+// Vertices are ordered so that the area is positive in y-down window coordinates (a back face in
 // OpenGL's terms keeps its order, a front face has two vertices swapped); edge k runs from
 // vertex k+1 to vertex k+2 and its function is positive inside.
-// Fields the rasterizer reads come first; 96 bytes in all (binning is memory-bound).
+// Fields the rasterizer reads come first (56 bytes); 96 bytes in all (binning is memory-bound).
 struct TriangleSetup {
   int32_t x[3], y[3];  // snapped window coordinates, fixed point (kSubpixelBits)
   int32_t x0, y0, x1, y1;  // inclusive pixel range whose centres lie in the bounding box
   float key_over_area[3];  // depth key at each vertex / area2 (see depth key below)
   uint8_t bias[3];     // 0 for top/left edges, 1 otherwise: covered iff E_k - bias_k >= 0
-  uint8_t corner[3];       // unclipped: source corner of each vertex (a permutation of 0, 1, 2)
   uint8_t back_facing;     // 1 if the triangle faces away from the camera (culling off)
-  int64_t area2;       // twice the signed area in fixed-point units^2, > 0
-  float inv_w[3];          // 1 / w_clip per vertex (1 for orthographic) for perspective correction
+  float persp[3];      // (1 / w_k) / (max_j (1 / w_j) * area2), area2 = twice the area in
+                       // fixed-point units^2: E_k * persp[k] is proportional to the perspective-
+                       // correct weight of vertex k, the largest about 1 (no float underflow)
   uint32_t prim;           // face index within the mesh
   uint32_t draw;           // index of the draw
   uint32_t clip_ref;       // kNoClip, or index of 3 ClipPoint::bary_source in the clip table
+  int32_t vertex[3];       // unclipped: the mesh vertex of each vertex (the face's, reordered)
+  uint8_t swapped;         // 1 if vertices 1 and 2 are the face's corners 2 and 1
 };
+static_assert(sizeof(TriangleSetup) == 96, "binning moves these records: keep them compact");
 constexpr uint32_t kNoClip = 0xffffffffu;
 // Edge k of a TriangleSetup runs from vertex kEdgeStart[k] to vertex kEdgeEnd[k].
 constexpr int kEdgeStart[3] = {1, 2, 0};

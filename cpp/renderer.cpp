@@ -175,11 +175,12 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   // The "auto" shading path picks per tile, from overdraw estimated in setup; only when shading.
   const bool choose_path = options.shading_path == ShadingPath::Auto &&
                            (options.outputs & (kOutColor | kOutNormal)) != 0;
+  const bool shade_any = (options.outputs & (kOutColor | kOutNormal)) != 0;
   pool_.parallel_for(chunk_ranges.size(), [&](std::size_t item, int) {
     const Block& blk = chunk_ranges[item];
     SetupParams params{draws[blk.draw].mesh.get(), &transforms[blk.draw],
                        vertices_[blk.draw].data(), blk.draw, camera.orthographic, options.cull,
-                       &planes, viewport_, choose_path, isa_};
+                       &planes, viewport_, choose_path, shade_any, isa_};
     setup_chunk(params, blk.begin, blk.end, chunks_[item]);
   });
 

@@ -73,8 +73,9 @@ inline int32_t last_sample(int32_t hi) { return (hi - kSubpixelHalf) >> kSubpixe
 // window space, so evaluating the true plane at the snapped vertices makes the interpolated key
 // exact (to rounding) at every sample. Slivers, whose true plane is ill-conditioned, keep the
 // original keys.
-void plane_keys_over_area(const ProjectedVertex* const o[3], TriangleSetup& t) {
-  const double area2 = double(t.area2);
+void plane_keys_over_area(const ProjectedVertex* const o[3], int64_t positive_area2,
+                          TriangleSetup& t) {
+  const double area2 = double(positive_area2);
   // The unsnapped triangle's edges from vertex 0, in fixed-point units.
   const double ex1 = double(t.x[1] - t.x[0]) + (double(o[1]->dx) - double(o[0]->dx));
   const double ey1 = double(t.y[1] - t.y[0]) + (double(o[1]->dy) - double(o[0]->dy));
@@ -135,11 +136,20 @@ bool covers_box_samples(const TriangleSetup& t) {
   return false;
 }
 
-// Builds the record for one snapped triangle. Returns false if it is culled, degenerate, or has
-// no sample centre in its box or covers none of the one or two there; those integer tests come
-// before any floating-point work.
+// Shading's perspective weights (TriangleSetup::persp) of oriented vertices o.
+void perspective_weights(const ProjectedVertex* const o[3], int64_t positive_area2,
+                         TriangleSetup& t) {
+  const double max_inv_w = std::max({double(o[0]->inv_w), double(o[1]->inv_w), double(o[2]->inv_w)});
+  const double scale = 1.0 / (max_inv_w * double(positive_area2));
+  for (int k = 0; k < 3; ++k) t.persp[k] = float(double(o[k]->inv_w) * scale);
+}
+
+// Builds the record for one snapped triangle whose corners are the mesh's vertices `vertex` (or
+// null for a piece of a clipped face); `positive_area2` receives twice its area (> 0). Returns
+// false if it is culled, degenerate, or has no sample centre in its box or covers none of the
+// one or two there; those integer tests come before any floating-point work.
 bool setup_triangle(const ProjectedVertex* const v[3], const SetupParams& params, uint32_t prim,
-                    TriangleSetup& t, bool& swapped) {
+                    const int32_t* vertex, TriangleSetup& t, int64_t& positive_area2) {
   const int64_t area2 = int64_t(v[1]->x - v[0]->x) * (v[2]->y - v[0]->y) -
                         int64_t(v[1]->y - v[0]->y) * (v[2]->x - v[0]->x);
   if (area2 == 0) return false;  // Degenerate => cull.
@@ -160,14 +170,13 @@ bool setup_triangle(const ProjectedVertex* const v[3], const SetupParams& params
   // No sample centre in the bounding box => cull: most faces of a dense mesh end here.
   if (t.x0 > t.x1 || t.y0 > t.y1) return false;
 
-  swapped = area2 < 0;  // orient every record the same way so E_k > 0 inside
+  const bool swapped = area2 < 0;  // orient every record the same way so E_k > 0 inside
   const ProjectedVertex* const o[3] = {v[0], swapped ? v[2] : v[1], swapped ? v[1] : v[2]};
   for (int k = 0; k < 3; ++k) {
     t.x[k] = o[k]->x;
     t.y[k] = o[k]->y;
-    t.inv_w[k] = o[k]->inv_w;
   }
-  t.area2 = swapped ? -area2 : area2;
+  positive_area2 = swapped ? -area2 : area2;
   for (int k = 0; k < 3; ++k) {
     // Edge k runs from vertex k+1 to k+2. Direct3D's top-left rule in y-down window space: with
     // this winding, a top edge runs exactly horizontally to the right (dy == 0, dx > 0) and a
@@ -178,13 +187,13 @@ bool setup_triangle(const ProjectedVertex* const v[3], const SetupParams& params
     t.bias[k] = top_left ? 0 : 1;
   }
   if (!covers_box_samples(t)) return false;
-  plane_keys_over_area(o, t);
+  plane_keys_over_area(o, positive_area2, t);
+  if (params.shade) perspective_weights(o, positive_area2, t);
   t.prim = prim;
   t.draw = params.draw;
   t.clip_ref = kNoClip;
-  t.corner[0] = 0;
-  t.corner[1] = swapped ? 2 : 1;
-  t.corner[2] = swapped ? 1 : 2;
+  for (int k = 0; k < 3; ++k) t.vertex[k] = vertex ? vertex[k == 0 ? 0 : swapped ? 3 - k : k] : 0;
+  t.swapped = swapped ? 1 : 0;
   t.back_facing = front ? 0 : 1;
   return true;
 }
@@ -193,13 +202,13 @@ bool setup_triangle(const ProjectedVertex* const v[3], const SetupParams& params
 // every tile it overlaps (at tile_begin[tile + 2], see bin_records) and notes those tiles as
 // first tile | (columns - 1) << 16 | (rows - 1) << 24 (num_tiles <= 2^16, tiles_x, tiles_y <= 2^8).
 // Also adds its area to tile_area, split between tiles as its box is (for the choice of shading
-// path: the sum estimates a tile's overdraw).
-void emit(const TriangleSetup& t, const Viewport& vp, SetupChunk& out) {
+// path: the sum estimates a tile's overdraw). `area2` is the record's, in fixed-point units^2.
+void emit(const TriangleSetup& t, double area2, const Viewport& vp, SetupChunk& out) {
   const uint32_t tx0 = uint32_t(t.x0) / kTileSizePx, tx1 = uint32_t(t.x1) / kTileSizePx;
   const uint32_t ty0 = uint32_t(t.y0) / kTileSizePx, ty1 = uint32_t(t.y1) / kTileSizePx;
   const uint32_t first = ty0 * uint32_t(vp.tiles_x) + tx0;
   uint32_t* count = out.tile_begin.data() + 2;
-  const float area = float(t.area2) * (0.5f / float(kSubpixelOne * kSubpixelOne));
+  const float area = float(area2) * (0.5f / float(kSubpixelOne * kSubpixelOne));
   const bool estimate = !out.tile_area.empty();
   if (tx0 == tx1 && ty0 == ty1) {  // the common case: inside one tile
     ++count[first];
@@ -266,13 +275,13 @@ void clip_and_setup(const ivec3& face, uint8_t planes_mask, const SetupParams& p
   for (int i = 1; i + 1 < n; ++i) {  // fan: watertight inside, as all sub-triangles share snaps
     const ProjectedVertex* const tri[3] = {&projected[0], &projected[i], &projected[i + 1]};
     TriangleSetup t;
-    bool swapped = false;
-    if (!setup_triangle(tri, params, prim, t, swapped)) continue;
+    int64_t area2;
+    if (!setup_triangle(tri, params, prim, nullptr, t, area2)) continue;
     t.clip_ref = uint32_t(out.clip_bary.size() / 3);
-    const int ids[3] = {0, swapped ? i + 1 : i, swapped ? i : i + 1};
+    const int ids[3] = {0, t.swapped ? i + 1 : i, t.swapped ? i : i + 1};
     for (int k = 0; k < 3; ++k) out.clip_bary.push_back(poly[ids[k]].bary_source);
     out.records.push_back(t);
-    emit(t, params.viewport, out);
+    emit(t, double(area2), params.viewport, out);
   }
 }
 
@@ -450,10 +459,10 @@ void setup_face(const SetupParams& params, std::size_t f, SetupChunk& out) {
   if (v[0]->outcode & v[1]->outcode & v[2]->outcode) return;  // All outside one plane => cull.
   if (any_out == 0) {
     TriangleSetup t;
-    bool swapped;
-    if (setup_triangle(v, params, uint32_t(f), t, swapped)) {
+    int64_t area2;
+    if (setup_triangle(v, params, uint32_t(f), &face.x, t, area2)) {
       out.records.push_back(t);
-      emit(t, params.viewport, out);
+      emit(t, double(area2), params.viewport, out);
     }
   } else {
     clip_and_setup(face, any_out, params, uint32_t(f), out);
@@ -465,6 +474,7 @@ SR_INLINE f8 select(i8 mask, f8 a, f8 b) { return f8(select(mask, i8(a), i8(b)))
 SR_INLINE d4 select(l4 mask, d4 a, d4 b) { return d4((l4(a) & mask) | (l4(b) & ~mask)); }
 SR_INLINE i8 min(i8 a, i8 b) { return a < b ? a : b; }
 SR_INLINE i8 max(i8 a, i8 b) { return a < b ? b : a; }
+SR_INLINE d4 max(d4 a, d4 b) { return select(l4(a < b), b, a); }  // as std::max
 SR_INLINE d4 abs(d4 v) { return d4(l4(v) & ~broadcast<l4>(int64_t(0x8000000000000000ull))); }
 // Half h (lanes 4h .. 4h + 3) of eight lanes, widened to double (exactly).
 SR_INLINE d4 wide(i8 v, int h) {
@@ -526,7 +536,7 @@ SR_INLINE void setup_eight(const SetupParams& params, std::size_t f, SetupChunk&
   if ((keep | special) == 0) return;  // the common case in a dense mesh
 
   alignas(32) int32_t lane_x[3][8], lane_y[3][8], lane_box[4][8], lane_bias[3][8];
-  alignas(32) float lane_key[3][8], lane_inv_w[3][8];
+  alignas(32) float lane_key[3][8], lane_persp[3][8];
   alignas(32) double lane_area2[8];
   if (keep != 0) {
     // Orient: vertices 1 and 2 swap where area2 < 0.
@@ -572,19 +582,21 @@ SR_INLINE void setup_eight(const SetupParams& params, std::size_t f, SetupChunk&
       keep &= ~mask_bits(few & ~covered);
     }
     if (keep != 0) {
+      f8 oinv_w[3];
       for (int k = 0; k < 3; ++k) {
         store(lane_x[k], ox[k]);
         store(lane_y[k], oy[k]);
-        store(lane_inv_w[k], select(swapped, o[k == 0 ? 0 : 3 - k]->inv_w, o[k]->inv_w));
+        oinv_w[k] = select(swapped, o[k == 0 ? 0 : 3 - k]->inv_w, o[k]->inv_w);
         store(lane_bias[k], bias[k]);
       }
       store(lane_box[0], x0);
       store(lane_box[1], y0);
       store(lane_box[2], x1);
       store(lane_box[3], y1);
-      // plane_keys_over_area, four lanes at a time (a half without survivors is skipped).
+      // plane_keys_over_area and perspective_weights, four lanes at a time (a half without
+      // survivors is skipped).
       constexpr double kMinArea = 1e-6 * kSubpixelOne * kSubpixelOne;
-      f4 key_over_area[3][2] = {};
+      f4 key_over_area[3][2] = {}, persp[3][2] = {};
       for (int h = 0; h < 2; ++h) {
         if ((keep >> (4 * h) & 0xfu) == 0) continue;
         const d4 t_area2 = abs(area2[h]);
@@ -610,14 +622,26 @@ SR_INLINE void setup_eight(const SetupParams& params, std::size_t f, SetupChunk&
           well_shaped &= (abs(mu0) <= 0.25) & (abs(mu1) <= 0.25) & (abs(mu2) <= 0.25) &
                          ((fitted[k] > 0.0) == (key > 0.0));
         }
-        const d4 inv_t_area2 = 1.0 / t_area2;
+        // The plain keys' division only where a surviving lane needs it (slivers are rare).
+        d4 inv_t_area2{};
+        if (~mask_bits(well_shaped) & keep >> (4 * h) & 0xfu) inv_t_area2 = 1.0 / t_area2;
         for (int k = 0; k < 3; ++k)
           key_over_area[k][h] = __builtin_convertvector(
               select(well_shaped, fitted[k] * inv_area2, wide(okey[k], h) * inv_t_area2), f4);
+        if (params.shade) {
+          const d4 w0 = wide(oinv_w[0], h), w1 = wide(oinv_w[1], h), w2 = wide(oinv_w[2], h);
+          const d4 scale = 1.0 / (max(max(w0, w1), w2) * t_area2);
+          persp[0][h] = __builtin_convertvector(w0 * scale, f4);
+          persp[1][h] = __builtin_convertvector(w1 * scale, f4);
+          persp[2][h] = __builtin_convertvector(w2 * scale, f4);
+        }
       }
-      for (int k = 0; k < 3; ++k)
+      for (int k = 0; k < 3; ++k) {
         store(lane_key[k], __builtin_shufflevector(key_over_area[k][0], key_over_area[k][1],
                                                    0, 1, 2, 3, 4, 5, 6, 7));
+        store(lane_persp[k], __builtin_shufflevector(persp[k][0], persp[k][1],
+                                                     0, 1, 2, 3, 4, 5, 6, 7));
+      }
     }
   }
 
@@ -633,22 +657,23 @@ SR_INLINE void setup_eight(const SetupParams& params, std::size_t f, SetupChunk&
       t.y[k] = lane_y[k][j];
       t.key_over_area[k] = lane_key[k][j];
       t.bias[k] = uint8_t(lane_bias[k][j]);
-      t.inv_w[k] = lane_inv_w[k][j];
+      t.persp[k] = lane_persp[k][j];
     }
     t.x0 = lane_box[0][j];
     t.y0 = lane_box[1][j];
     t.x1 = lane_box[2][j];
     t.y1 = lane_box[3][j];
     const bool swapped = negative >> j & 1;
-    t.corner[0] = 0;
-    t.corner[1] = swapped ? 2 : 1;
-    t.corner[2] = swapped ? 1 : 2;
+    const int32_t* vertex = face_index + 3 * j;
+    t.vertex[0] = vertex[0];
+    t.vertex[1] = vertex[swapped ? 2 : 1];
+    t.vertex[2] = vertex[swapped ? 1 : 2];
+    t.swapped = swapped ? 1 : 0;
     t.back_facing = (front >> j & 1) ? 0 : 1;
-    t.area2 = int64_t(lane_area2[j]);
     t.prim = uint32_t(f + j);
     t.draw = params.draw;
     t.clip_ref = kNoClip;
-    emit(t, params.viewport, out);
+    emit(t, lane_area2[j], params.viewport, out);
   }
 }
 

@@ -65,6 +65,7 @@ struct SetupParams {
   const ClipPlanes* planes;
   Viewport viewport;
   bool estimate_overdraw;  // fill SetupChunk::tile_area (the "auto" shading path's choice)
+  bool shade;              // fill TriangleSetup::persp (else left unset: nothing shades)
   Isa isa;                 // kernels for eight faces at a time (the same records for either)
 };
 

@@ -45,47 +45,59 @@ void classify(const ShadeParams& p, ShadeTriangle& s) {
   }
 }
 
+// The triangle's flat normal in world space: the counter-clockwise face normal of corners
+// c0, c1, c2, in double (a float cross product or a scaled normal can overflow: a triangle 1e20
+// units wide, a pose scaling by 0.1).
+inline vec3 flat_normal(const ShadeDraw& d, int32_t c0, int32_t c1, int32_t c2) {
+  const vec3* positions = d.mesh->positions.data();
+  const dvec3 p0(positions[c0]);
+  return unit(d.normal_to_world *
+              glm::cross(dvec3(positions[c1]) - p0, dvec3(positions[c2]) - p0));
+}
+
 // Prepares one visible triangle: its perspective weights and its attributes at its own three
-// vertices. A clipped triangle's vertices carry weights of the source face's corners; attributes are linear in those weights, so they are mapped here once.
+// vertices. An unclipped record names its mesh vertices; a clipped triangle's vertices carry
+// weights of the source face's corners, and attributes, linear in those weights, are mapped here
+// once. Normals only if lit or an output (kNormals): else one zero normal.
+template <bool kNormals>
 ShadeTriangle prepare(const ShadeParams& p, const VisibleTriangle& vt) {
   const TriangleSetup& t = *vt.tri;
   const ShadeDraw& d = p.draws[t.draw];
+  const MeshData& mesh = *d.mesh;
   ShadeTriangle s;
-  const double max_inv_w = std::max({double(t.inv_w[0]), double(t.inv_w[1]), double(t.inv_w[2])});
-  const double scale = 1.0 / (max_inv_w * double(t.area2));
-  for (int k = 0; k < 3; ++k) s.persp[k] = float(double(t.inv_w[k]) * scale);
-  {
-    const MeshData& mesh = *d.mesh;
-    const ivec3 f = mesh.faces[t.prim];
-    // Normals are transformed and normalised in double: a float cross product or a scaled
-    // normal can overflow (a triangle 1e20 units wide, a pose scaling by 0.1).
-    vec3 normal_src[3], color_src[3];
-    if (d.world_normals) {
-      for (int c = 0; c < 3; ++c) normal_src[c] = d.world_normals[f[c]];
-    } else {  // no vertex normals => flat: the counter-clockwise face normal
-      const dvec3 p0(mesh.positions[f.x]);
-      const dvec3 n = d.normal_to_world *
-                      glm::cross(dvec3(mesh.positions[f.y]) - p0, dvec3(mesh.positions[f.z]) - p0);
-      normal_src[0] = normal_src[1] = normal_src[2] = unit(n);
+  for (int k = 0; k < 3; ++k) s.persp[k] = t.persp[k];
+  if (t.clip_ref == kNoClip) {
+    const int32_t* v = t.vertex;
+    if (!kNormals) {
+      s.normal[0] = s.normal[1] = s.normal[2] = vec3(0.0f);
+    } else if (d.world_normals) {
+      for (int k = 0; k < 3; ++k) s.normal[k] = d.world_normals[v[k]];
+    } else {  // no vertex normals => flat; the record's order is the face's, 1 and 2 swapped or not
+      s.normal[0] = t.swapped ? flat_normal(d, v[0], v[2], v[1]) : flat_normal(d, v[0], v[1], v[2]);
+      s.normal[1] = s.normal[2] = s.normal[0];
     }
-    if (t.back_facing)  // two-sided: the side the camera sees
-      for (vec3& n : normal_src) n = -n;
+    for (int k = 0; k < 3; ++k) s.color[k] = mesh.colors.empty() ? vec3(d.color) : vec3(mesh.colors[v[k]]);
+  } else {
+    const ivec3 f = mesh.faces[t.prim];
+    vec3 normal_src[3] = {}, color_src[3];
+    if (kNormals) {
+      if (d.world_normals) {
+        for (int c = 0; c < 3; ++c) normal_src[c] = d.world_normals[f[c]];
+      } else {
+        normal_src[0] = normal_src[1] = normal_src[2] = flat_normal(d, f.x, f.y, f.z);
+      }
+    }
     for (int c = 0; c < 3; ++c)
       color_src[c] = mesh.colors.empty() ? vec3(d.color) : vec3(mesh.colors[f[c]]);
-    if (t.clip_ref == kNoClip) {
-      for (int k = 0; k < 3; ++k) {
-        s.normal[k] = normal_src[t.corner[k]];
-        s.color[k] = color_src[t.corner[k]];
-      }
-    } else {
-      const vec3* weights = &vt.chunk->clip_bary[3 * std::size_t(t.clip_ref)];
-      for (int k = 0; k < 3; ++k) {
-        const vec3 w = weights[k];
-        s.normal[k] = w.x * normal_src[0] + w.y * normal_src[1] + w.z * normal_src[2];
-        s.color[k] = w.x * color_src[0] + w.y * color_src[1] + w.z * color_src[2];
-      }
+    const vec3* weights = &vt.chunk->clip_bary[3 * std::size_t(t.clip_ref)];
+    for (int k = 0; k < 3; ++k) {
+      const vec3 w = weights[k];
+      s.normal[k] = w.x * normal_src[0] + w.y * normal_src[1] + w.z * normal_src[2];
+      s.color[k] = w.x * color_src[0] + w.y * color_src[1] + w.z * color_src[2];
     }
   }
+  if (kNormals && t.back_facing)  // two-sided: the side the camera sees
+    for (vec3& n : s.normal) n = -n;
   classify(p, s);
   return s;
 }
@@ -272,7 +284,7 @@ SR_INLINE void shade_triangle(const ShadeParams& p, const TileRect& rect, const 
   const TriangleSetup& t = *vt.tri;
   const int x0 = std::max(int(t.x0), rect.x0), x1 = std::min(int(t.x1), rect.x1 - 1);
   const int y0 = std::max(int(t.y0), rect.y0), y1 = std::min(int(t.y1), rect.y1 - 1);
-  const ShadeTriangle s = prepare(p, vt);
+  const ShadeTriangle s = prepare<kLit || kNormal>(p, vt);
   const EdgeEquations eq = edge_equations(t, x0, y0);
   if (is_small(t) && x1 - x0 < 4 && y1 > y0)
     shade_pairs<kColor, kLit, kNormal>(p, s, SmallEdgePairs(eq), x0, x1, y0, y1, rect, raster, index, out);
@@ -340,7 +352,7 @@ struct ForwardShading {
   template <bool kPairs>
   SR_INLINE void shade(i8 win, int i, f8 e0, f8 e1, f8 e2) {
     if (!ready) {
-      s = prepare(p, current);
+      s = prepare<kLit || kNormal>(p, current);
       c = ShadeConstants(p, s);
       ready = true;
     }
