@@ -536,55 +536,85 @@ void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& r
   if (stream) _mm_sfence();  // order the non-temporal stores before the tile is done
 }
 
-// Four normals at a time: lane by lane the double operations of unit(m * dvec3(n)) (GLM's order:
-// (m0 x + m1 y) + m2 z, length sqrt((x x + y y) + z z), a division per component), so the same
-// bits as the scalar loop that finishes the range.
-SR_INLINE void world_normals_range(const MeshData& mesh, const dmat3& m, std::size_t begin,
+// World-space unit normals. The unit normal does not depend on the matrix's scale, so the matrix
+// is scaled to a largest entry of 1 and the work done in float, eight normals at a time; a normal
+// whose transformed squared length is outside [2^-100, 2^100] (a zero normal, or one scaled near
+// float's limits) is redone as unit(m * dvec3(n)) in double. The scalar loop that finishes the
+// range repeats the float operations (grouped as GLM groups them), so the same bits.
+struct NormalMatrix {
+  dmat3 m;     // normal_to_world
+  float f[3][3];  // m / max |m_ij|, columns first
+  explicit NormalMatrix(const dmat3& matrix) : m(matrix) {
+    double largest = 0.0;
+    for (int c = 0; c < 3; ++c)
+      for (int r = 0; r < 3; ++r) largest = std::max(largest, std::fabs(m[c][r]));
+    const double scale = largest > 0.0 && std::isfinite(largest) ? 1.0 / largest : 0.0;
+    for (int c = 0; c < 3; ++c)
+      for (int r = 0; r < 3; ++r) f[c][r] = float(m[c][r] * scale);
+  }
+};
+constexpr float kMinNormalLength2 = 0x1p-100f, kMaxNormalLength2 = 0x1p100f;
+
+inline vec3 unit_world_normal(const NormalMatrix& nm, const vec3& n) {
+  float w[3];
+  for (int r = 0; r < 3; ++r) w[r] = (nm.f[0][r] * n.x + nm.f[1][r] * n.y) + nm.f[2][r] * n.z;
+  const float len2 = (w[0] * w[0] + w[1] * w[1]) + w[2] * w[2];
+  if (!(len2 >= kMinNormalLength2 && len2 <= kMaxNormalLength2)) return unit(nm.m * dvec3(n));
+  const float r = 1.0f / std::sqrt(len2);
+  return vec3(w[0] * r, w[1] * r, w[2] * r);
+}
+
+SR_INLINE void world_normals_range(const MeshData& mesh, const NormalMatrix& nm, std::size_t begin,
                                    std::size_t end, vec3* out) {
   const vec3* normals = mesh.normals.data();
   std::size_t i = begin;
-  for (; i + 4 <= end; i += 4) {
-    const f4 a = load<f4>(&normals[i].x), b = load<f4>(&normals[i].x + 4),
-             c = load<f4>(&normals[i].x + 8);
-    const f4 ab_x = __builtin_shufflevector(a, b, 0, 3, 6, 0), ab_y = __builtin_shufflevector(a, b, 1, 4, 7, 0);
-    const f4 ab_z = __builtin_shufflevector(a, b, 2, 5, 0, 0);
-    const d4 x = __builtin_convertvector(__builtin_shufflevector(ab_x, c, 0, 1, 2, 5), d4);
-    const d4 y = __builtin_convertvector(__builtin_shufflevector(ab_y, c, 0, 1, 2, 6), d4);
-    const d4 z = __builtin_convertvector(__builtin_shufflevector(ab_z, c, 0, 1, 4, 7), d4);
-    d4 w[3];
+  for (; i + kLanes <= end; i += kLanes) {
+    // De-interleave eight xyz triples (as project_eight does).
+    const f8 a = load<f8>(&normals[i].x), b = load<f8>(&normals[i].x + 8),
+             c = load<f8>(&normals[i].x + 16);
+    const f8 ab_x = __builtin_shufflevector(a, b, 0, 3, 6, 9, 12, 15, 0, 0);
+    const f8 ab_y = __builtin_shufflevector(a, b, 1, 4, 7, 10, 13, 0, 0, 0);
+    const f8 ab_z = __builtin_shufflevector(a, b, 2, 5, 8, 11, 14, 0, 0, 0);
+    const f8 x = __builtin_shufflevector(ab_x, c, 0, 1, 2, 3, 4, 5, 10, 13);
+    const f8 y = __builtin_shufflevector(ab_y, c, 0, 1, 2, 3, 4, 8, 11, 14);
+    const f8 z = __builtin_shufflevector(ab_z, c, 0, 1, 2, 3, 4, 9, 12, 15);
+    f8 w[3];
     for (int r = 0; r < 3; ++r)
-      w[r] = (broadcast<d4>(m[0][r]) * x + broadcast<d4>(m[1][r]) * y) + broadcast<d4>(m[2][r]) * z;
-    const d4 len = sqrt((w[0] * w[0] + w[1] * w[1]) + w[2] * w[2]);
-    // unit(): zero unless 0 < len < inf (NaN fails both).
-    const auto ok = (len > 0.0) & (len < broadcast<d4>(HUGE_VAL));
-    f4 u[3];
-    for (int r = 0; r < 3; ++r) u[r] = __builtin_convertvector(ok ? w[r] / len : d4{}, f4);
-    // Back to x y z triples.
-    const f4 xy = __builtin_shufflevector(u[0], u[1], 0, 4, 1, 5), xy_hi = __builtin_shufflevector(u[0], u[1], 2, 6, 3, 7);
-    store(&out[i].x, __builtin_shufflevector(xy, u[2], 0, 1, 4, 2));
-    store(&out[i].x + 4, __builtin_shufflevector(__builtin_shufflevector(xy, xy_hi, 3, 4, 5, 0), u[2], 0, 5, 1, 2));
-    store(&out[i].x + 8, __builtin_shufflevector(xy_hi, u[2], 6, 2, 3, 7));
+      w[r] = (splat(nm.f[0][r]) * x + splat(nm.f[1][r]) * y) + splat(nm.f[2][r]) * z;
+    const f8 len2 = (w[0] * w[0] + w[1] * w[1]) + w[2] * w[2];
+    const i8 ok = (len2 >= splat(kMinNormalLength2)) & (len2 <= splat(kMaxNormalLength2));
+    const f8 r = 1.0f / simd::sqrt(len2);
+    const f8 u[3] = {w[0] * r, w[1] * r, w[2] * r};
+    // Back to xyz triples.
+    const f8 t_a = __builtin_shufflevector(u[0], u[1], 0, 8, 0, 1, 9, 0, 2, 10);
+    const f8 t_b = __builtin_shufflevector(u[0], u[1], 0, 3, 11, 0, 4, 12, 0, 5);
+    const f8 t_c = __builtin_shufflevector(u[0], u[1], 13, 0, 6, 14, 0, 7, 15, 0);
+    store(&out[i].x, __builtin_shufflevector(t_a, u[2], 0, 1, 8, 3, 4, 9, 6, 7));
+    store(&out[i].x + 8, __builtin_shufflevector(t_b, u[2], 10, 1, 2, 11, 4, 5, 12, 7));
+    store(&out[i].x + 16, __builtin_shufflevector(t_c, u[2], 0, 13, 2, 3, 14, 5, 6, 15));
+    if (!all(ok))
+      for (int k = 0; k < kLanes; ++k)
+        if (!ok[k]) out[i + k] = unit(nm.m * dvec3(normals[i + k]));
   }
-  for (; i < end; ++i) out[i] = unit(m * dvec3(normals[i]));
+  for (; i < end; ++i) out[i] = unit_world_normal(nm, normals[i]);
 }
 
-SR_TARGET_AVX2 void world_normals_avx2(const MeshData& mesh, const dmat3& m, std::size_t begin,
-                                       std::size_t end, vec3* out) {
-  world_normals_range(mesh, m, begin, end, out);
+SR_TARGET_AVX2 void world_normals_avx2(const MeshData& mesh, const NormalMatrix& nm,
+                                       std::size_t begin, std::size_t end, vec3* out) {
+  world_normals_range(mesh, nm, begin, end, out);
 }
 
-void world_normals_generic(const MeshData& mesh, const dmat3& m, std::size_t begin,
+void world_normals_generic(const MeshData& mesh, const NormalMatrix& nm, std::size_t begin,
                            std::size_t end, vec3* out) {
-  world_normals_range(mesh, m, begin, end, out);
+  world_normals_range(mesh, nm, begin, end, out);
 }
 
 }  // namespace
 
 void world_normals(const MeshData& mesh, const dmat3& normal_to_world, std::size_t begin,
                    std::size_t end, Isa isa, vec3* out) {
-  // Normals are transformed and normalised in double: a scaled normal can overflow float.
-  (isa == Isa::Avx2 ? world_normals_avx2 : world_normals_generic)(mesh, normal_to_world, begin,
-                                                                  end, out);
+  const NormalMatrix nm(normal_to_world);
+  (isa == Isa::Avx2 ? world_normals_avx2 : world_normals_generic)(mesh, nm, begin, end, out);
 }
 
 bool can_shade_forward(const ShadeParams& params) {

@@ -76,6 +76,13 @@ SR_INLINE bool any(i8 mask) {
   return _mm_movemask_epi8(__m128i(lo | hi)) != 0;
 }
 
+// True if every lane of the mask is set.
+SR_INLINE bool all(i8 mask) {
+  const i4 lo = __builtin_shufflevector(mask, mask, 0, 1, 2, 3);
+  const i4 hi = __builtin_shufflevector(mask, mask, 4, 5, 6, 7);
+  return _mm_movemask_epi8(__m128i(lo & hi)) == 0xffff;
+}
+
 // Correctly rounded square root per lane (as std::sqrt). Lane by lane, so that the compiler picks
 // the widest instruction the function's target has (one vsqrtps ymm for AVX2, two sqrtps for
 // SSE2); needs -fno-math-errno, else each lane may call sqrtf.

@@ -138,11 +138,11 @@ def test_each_output_subset_same_bits(outputs):
 @pytest.mark.parametrize("simd", [True, False])
 @pytest.mark.parametrize("camera", ["perspective", "orthographic"])
 def test_vertex_pass_matches_the_scalar_projection(rng, simd, camera):
-    # Vertices are transformed and projected eight at a time, normals taken to world space four at
-    # a time; the last (count % 8) of a mesh, any vertex outside a plane, behind the camera, past
-    # the guard band or not finite after the pose, and the last (count % 4) normals go through
-    # the scalar code. One triangle per mesh puts every vertex on the scalar path:
-    # the frames must equal those of one mesh holding all the triangles, to the bit.
+    # Vertices are transformed and projected, and normals taken to world space (in float, in
+    # double where float would overflow or underflow), eight at a time; the last (count % 8) of a
+    # mesh, any vertex outside a plane, behind the camera, past the guard band or not finite
+    # after the pose go through the scalar code. One triangle per mesh puts every vertex on the
+    # scalar path: the frames must equal those of one mesh holding all the triangles, to the bit.
     n, m = 1500, 1200
     p = rng.normal(size=(n, 3)) * 0.6
     p[rng.random(n) < 0.15] *= 30.0  # past the image's edges (some past the guard band), behind
