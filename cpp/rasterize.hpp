@@ -258,8 +258,12 @@ SR_INLINE void rasterize_all(const TileRect& rect, int tile, const std::vector<S
     for (uint32_t r = chunk.tile_begin[tile]; r < chunk.tile_begin[tile + 1]; ++r) {
       const TriangleSetup& t = chunk.records[chunk.tile_records[r]];
       const uint32_t index = uint32_t(s.triangles.size());
-      s.triangles.push_back({&t, &chunk});
-      hook.triangle(s.triangles.back());
+      // Field by field: an aggregate is built on the stack and copied with one wider load,
+      // which cannot be forwarded from the two stores (a stall per triangle).
+      VisibleTriangle& vt = s.triangles.emplace_back();
+      vt.tri = &t;
+      vt.chunk = &chunk;
+      hook.triangle(vt);
       const int x0 = std::max(int(t.x0), rect.x0), x1 = std::min(int(t.x1), rect.x1 - 1);
       const int y0 = std::max(int(t.y0), rect.y0), y1 = std::min(int(t.y1), rect.y1 - 1);
       if (x0 > x1 || y0 > y1) continue;

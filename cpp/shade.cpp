@@ -340,19 +340,19 @@ struct ForwardShading {
   static constexpr bool kShades = true;
   const ShadeParams& p;
   ShadeScratch& out;
-  VisibleTriangle current{};
+  const VisibleTriangle* current = nullptr;  // valid until the next triangle()
   bool ready = false;
   ShadeTriangle s{};
   ShadeConstants c{};
 
   SR_INLINE void triangle(const VisibleTriangle& vt) {
-    current = vt;
+    current = &vt;
     ready = false;
   }
   template <bool kPairs>
   SR_INLINE void shade(i8 win, int i, f8 e0, f8 e1, f8 e2) {
     if (!ready) {
-      s = prepare<kLit || kNormal>(p, current);
+      s = prepare<kLit || kNormal>(p, *current);
       c = ShadeConstants(p, s);
       ready = true;
     }
