@@ -250,12 +250,24 @@ SR_INLINE void rasterize_pairs(const TriangleSetup& t, int x0, int x1, int y0, i
   }
 }
 
+// A tile's records are a sparse, ascending selection of its chunks' records: in a large mesh
+// each is a cache miss, which hardware prefetchers do not foresee (ico8 at 1024x1024, depth
+// only: a quarter of the tile pass). So the record this many places ahead is fetched early.
+constexpr uint32_t kPrefetchRecords = 8;
+SR_INLINE void prefetch_record(const SetupChunk& chunk, uint32_t r) {
+  const TriangleSetup& t = chunk.records[chunk.tile_records[r]];
+  __builtin_prefetch(&t);
+  __builtin_prefetch(reinterpret_cast<const char*>(&t) + sizeof(TriangleSetup) - 1);
+}
+
 template <bool kCoverage, typename Hook>
 SR_INLINE void rasterize_all(const TileRect& rect, int tile, const std::vector<SetupChunk>& chunks,
                              std::size_t num_chunks, TileScratch& s, Hook& hook) {
   for (std::size_t c = 0; c < num_chunks; ++c) {
     const SetupChunk& chunk = chunks[c];
-    for (uint32_t r = chunk.tile_begin[tile]; r < chunk.tile_begin[tile + 1]; ++r) {
+    const uint32_t end = chunk.tile_begin[tile + 1];
+    for (uint32_t r = chunk.tile_begin[tile]; r < end; ++r) {
+      if (r + kPrefetchRecords < end) prefetch_record(chunk, r + kPrefetchRecords);
       const TriangleSetup& t = chunk.records[chunk.tile_records[r]];
       const uint32_t index = uint32_t(s.triangles.size());
       // Field by field: an aggregate is built on the stack and copied with one wider load,
