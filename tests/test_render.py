@@ -613,6 +613,30 @@ def test_smooth_lambert_matches_the_interpolated_normal(camera):
     assert len(np.unique(frame.color[frame.mask], axis=0)) > 200
 
 
+@pytest.mark.parametrize("scale", [2.0**-70, 2.0**70])
+def test_power_of_two_scaled_scene_renders_the_same_bits(scale):
+    # Scaling the mesh's pose and the camera's near/far by a power of two scales every
+    # intermediate value exactly: coverage, normals and colour must not change and depth must scale,
+    # to the bit. The normal matrix then scales by 1/scale (2^70 or 2^-70), which float world
+    # normals only survive because they are computed from the matrix scaled to a largest entry of 1.
+    m = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
+    mesh = sr.Mesh(np.asarray(m.vertices), np.asarray(m.faces), normals=np.asarray(m.vertices))
+    frames = []
+    for s in (1.0, scale):
+        pose = np.diag([s, s, s, 1.0])
+        pose[:3, 3] = [0.3 * s, -0.2 * s, -3.0 * s]
+        scene = sr.Scene()
+        scene.add(mesh, pose=pose, color=(0.9, 0.6, 0.3))
+        cam = sr.PerspectiveCamera(fov_y=50.0, near=0.05 * s, far=100.0 * s)
+        cam.pose = np.eye(4)
+        frames.append(render(scene, cam, 96, 80, outputs=("color", "normal", "depth", "mask")))
+    a, b = frames
+    assert a.mask.sum() > 1000
+    for name in ("mask", "color", "normal"):
+        assert np.array_equal(getattr(a, name), getattr(b, name)), name
+    assert np.array_equal(a.depth, (b.depth.astype(np.float64) / scale).astype(np.float32))
+
+
 def test_flat_lambert_is_constant_per_face():
     # Without vertex normals every pixel of a face has the face's colour, exactly.
     scene = sr.Scene()
