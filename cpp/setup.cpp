@@ -345,15 +345,8 @@ SR_INLINE void transpose8(i8 (&r)[8]) {
 SR_INLINE void project_eight(const vec3* positions, const DrawTransform& xf, std::size_t i,
                              const ClipPlanes& planes, const Viewport& viewport, bool orthographic,
                              ProjectedVertex* out) {
-  // De-interleave eight xyz triples: contiguous loads and shuffles (gathers are slow here).
-  const f8 a = load<f8>(&positions[i].x), b = load<f8>(&positions[i].x + 8),
-           c = load<f8>(&positions[i].x + 16);
-  const f8 ab_x = __builtin_shufflevector(a, b, 0, 3, 6, 9, 12, 15, 0, 0);
-  const f8 ab_y = __builtin_shufflevector(a, b, 1, 4, 7, 10, 13, 0, 0, 0);
-  const f8 ab_z = __builtin_shufflevector(a, b, 2, 5, 8, 11, 14, 0, 0, 0);
-  const f8 px = __builtin_shufflevector(ab_x, c, 0, 1, 2, 3, 4, 5, 10, 13);
-  const f8 py = __builtin_shufflevector(ab_y, c, 0, 1, 2, 3, 4, 8, 11, 14);
-  const f8 pz = __builtin_shufflevector(ab_z, c, 0, 1, 2, 3, 4, 9, 12, 15);
+  f8 px, py, pz;
+  load_xyz8(&positions[i].x, px, py, pz);
 
   const mat4& m = xf.model_view;
   const mat4& proj = xf.proj;

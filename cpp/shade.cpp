@@ -569,15 +569,8 @@ SR_INLINE void world_normals_range(const MeshData& mesh, const NormalMatrix& nm,
   const vec3* normals = mesh.normals.data();
   std::size_t i = begin;
   for (; i + kLanes <= end; i += kLanes) {
-    // De-interleave eight xyz triples (as project_eight does).
-    const f8 a = load<f8>(&normals[i].x), b = load<f8>(&normals[i].x + 8),
-             c = load<f8>(&normals[i].x + 16);
-    const f8 ab_x = __builtin_shufflevector(a, b, 0, 3, 6, 9, 12, 15, 0, 0);
-    const f8 ab_y = __builtin_shufflevector(a, b, 1, 4, 7, 10, 13, 0, 0, 0);
-    const f8 ab_z = __builtin_shufflevector(a, b, 2, 5, 8, 11, 14, 0, 0, 0);
-    const f8 x = __builtin_shufflevector(ab_x, c, 0, 1, 2, 3, 4, 5, 10, 13);
-    const f8 y = __builtin_shufflevector(ab_y, c, 0, 1, 2, 3, 4, 8, 11, 14);
-    const f8 z = __builtin_shufflevector(ab_z, c, 0, 1, 2, 3, 4, 9, 12, 15);
+    f8 x, y, z;
+    load_xyz8(&normals[i].x, x, y, z);
     f8 w[3];
     for (int r = 0; r < 3; ++r)
       w[r] = (splat(nm.f[0][r]) * x + splat(nm.f[1][r]) * y) + splat(nm.f[2][r]) * z;

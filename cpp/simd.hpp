@@ -69,6 +69,18 @@ SR_INLINE i8 splat(int32_t v) { return broadcast<i8>(v); }
 SR_INLINE f8 to_float(i8 v) { return __builtin_convertvector(v, f8); }
 SR_INLINE i8 lane_index() { return i8{0, 1, 2, 3, 4, 5, 6, 7}; }
 
+// Eight xyz triples (24 floats from p) as the vectors of their x, y and z: contiguous loads and
+// shuffles (gathers are slow here).
+SR_INLINE void load_xyz8(const float* p, f8& x, f8& y, f8& z) {
+  const f8 a = load<f8>(p), b = load<f8>(p + 8), c = load<f8>(p + 16);
+  const f8 ab_x = __builtin_shufflevector(a, b, 0, 3, 6, 9, 12, 15, 0, 0);
+  const f8 ab_y = __builtin_shufflevector(a, b, 1, 4, 7, 10, 13, 0, 0, 0);
+  const f8 ab_z = __builtin_shufflevector(a, b, 2, 5, 8, 11, 14, 0, 0, 0);
+  x = __builtin_shufflevector(ab_x, c, 0, 1, 2, 3, 4, 5, 10, 13);
+  y = __builtin_shufflevector(ab_y, c, 0, 1, 2, 3, 4, 8, 11, 14);
+  z = __builtin_shufflevector(ab_z, c, 0, 1, 2, 3, 4, 9, 12, 15);
+}
+
 // True if any lane of the mask (all-ones or zero per lane) is set.
 SR_INLINE bool any(i8 mask) {
   const i4 lo = __builtin_shufflevector(mask, mask, 0, 1, 2, 3);
