@@ -154,28 +154,34 @@ struct ClipPoint {
   vec3 bary_source;  // weights of the original triangle's corners (linear in clip space)
 };
 
-// A triangle ready for rasterization: everything per-triangle that the hot loop needs, and what
-// shading needs to find its attributes without going back to the mesh's faces.
-// Vertices are ordered so that the area is positive in y-down window coordinates (a back face in
-// OpenGL's terms keeps its order, a front face has two vertices swapped); edge k runs from
-// vertex k+1 to vertex k+2 and its function is positive inside.
-// Fields the rasterizer reads come first (56 bytes); 96 bytes in all (binning is memory-bound).
+// A triangle ready for rasterization: everything per-triangle that the tile pass reads, in one
+// 64-byte record (records are cache-line aligned: SetupChunk). Vertices are ordered so that the
+// area is positive in y-down window coordinates (a back face in OpenGL's terms keeps its order, a
+// front face has two vertices swapped); edge k runs from vertex k+1 to vertex k+2 and its
+// function is positive inside.
 struct TriangleSetup {
   int32_t x[3], y[3];  // snapped window coordinates, fixed point (kSubpixelBits)
   int32_t x0, y0, x1, y1;  // inclusive pixel range whose centres lie in the bounding box
   float key_over_area[3];  // depth key at each vertex / area2 (see depth key below)
   uint8_t bias[3];     // 0 for top/left edges, 1 otherwise: covered iff E_k - bias_k >= 0
-  uint8_t back_facing;     // 1 if the triangle faces away from the camera (culling off)
+  uint8_t unused_;
+  uint32_t prim;           // face index within the mesh
+  uint32_t draw;           // index of the draw
+};
+// What shading needs of the same triangle to find its attributes without going back to the
+// mesh's faces; a parallel array, written only when colour or normals are requested (a
+// depth-only render writes and reads two thirds of the bytes).
+struct TriangleShading {
   float persp[3];      // (1 / w_k) / (max_j (1 / w_j) * area2), area2 = twice the area in
                        // fixed-point units^2: E_k * persp[k] is proportional to the perspective-
                        // correct weight of vertex k, the largest about 1 (no float underflow)
-  uint32_t prim;           // face index within the mesh
-  uint32_t draw;           // index of the draw
-  uint32_t clip_ref;       // kNoClip, or index of 3 ClipPoint::bary_source in the clip table
   int32_t vertex[3];       // unclipped: the mesh vertex of each vertex (the face's, reordered)
+  uint32_t clip_ref;       // kNoClip, or index of 3 ClipPoint::bary_source in the clip table
   uint8_t swapped;         // 1 if vertices 1 and 2 are the face's corners 2 and 1
+  uint8_t back_facing;     // 1 if the triangle faces away from the camera (culling off)
 };
-static_assert(sizeof(TriangleSetup) == 96, "binning moves these records: keep them compact");
+static_assert(sizeof(TriangleSetup) == 64 && sizeof(TriangleShading) == 32,
+              "binning moves these records: keep them compact, a whole cache line or half");
 constexpr uint32_t kNoClip = 0xffffffffu;
 // Edge k of a TriangleSetup runs from vertex kEdgeStart[k] to vertex kEdgeEnd[k].
 constexpr int kEdgeStart[3] = {1, 2, 0};

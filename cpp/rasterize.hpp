@@ -22,7 +22,7 @@ inline TileRect tile_rect(const Viewport& vp, int tile) {
 
 struct VisibleTriangle {
   const TriangleSetup* tri;
-  const SetupChunk* chunk;  // owns tri's clip table
+  const SetupChunk* chunk;  // owns tri, its TriangleShading and clip table
 };
 constexpr uint32_t kNoTriangle = 0xffffffffu;
 constexpr int kTilePixels = kTileSizePx * kTileSizePx;
@@ -253,11 +253,13 @@ SR_INLINE void rasterize_pairs(const TriangleSetup& t, int x0, int x1, int y0, i
 // A tile's records are a sparse, ascending selection of its chunks' records: in a large mesh
 // each is a cache miss, which hardware prefetchers do not foresee (ico8 at 1024x1024, depth
 // only: a quarter of the tile pass). So the record this many places ahead is fetched early.
+// Forward shading reads the record's TriangleShading too, where the triangle wins a pixel.
 constexpr uint32_t kPrefetchRecords = 8;
+template <bool kShades>
 SR_INLINE void prefetch_record(const SetupChunk& chunk, uint32_t r) {
-  const TriangleSetup& t = chunk.records[chunk.tile_records[r]];
-  __builtin_prefetch(&t);
-  __builtin_prefetch(reinterpret_cast<const char*>(&t) + sizeof(TriangleSetup) - 1);
+  const uint32_t i = chunk.tile_records[r];
+  __builtin_prefetch(chunk.records.data() + i);  // one cache line (SetupChunk)
+  if constexpr (kShades) __builtin_prefetch(chunk.shading.data() + i);
 }
 
 template <bool kCoverage, typename Hook>
@@ -267,7 +269,7 @@ SR_INLINE void rasterize_all(const TileRect& rect, int tile, const std::vector<S
     const SetupChunk& chunk = chunks[c];
     const uint32_t end = chunk.tile_begin[tile + 1];
     for (uint32_t r = chunk.tile_begin[tile]; r < end; ++r) {
-      if (r + kPrefetchRecords < end) prefetch_record(chunk, r + kPrefetchRecords);
+      if (r + kPrefetchRecords < end) prefetch_record<Hook::kShades>(chunk, r + kPrefetchRecords);
       const TriangleSetup& t = chunk.records[chunk.tile_records[r]];
       const uint32_t index = uint32_t(s.triangles.size());
       // Field by field: an aggregate is built on the stack and copied with one wider load,

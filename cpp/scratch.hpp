@@ -12,7 +12,9 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <new>
 #include <type_traits>
 #include <utility>
@@ -69,7 +71,8 @@ class ScratchArray {
 // An append-only run of T's grown by realloc(), which extends a block in place when it can and
 // moves a large one by remapping its pages (glibc): std::vector's growth copied every setup
 // record once more in a first frame (ico8: ~38 MB, ~1 ms of it). Keeps its capacity across
-// clear(), as a std::vector does.
+// clear(), as a std::vector does. Elements start on a cache line (a 64-byte setup record then
+// spans one line, not two).
 template <typename T>
 class GrowingArray {
   static_assert(std::is_trivially_copyable_v<T> && std::is_trivially_destructible_v<T> &&
@@ -85,7 +88,7 @@ class GrowingArray {
   }
   GrowingArray(const GrowingArray&) = delete;
   GrowingArray& operator=(const GrowingArray&) = delete;
-  ~GrowingArray() { std::free(data_); }
+  ~GrowingArray() { std::free(raw_); }
 
   void push_back(const T& value) {  // `value` must not be an element of this array
     if (size_ == capacity_) reserve(capacity_ ? 2 * capacity_ : 64);
@@ -99,9 +102,15 @@ class GrowingArray {
   }
   void reserve(std::size_t n) {
     if (n <= capacity_) return;
-    void* p = std::realloc(data_, n * sizeof(T));
+    // realloc keeps 16-byte alignment only: the elements start at the first cache-line boundary
+    // of the block, moved in it if the block's own offset from one changed.
+    const std::size_t old_offset = std::size_t(reinterpret_cast<char*>(data_) - raw_);
+    char* p = static_cast<char*>(std::realloc(raw_, n * sizeof(T) + kAlign));
     if (!p) throw std::bad_alloc();
-    data_ = static_cast<T*>(p);
+    const std::size_t offset = (kAlign - (reinterpret_cast<uintptr_t>(p) & (kAlign - 1))) & (kAlign - 1);
+    if (offset != old_offset && size_ != 0) std::memmove(p + offset, p + old_offset, size_ * sizeof(T));
+    raw_ = p;
+    data_ = reinterpret_cast<T*>(p + offset);
     capacity_ = n;
   }
   void clear() { size_ = 0; }
@@ -114,11 +123,14 @@ class GrowingArray {
  private:
   void swap(GrowingArray& other) noexcept {
     std::swap(data_, other.data_);
+    std::swap(raw_, other.raw_);
     std::swap(size_, other.size_);
     std::swap(capacity_, other.capacity_);
   }
 
-  T* data_ = nullptr;
+  static constexpr std::size_t kAlign = 64;
+  T* data_ = nullptr;  // the first element, cache-line aligned
+  char* raw_ = nullptr;  // the block
   std::size_t size_ = 0, capacity_ = 0;
 };
 

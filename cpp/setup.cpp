@@ -136,20 +136,22 @@ bool covers_box_samples(const TriangleSetup& t) {
   return false;
 }
 
-// Shading's perspective weights (TriangleSetup::persp) of oriented vertices o.
+// Shading's perspective weights (TriangleShading::persp) of oriented vertices o.
 void perspective_weights(const ProjectedVertex* const o[3], int64_t positive_area2,
-                         TriangleSetup& t) {
+                         TriangleShading& a) {
   const double max_inv_w = std::max({double(o[0]->inv_w), double(o[1]->inv_w), double(o[2]->inv_w)});
   const double scale = 1.0 / (max_inv_w * double(positive_area2));
-  for (int k = 0; k < 3; ++k) t.persp[k] = float(double(o[k]->inv_w) * scale);
+  for (int k = 0; k < 3; ++k) a.persp[k] = float(double(o[k]->inv_w) * scale);
 }
 
-// Builds the record for one snapped triangle whose corners are the mesh's vertices `vertex` (or
-// null for a piece of a clipped face); `positive_area2` receives twice its area (> 0). Returns
+// Builds the records for one snapped triangle whose corners are the mesh's vertices `vertex` (or
+// null for a piece of a clipped face), `a` only if params.shade (its clip_ref left to the caller);
+// `positive_area2` receives twice its area (> 0). Returns
 // false if it is culled, degenerate, or has no sample centre in its box or covers none of the
 // one or two there; those integer tests come before any floating-point work.
 bool setup_triangle(const ProjectedVertex* const v[3], const SetupParams& params, uint32_t prim,
-                    const int32_t* vertex, TriangleSetup& t, int64_t& positive_area2) {
+                    const int32_t* vertex, TriangleSetup& t, TriangleShading& a,
+                    int64_t& positive_area2) {
   const int64_t area2 = int64_t(v[1]->x - v[0]->x) * (v[2]->y - v[0]->y) -
                         int64_t(v[1]->y - v[0]->y) * (v[2]->x - v[0]->x);
   if (area2 == 0) return false;  // Degenerate => cull.
@@ -188,13 +190,16 @@ bool setup_triangle(const ProjectedVertex* const v[3], const SetupParams& params
   }
   if (!covers_box_samples(t)) return false;
   plane_keys_over_area(o, positive_area2, t);
-  if (params.shade) perspective_weights(o, positive_area2, t);
+  t.unused_ = 0;
   t.prim = prim;
   t.draw = params.draw;
-  t.clip_ref = kNoClip;
-  for (int k = 0; k < 3; ++k) t.vertex[k] = vertex ? vertex[k == 0 ? 0 : swapped ? 3 - k : k] : 0;
-  t.swapped = swapped ? 1 : 0;
-  t.back_facing = front ? 0 : 1;
+  if (params.shade) {
+    perspective_weights(o, positive_area2, a);
+    for (int k = 0; k < 3; ++k) a.vertex[k] = vertex ? vertex[k == 0 ? 0 : swapped ? 3 - k : k] : 0;
+    a.clip_ref = kNoClip;
+    a.swapped = swapped ? 1 : 0;
+    a.back_facing = front ? 0 : 1;
+  }
   return true;
 }
 
@@ -275,11 +280,15 @@ void clip_and_setup(const ivec3& face, uint8_t planes_mask, const SetupParams& p
   for (int i = 1; i + 1 < n; ++i) {  // fan: watertight inside, as all sub-triangles share snaps
     const ProjectedVertex* const tri[3] = {&projected[0], &projected[i], &projected[i + 1]};
     TriangleSetup t;
+    TriangleShading a;
     int64_t area2;
-    if (!setup_triangle(tri, params, prim, nullptr, t, area2)) continue;
-    t.clip_ref = uint32_t(out.clip_bary.size() / 3);
-    const int ids[3] = {0, t.swapped ? i + 1 : i, t.swapped ? i : i + 1};
-    for (int k = 0; k < 3; ++k) out.clip_bary.push_back(poly[ids[k]].bary_source);
+    if (!setup_triangle(tri, params, prim, nullptr, t, a, area2)) continue;
+    if (params.shade) {
+      a.clip_ref = uint32_t(out.clip_bary.size() / 3);
+      const int ids[3] = {0, a.swapped ? i + 1 : i, a.swapped ? i : i + 1};
+      for (int k = 0; k < 3; ++k) out.clip_bary.push_back(poly[ids[k]].bary_source);
+      out.shading.push_back(a);
+    }
     out.records.push_back(t);
     emit(t, double(area2), params.viewport, out);
   }
@@ -452,9 +461,11 @@ void setup_face(const SetupParams& params, std::size_t f, SetupChunk& out) {
   if (v[0]->outcode & v[1]->outcode & v[2]->outcode) return;  // All outside one plane => cull.
   if (any_out == 0) {
     TriangleSetup t;
+    TriangleShading a;
     int64_t area2;
-    if (setup_triangle(v, params, uint32_t(f), &face.x, t, area2)) {
+    if (setup_triangle(v, params, uint32_t(f), &face.x, t, a, area2)) {
       out.records.push_back(t);
+      if (params.shade) out.shading.push_back(a);
       emit(t, double(area2), params.viewport, out);
     }
   } else {
@@ -650,22 +661,26 @@ SR_INLINE void setup_eight(const SetupParams& params, std::size_t f, SetupChunk&
       t.y[k] = lane_y[k][j];
       t.key_over_area[k] = lane_key[k][j];
       t.bias[k] = uint8_t(lane_bias[k][j]);
-      t.persp[k] = lane_persp[k][j];
     }
+    t.unused_ = 0;
     t.x0 = lane_box[0][j];
     t.y0 = lane_box[1][j];
     t.x1 = lane_box[2][j];
     t.y1 = lane_box[3][j];
-    const bool swapped = negative >> j & 1;
-    const int32_t* vertex = face_index + 3 * j;
-    t.vertex[0] = vertex[0];
-    t.vertex[1] = vertex[swapped ? 2 : 1];
-    t.vertex[2] = vertex[swapped ? 1 : 2];
-    t.swapped = swapped ? 1 : 0;
-    t.back_facing = (front >> j & 1) ? 0 : 1;
     t.prim = uint32_t(f + j);
     t.draw = params.draw;
-    t.clip_ref = kNoClip;
+    if (params.shade) {
+      TriangleShading& a = out.shading.emplace_back();
+      const bool swapped = negative >> j & 1;
+      const int32_t* vertex = face_index + 3 * j;
+      for (int k = 0; k < 3; ++k) a.persp[k] = lane_persp[k][j];
+      a.vertex[0] = vertex[0];
+      a.vertex[1] = vertex[swapped ? 2 : 1];
+      a.vertex[2] = vertex[swapped ? 1 : 2];
+      a.clip_ref = kNoClip;
+      a.swapped = swapped ? 1 : 0;
+      a.back_facing = (front >> j & 1) ? 0 : 1;
+    }
     emit(t, lane_area2[j], params.viewport, out);
   }
 }
@@ -698,6 +713,7 @@ void project_vertices(const MeshData& mesh, const DrawTransform& xf, std::size_t
 
 void setup_chunk(const SetupParams& params, std::size_t begin, std::size_t end, SetupChunk& out) {
   out.records.clear();
+  out.shading.clear();
   out.record_tiles.clear();
   out.clip_bary.clear();
   out.tile_begin.assign(params.viewport.num_tiles() + 2, 0);

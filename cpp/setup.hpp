@@ -47,6 +47,7 @@ void project_vertices(const MeshData& mesh, const DrawTransform& xf, std::size_t
 // writes an array's end (sharing a line made the setup pass scale 1.1x on 2 threads).
 struct alignas(64) SetupChunk {
   GrowingArray<TriangleSetup> records;   // (grown without copies: a first frame grows them all)
+  GrowingArray<TriangleShading> shading; // records[i]'s in shading[i]; empty unless SetupParams::shade
   std::vector<vec3> clip_bary;           // 3 per clipped record: source weights of its vertices
   std::vector<uint32_t> tile_begin;      // num_tiles + 1 offsets into tile_records
   std::vector<uint32_t> tile_records;    // record indices, grouped by tile, ascending
@@ -65,7 +66,7 @@ struct SetupParams {
   const ClipPlanes* planes;
   Viewport viewport;
   bool estimate_overdraw;  // fill SetupChunk::tile_area (the "auto" shading path's choice)
-  bool shade;              // fill TriangleSetup::persp (else left unset: nothing shades)
+  bool shade;              // fill SetupChunk::shading (else nothing shades)
   Isa isa;                 // kernels for eight faces at a time (the same records for either)
 };
 

@@ -62,18 +62,19 @@ inline vec3 flat_normal(const ShadeDraw& d, int32_t c0, int32_t c1, int32_t c2) 
 template <bool kNormals>
 ShadeTriangle prepare(const ShadeParams& p, const VisibleTriangle& vt) {
   const TriangleSetup& t = *vt.tri;
+  const TriangleShading& a = vt.chunk->shading[std::size_t(vt.tri - vt.chunk->records.data())];
   const ShadeDraw& d = p.draws[t.draw];
   const MeshData& mesh = *d.mesh;
   ShadeTriangle s;
-  for (int k = 0; k < 3; ++k) s.persp[k] = t.persp[k];
-  if (t.clip_ref == kNoClip) {
-    const int32_t* v = t.vertex;
+  for (int k = 0; k < 3; ++k) s.persp[k] = a.persp[k];
+  if (a.clip_ref == kNoClip) {
+    const int32_t* v = a.vertex;
     if (!kNormals) {
       s.normal[0] = s.normal[1] = s.normal[2] = vec3(0.0f);
     } else if (d.world_normals) {
       for (int k = 0; k < 3; ++k) s.normal[k] = d.world_normals[v[k]];
     } else {  // no vertex normals => flat; the record's order is the face's, 1 and 2 swapped or not
-      s.normal[0] = t.swapped ? flat_normal(d, v[0], v[2], v[1]) : flat_normal(d, v[0], v[1], v[2]);
+      s.normal[0] = a.swapped ? flat_normal(d, v[0], v[2], v[1]) : flat_normal(d, v[0], v[1], v[2]);
       s.normal[1] = s.normal[2] = s.normal[0];
     }
     for (int k = 0; k < 3; ++k) s.color[k] = mesh.colors.empty() ? vec3(d.color) : vec3(mesh.colors[v[k]]);
@@ -89,14 +90,14 @@ ShadeTriangle prepare(const ShadeParams& p, const VisibleTriangle& vt) {
     }
     for (int c = 0; c < 3; ++c)
       color_src[c] = mesh.colors.empty() ? vec3(d.color) : vec3(mesh.colors[f[c]]);
-    const vec3* weights = &vt.chunk->clip_bary[3 * std::size_t(t.clip_ref)];
+    const vec3* weights = &vt.chunk->clip_bary[3 * std::size_t(a.clip_ref)];
     for (int k = 0; k < 3; ++k) {
       const vec3 w = weights[k];
       s.normal[k] = w.x * normal_src[0] + w.y * normal_src[1] + w.z * normal_src[2];
       s.color[k] = w.x * color_src[0] + w.y * color_src[1] + w.z * color_src[2];
     }
   }
-  if (kNormals && t.back_facing)  // two-sided: the side the camera sees
+  if (kNormals && a.back_facing)  // two-sided: the side the camera sees
     for (vec3& n : s.normal) n = -n;
   classify(p, s);
   return s;
