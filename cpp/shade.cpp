@@ -20,10 +20,10 @@ inline vec3 unit(const dvec3& v) {
 // std::clamp(v, 0, 1) * 255 + 0.5 truncated.
 inline uint32_t to_unorm8(float v) { return uint32_t(std::clamp(v, 0.0f, 1.0f) * 255.0f + 0.5f); }
 
-// Picks a prepared triangle's per-pixel work (ShadeTriangle) and its per-triangle values.
-void classify(const ShadeParams& p, ShadeTriangle& s) {
+// Picks a prepared triangle's per-pixel work (ShadeTriangle) and its per-triangle values;
+// `uniform_color`: the three colours are equal (only color[0] need be set).
+void classify(const ShadeParams& p, bool uniform_color, ShadeTriangle& s) {
   const bool lit = p.shading == Shading::Lambert;
-  const bool uniform_color = s.color[0] == s.color[1] && s.color[0] == s.color[2];
   s.one_normal = s.normal[0] == s.normal[1] && s.normal[0] == s.normal[2];
   if (s.one_normal) {
     const vec3 n = s.normal[0];
@@ -55,17 +55,18 @@ inline vec3 flat_normal(const ShadeDraw& d, int32_t c0, int32_t c1, int32_t c2) 
               glm::cross(dvec3(positions[c1]) - p0, dvec3(positions[c2]) - p0));
 }
 
-// Prepares one visible triangle: its perspective weights and its attributes at its own three
-// vertices. An unclipped record names its mesh vertices; a clipped triangle's vertices carry
-// weights of the source face's corners, and attributes, linear in those weights, are mapped here
-// once. Normals only if lit or an output (kNormals): else one zero normal.
+// Prepares one visible triangle into `s`: its perspective weights and its attributes at its own
+// three vertices. An unclipped record names its mesh vertices; a clipped triangle's vertices
+// carry weights of the source face's corners, and attributes, linear in those weights, are
+// mapped here once. Normals only if lit or an output (kNormals): else one zero normal.
+// (Written in place: returned by value, the copy cost as much as the rest.)
 template <bool kNormals>
-ShadeTriangle prepare(const ShadeParams& p, const VisibleTriangle& vt) {
+void prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTriangle& s) {
   const TriangleSetup& t = *vt.tri;
   const TriangleShading& a = vt.chunk->shading[std::size_t(vt.tri - vt.chunk->records.data())];
   const ShadeDraw& d = p.draws[t.draw];
   const MeshData& mesh = *d.mesh;
-  ShadeTriangle s;
+  bool uniform_color;
   for (int k = 0; k < 3; ++k) s.persp[k] = a.persp[k];
   if (a.clip_ref == kNoClip) {
     const int32_t* v = a.vertex;
@@ -77,7 +78,13 @@ ShadeTriangle prepare(const ShadeParams& p, const VisibleTriangle& vt) {
       s.normal[0] = a.swapped ? flat_normal(d, v[0], v[2], v[1]) : flat_normal(d, v[0], v[1], v[2]);
       s.normal[1] = s.normal[2] = s.normal[0];
     }
-    for (int k = 0; k < 3; ++k) s.color[k] = mesh.colors.empty() ? vec3(d.color) : vec3(mesh.colors[v[k]]);
+    if (mesh.colors.empty()) {
+      s.color[0] = vec3(d.color);
+      uniform_color = true;
+    } else {
+      for (int k = 0; k < 3; ++k) s.color[k] = mesh.colors[v[k]];
+      uniform_color = s.color[0] == s.color[1] && s.color[0] == s.color[2];
+    }
   } else {
     const ivec3 f = mesh.faces[t.prim];
     vec3 normal_src[3] = {}, color_src[3];
@@ -96,11 +103,11 @@ ShadeTriangle prepare(const ShadeParams& p, const VisibleTriangle& vt) {
       s.normal[k] = w.x * normal_src[0] + w.y * normal_src[1] + w.z * normal_src[2];
       s.color[k] = w.x * color_src[0] + w.y * color_src[1] + w.z * color_src[2];
     }
+    uniform_color = s.color[0] == s.color[1] && s.color[0] == s.color[2];
   }
   if (kNormals && a.back_facing)  // two-sided: the side the camera sees
     for (vec3& n : s.normal) n = -n;
-  classify(p, s);
-  return s;
+  classify(p, uniform_color, s);
 }
 
 using namespace simd;
@@ -285,7 +292,8 @@ SR_INLINE void shade_triangle(const ShadeParams& p, const TileRect& rect, const 
   const TriangleSetup& t = *vt.tri;
   const int x0 = std::max(int(t.x0), rect.x0), x1 = std::min(int(t.x1), rect.x1 - 1);
   const int y0 = std::max(int(t.y0), rect.y0), y1 = std::min(int(t.y1), rect.y1 - 1);
-  const ShadeTriangle s = prepare<kLit || kNormal>(p, vt);
+  ShadeTriangle s;
+  prepare<kLit || kNormal>(p, vt, s);
   const EdgeEquations eq = edge_equations(t, x0, y0);
   if (is_small(t) && x1 - x0 < 4 && y1 > y0)
     shade_pairs<kColor, kLit, kNormal>(p, s, SmallEdgePairs(eq), x0, x1, y0, y1, rect, raster, index, out);
@@ -353,7 +361,7 @@ struct ForwardShading {
   template <bool kPairs>
   SR_INLINE void shade(i8 win, int i, f8 e0, f8 e1, f8 e2) {
     if (!ready) {
-      s = prepare<kLit || kNormal>(p, *current);
+      prepare<kLit || kNormal>(p, *current, s);
       c = ShadeConstants(p, s);
       ready = true;
     }

@@ -52,7 +52,7 @@ struct ShadeTriangle {
                     // weight, scaled so that the largest is about 1 (no float underflow)
   vec3 normal[3];   // world-space normal at each vertex (the face normal if flat), facing the
                     // camera's side for back faces
-  vec3 color[3];    // base colour at each vertex
+  vec3 color[3];    // base colour at each vertex (only color[0] set where all are equal)
   ColorKind color_kind;
   bool one_normal;     // the three normals are equal
   uint32_t rgb;        // kConstantColor: the packed colour of every pixel (r | g << 8 | b << 16)
