@@ -208,30 +208,35 @@ bool setup_triangle(const ProjectedVertex* const v[3], const SetupParams& params
 // first tile | (columns - 1) << 16 | (rows - 1) << 24 (num_tiles <= 2^16, tiles_x, tiles_y <= 2^8).
 // Also adds its area to tile_area, split between tiles as its box is (for the choice of shading
 // path: the sum estimates a tile's overdraw). `area2` is the record's, in fixed-point units^2.
-void emit(const TriangleSetup& t, double area2, const Viewport& vp, SetupChunk& out) {
+// The common case, a record inside one tile, inline; one spanning tiles calls emit_spanning.
+void emit_spanning(const TriangleSetup& t, float area, const Viewport& vp, SetupChunk& out) {
   const uint32_t tx0 = uint32_t(t.x0) / kTileSizePx, tx1 = uint32_t(t.x1) / kTileSizePx;
   const uint32_t ty0 = uint32_t(t.y0) / kTileSizePx, ty1 = uint32_t(t.y1) / kTileSizePx;
-  const uint32_t first = ty0 * uint32_t(vp.tiles_x) + tx0;
   uint32_t* count = out.tile_begin.data() + 2;
-  const float area = float(area2) * (0.5f / float(kSubpixelOne * kSubpixelOne));
   const bool estimate = !out.tile_area.empty();
-  if (tx0 == tx1 && ty0 == ty1) {  // the common case: inside one tile
-    ++count[first];
-    if (estimate) out.tile_area[first] += area;
-  } else {
-    const float per_pixel = area / (float(t.x1 - t.x0 + 1) * float(t.y1 - t.y0 + 1));
-    for (uint32_t ty = ty0; ty <= ty1; ++ty) {
-      const int rows = std::min(t.y1, int32_t(ty + 1) * kTileSizePx - 1) -
-                       std::max(t.y0, int32_t(ty) * kTileSizePx) + 1;
-      for (uint32_t tx = tx0; tx <= tx1; ++tx) {
-        const int columns = std::min(t.x1, int32_t(tx + 1) * kTileSizePx - 1) -
-                            std::max(t.x0, int32_t(tx) * kTileSizePx) + 1;
-        ++count[ty * uint32_t(vp.tiles_x) + tx];
-        if (estimate) out.tile_area[ty * uint32_t(vp.tiles_x) + tx] += per_pixel * float(rows * columns);
-      }
+  const float per_pixel = area / (float(t.x1 - t.x0 + 1) * float(t.y1 - t.y0 + 1));
+  for (uint32_t ty = ty0; ty <= ty1; ++ty) {
+    const int rows = std::min(t.y1, int32_t(ty + 1) * kTileSizePx - 1) -
+                     std::max(t.y0, int32_t(ty) * kTileSizePx) + 1;
+    for (uint32_t tx = tx0; tx <= tx1; ++tx) {
+      const int columns = std::min(t.x1, int32_t(tx + 1) * kTileSizePx - 1) -
+                          std::max(t.x0, int32_t(tx) * kTileSizePx) + 1;
+      ++count[ty * uint32_t(vp.tiles_x) + tx];
+      if (estimate) out.tile_area[ty * uint32_t(vp.tiles_x) + tx] += per_pixel * float(rows * columns);
     }
   }
-  out.record_tiles.push_back(first | (tx1 - tx0) << 16 | (ty1 - ty0) << 24);
+  out.record_tiles.push_back((ty0 * uint32_t(vp.tiles_x) + tx0) | (tx1 - tx0) << 16 | (ty1 - ty0) << 24);
+}
+
+inline void emit(const TriangleSetup& t, double area2, const Viewport& vp, SetupChunk& out) {
+  const uint32_t tx0 = uint32_t(t.x0) / kTileSizePx, tx1 = uint32_t(t.x1) / kTileSizePx;
+  const uint32_t ty0 = uint32_t(t.y0) / kTileSizePx, ty1 = uint32_t(t.y1) / kTileSizePx;
+  const float area = float(area2) * (0.5f / float(kSubpixelOne * kSubpixelOne));
+  if (tx0 != tx1 || ty0 != ty1) return emit_spanning(t, area, vp, out);
+  const uint32_t tile = ty0 * uint32_t(vp.tiles_x) + tx0;
+  ++out.tile_begin.data()[2 + tile];
+  if (!out.tile_area.empty()) out.tile_area[tile] += area;
+  out.record_tiles.push_back(tile);
 }
 
 // Second pass of binning: a counting sort of (tile, record) pairs, which keeps records in
