@@ -128,6 +128,7 @@ struct NoShading {
   template <bool kPairs>
   SR_INLINE void shade(simd::i8, int, simd::f8, simd::f8, simd::f8) {}
   SR_INLINE void large_won(uint32_t) {}
+  SR_INLINE void prefetch_attributes(const SetupChunk&, uint32_t) {}
 };
 
 namespace raster {
@@ -253,8 +254,12 @@ SR_INLINE void rasterize_pairs(const TriangleSetup& t, int x0, int x1, int y0, i
 // A tile's records are a sparse, ascending selection of its chunks' records: in a large mesh
 // each is a cache miss, which hardware prefetchers do not foresee (ico8 at 1024x1024, depth
 // only: a quarter of the tile pass). So the record this many places ahead is fetched early.
-// Forward shading reads the record's TriangleShading too, where the triangle wins a pixel.
-constexpr uint32_t kPrefetchRecords = 8;
+// Forward shading reads the record's TriangleShading too, where the triangle wins a pixel, and
+// then its vertices' attributes, which are as scattered as the mesh's vertex order: the hook
+// fetches those kPrefetchAttributes places ahead, from the TriangleShading fetched earlier.
+// (ico8 at 1024x1024, colour + depth, 2 threads: tile pass 11.2 -> 10.7 ms in trimesh's vertex
+// order, 20 -> 13 ms with the vertices shuffled.)
+constexpr uint32_t kPrefetchRecords = 16, kPrefetchAttributes = 8;
 template <bool kShades>
 SR_INLINE void prefetch_record(const SetupChunk& chunk, uint32_t r) {
   const uint32_t i = chunk.tile_records[r];
@@ -270,6 +275,8 @@ SR_INLINE void rasterize_all(const TileRect& rect, int tile, const std::vector<S
     const uint32_t end = chunk.tile_begin[tile + 1];
     for (uint32_t r = chunk.tile_begin[tile]; r < end; ++r) {
       if (r + kPrefetchRecords < end) prefetch_record<Hook::kShades>(chunk, r + kPrefetchRecords);
+      if (Hook::kShades && r + kPrefetchAttributes < end)
+        hook.prefetch_attributes(chunk, chunk.tile_records[r + kPrefetchAttributes]);
       const TriangleSetup& t = chunk.records[chunk.tile_records[r]];
       const uint32_t index = uint32_t(s.triangles.size());
       // Field by field: an aggregate is built on the stack and copied with one wider load,

@@ -690,10 +690,25 @@ SR_INLINE void setup_eight(const SetupParams& params, std::size_t f, SetupChunk&
   }
 }
 
+// Faces reach their vertices through indices, and the order of a mesh's vertices is its
+// author's: in a large mesh each gather from the projected vertices may be a cache miss that no
+// hardware prefetcher foresees. So the vertices of the faces this many places ahead are fetched
+// early. Setup for ico8 at 1024x1024, depth only, 2 threads: 8.5 -> 8.0 ms with vertices in
+// order of first use, 10.1 -> 8.1 ms in trimesh's icosphere order, 20 -> 12 ms shuffled; the
+// same for a mesh that fits in cache.
+constexpr std::size_t kPrefetchFaces = 64;
+
 SR_INLINE void setup_range(const SetupParams& params, std::size_t begin, std::size_t end,
                            SetupChunk& out) {
+  const std::size_t num_faces = params.mesh->faces.size();
   std::size_t f = begin;
-  for (; f + kLanes <= end; f += kLanes) setup_eight(params, f, out);
+  for (; f + kLanes <= end; f += kLanes) {
+    if (f + kPrefetchFaces + kLanes <= num_faces) {
+      const int32_t* ahead = &params.mesh->faces[f + kPrefetchFaces].x;
+      for (int j = 0; j < 3 * kLanes; ++j) __builtin_prefetch(params.vertices + ahead[j]);
+    }
+    setup_eight(params, f, out);
+  }
   for (; f < end; ++f) setup_face(params, f, out);
 }
 

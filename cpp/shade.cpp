@@ -368,6 +368,18 @@ struct ForwardShading {
     shade_group<kColor, kLit, kNormal, kPairs>(s, c, e0, e1, e2, win, i, out);
   }
   SR_INLINE void large_won(uint32_t index) { out.large.push_back(index); }
+  // What prepare() will read of record i's vertices (raster::rasterize_all).
+  SR_INLINE void prefetch_attributes(const SetupChunk& chunk, uint32_t i) {
+    const TriangleShading& a = chunk.shading[i];
+    if (a.clip_ref != kNoClip) return;
+    const ShadeDraw& d = p.draws[chunk.records[i].draw];
+    if constexpr (kLit || kNormal)
+      if (d.world_normals)
+        for (int k = 0; k < 3; ++k) __builtin_prefetch(d.world_normals + a.vertex[k]);
+    if constexpr (kColor)
+      if (!d.mesh->colors.empty())
+        for (int k = 0; k < 3; ++k) __builtin_prefetch(d.mesh->colors.data() + a.vertex[k]);
+  }
 };
 
 template <bool kColor, bool kLit, bool kNormal, bool kCoverage>
