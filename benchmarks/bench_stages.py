@@ -11,6 +11,8 @@ table, not across runs):
             output-writing cost
   paths     forward vs deferred shading as overdraw grows (layers of spheres drawn back to front,
             the worst order for forward shading): the crossover behind shading_path="auto"
+  order     the same sphere with its vertices in trimesh's order, in order of first use by the
+            faces, and shuffled (faces unchanged): what the mesh's vertex order costs
   threads   1 vs 2 threads
   overhead  Python cost per call: a 1x1 render of a 1-triangle scene
   memory    peak RSS of rendering the 1.3M-face sphere at 1024x1024 (a fresh subprocess) against
@@ -42,7 +44,7 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FOV_Y_DEG, NEAR, FAR = 45.0, 0.05, 100.0
 SILHOUETTE_FRACTION = 0.8  # as bench_vs_pyrender.py: the sphere spans 0.8 of the image height
 ALL_OUTPUTS = ("color", "depth", "mask", "normal", "triangle_id", "instance_id", "coverage")
-SECTIONS = ("faces", "pixels", "outputs", "paths", "threads", "overhead", "memory", "callgrind")
+SECTIONS = ("faces", "pixels", "outputs", "paths", "order", "threads", "overhead", "memory", "callgrind")
 
 
 def camera_distance() -> float:
@@ -213,6 +215,56 @@ def section_paths(opts):
         f, d, a = (by[(c, p)].ms for p in paths)
         name = f"ico{c[0]} x{c[1]} layer{'s' if c[1] > 1 else ''} {c[2]}px"
         print(f"{name:<26}{f:>9.2f}{d:>10.2f}{a:>8.2f}{f / d:>9.2f}")
+
+
+def reorder_vertices(mesh: sr.Mesh, order: np.ndarray) -> sr.Mesh:
+    """The same triangles, faces in the same order, with vertex i of the result = mesh's order[i]."""
+    remap = np.empty(len(order), np.int64)
+    remap[order] = np.arange(len(order))
+    return sr.Mesh(mesh.positions[order], remap[mesh.faces],
+                   normals=None if mesh.normals is None else mesh.normals[order])
+
+
+class OrderJob(Job):
+    def __init__(self, key, sub, width, height, order, outputs):
+        super().__init__(key, sub, width, height, outputs=outputs)
+        base = _MESHES[sub]
+        n = len(base.positions)
+        if order == "first use":
+            _, first = np.unique(base.faces.ravel(), return_index=True)
+            base = reorder_vertices(base, np.argsort(first, kind="stable"))
+        elif order == "shuffled":
+            base = reorder_vertices(base, np.random.default_rng(0).permutation(n))
+        self.scene = sr.Scene()
+        self.scene.add(base, color=(1.0, 1.0, 1.0))
+        self.frame = self.renderer.render(self.scene, self.cam, **self.kwargs)
+
+
+def section_order(opts):
+    print("\n## Vertex order: the same sphere, vertices reordered (threads 2, out=)")
+    print("faces and their order unchanged (the same image); setup gathers projected vertices and"
+          " shading vertex normals by index, so the order decides how often those miss the caches")
+    cases = [(6, 640, 480), (8, 1024, 1024)] if not opts.quick else [(6, 640, 480), (7, 1024, 1024)]
+    orders = ("trimesh", "first use", "shuffled")
+    outs = (("depth",), ("color", "depth"))
+    jobs = [OrderJob((c, o, out), *c, o, out) for c in cases for o in orders for out in outs]
+    ref = {}
+    for j in jobs:  # the order must not change a single bit
+        key = (j.key[0], j.key[2])
+        frame = j()
+        arrays = [a.copy() for a in (frame.depth, frame.color) if a is not None]
+        if key in ref and not all(np.array_equal(a, b) for a, b in zip(ref[key], arrays)):
+            raise AssertionError(f"vertex order changed the image: {j.key}")
+        ref.setdefault(key, arrays)
+    run_interleaved(jobs, opts.target, opts.rounds)
+    by = {j.key: j for j in jobs}
+    print(f"{'scene':<18}{'mode':<13}" + "".join(f"{o:>11}" for o in orders) + f"{'shuf/first':>12}")
+    for c in cases:
+        for out in outs:
+            ms = [by[(c, o, out)].ms for o in orders]
+            mode = "depth" if out == ("depth",) else "color+depth"
+            print(f"{'ico%d %dx%d' % c:<18}{mode:<13}" + "".join(f"{m:>11.2f}" for m in ms)
+                  + f"{ms[2] / ms[1]:>12.2f}")
 
 
 def section_threads(opts):
