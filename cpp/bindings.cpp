@@ -250,6 +250,18 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::handle& 
     if ((options.outputs & layout.bit) && out_dict.contains(layout.name))
       external[i] = external_buffer(out_dict[layout.name], layout, self.width(), self.height());
   }
+  // Overlapping outputs would corrupt each other. Each array is C-contiguous with its exact
+  // shape, so it spans exactly [data, data + bytes).
+  const auto begin = [&](int i) { return reinterpret_cast<std::uintptr_t>(external[i]); };
+  const auto end = [&](int i) {
+    const OutputLayout& l = kOutputLayouts[i];
+    return begin(i) + std::size_t(self.width()) * std::size_t(self.height()) * l.channels * l.item_bytes;
+  };
+  for (int i = 0; i < kNumOutputs; ++i)
+    for (int j = i + 1; j < kNumOutputs; ++j)
+      if (external[i] && external[j] && begin(i) < end(j) && begin(j) < end(i))
+        throw py::value_error(std::string("out['") + kOutputLayouts[i].name + "'] and out['" +
+                              kOutputLayouts[j].name + "'] share memory");
 
   std::unique_ptr<Framebuffer> fb;
   {

@@ -239,6 +239,51 @@ def test_pose_is_copied_and_read_only():
         cam.pose[0, 3] = 1.0
 
 
+
+@pytest.mark.parametrize("make", CAMERAS)
+def test_render_matrices_follow_every_new_pose(rng, make):
+    """A render reuses the camera's matrices until its pose changes (the core reads these)."""
+    cam = make()
+    w, h = (cam.width or 64), (cam.height or 48)
+    view, proj = cam._render_matrices(w, h)
+    again = cam._render_matrices(w, h)
+    assert again[0] is view and again[1] is proj  # cached
+    assert not view.flags.writeable and not proj.flags.writeable
+    for _ in range(3):
+        cam.pose = random_pose(rng)
+        view, proj = cam._render_matrices(w, h)
+        np.testing.assert_array_equal(view, cam.view_matrix())
+        np.testing.assert_array_equal(proj, cam.projection_matrix(w, h))
+    cam.look_at(eye=(1.0, 2.0, 3.0), target=(0.0, 0.0, 0.0))
+    np.testing.assert_array_equal(cam._render_matrices(w, h)[0], cam.view_matrix())
+    if cam.width is None:  # another image size, another projection
+        np.testing.assert_array_equal(cam._render_matrices(32, 48)[1], cam.projection_matrix(32, 48))
+
+
+def test_a_subclass_projection_is_asked_on_every_render():
+    """A user camera may change its projection between renders: no stale cached matrix."""
+    import softrast as sr
+    import trimesh
+
+    class ZoomCamera(PerspectiveCamera):
+        zoom = 1.0
+
+        def projection_matrix(self, width=None, height=None):
+            proj = super().projection_matrix(width, height)
+            proj[:2, :2] *= self.zoom
+            return proj
+
+    scene = sr.Scene()
+    scene.add(sr.Mesh.from_trimesh(trimesh.creation.icosphere(subdivisions=2)))
+    renderer = sr.Renderer(64, 64)
+    cam = ZoomCamera(fov_y=60.0)
+    cam.look_at(eye=(0.0, 0.0, 4.0), target=(0.0, 0.0, 0.0))
+    small = renderer.render(scene, cam, outputs="mask").mask.sum()
+    cam.zoom = 2.0
+    big = renderer.render(scene, cam, outputs="mask").mask.sum()
+    assert 3.5 * small < big < 4.5 * small  # twice the focal length: four times the area
+
+
 # -- bad inputs ---------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("pose", [

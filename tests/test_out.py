@@ -64,3 +64,21 @@ def test_aliased_out_arrays_are_refused(setup):
                         out={"triangle_id": ids, "instance_id": ids})
     with pytest.raises(TypeError, match="out"):
         renderer.render(scene, cam, outputs=("depth",), out=[ids])
+
+
+def test_partly_overlapping_out_arrays_are_refused_and_neighbours_are_not(setup):
+    """Views of one buffer: refused if their bytes overlap at all, accepted if they only touch."""
+    renderer, scene, cam = setup
+    n = 60 * 80 * 4
+    raw = np.zeros(2 * n, np.uint8)
+    as_depth = lambda offset: raw[offset:offset + n].view(np.float32).reshape(60, 80)  # noqa: E731
+    as_ids = lambda offset: raw[offset:offset + n].view(np.int32).reshape(60, 80)  # noqa: E731
+    for offset in (4, n // 2, n - 4):  # the depth array's last bytes are the ids' first
+        with pytest.raises(ValueError, match="out\\['depth'\\] and out\\['triangle_id'\\] share memory"):
+            renderer.render(scene, cam, outputs=("depth", "triangle_id"),
+                            out={"depth": as_depth(0), "triangle_id": as_ids(offset)})
+    fresh = renderer.render(scene, cam, outputs=("depth", "triangle_id"))
+    frame = renderer.render(scene, cam, outputs=("depth", "triangle_id"),
+                            out={"depth": as_depth(0), "triangle_id": as_ids(n)})
+    np.testing.assert_array_equal(frame.depth, fresh.depth)
+    np.testing.assert_array_equal(frame.triangle_id, fresh.triangle_id)

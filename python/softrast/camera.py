@@ -114,6 +114,8 @@ class Camera(abc.ABC):
         self._width = _image_side(width, "width", optional=True)
         self._height = _image_side(height, "height", optional=True)
         self._pose = _check_pose(np.eye(4))
+        self._view_of: tuple[Any, Any] = (None, None)  # (pose, its view matrix): see _render_matrices
+        self._projections: dict[tuple[int, int], npt.NDArray[np.float64]] = {}
 
     @property
     def near(self) -> float:
@@ -184,6 +186,29 @@ class Camera(abc.ABC):
     @abc.abstractmethod
     def projection_matrix(self, width: int | None = None, height: int | None = None) -> npt.NDArray[np.float64]:
         """(4, 4) float64 view-to-clip (OpenGL) for a ``width`` x ``height`` pixel image."""
+
+    def _render_matrices(self, width: int, height: int) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+        """(view, projection) for a render, read-only, cached: a render of a batch reuses them.
+
+        The view matrix is cached per pose (poses are read-only: a new pose is a new array); the
+        projection per image size, for the cameras of this module, whose parameters are fixed
+        at construction. A subclass that defines its own projection_matrix is asked every time.
+        """
+        pose, view = self._view_of
+        if pose is not self._pose:
+            pose, view = self._pose, self.view_matrix()
+            view.setflags(write=False)
+            self._view_of = (pose, view)
+        if type(self).projection_matrix not in _FIXED_PROJECTIONS:
+            return view, self.projection_matrix(width, height)
+        proj = self._projections.get((width, height))
+        if proj is None:
+            if len(self._projections) >= 8:  # a camera reused at many sizes: keep the cache small
+                self._projections.clear()
+            proj = self.projection_matrix(width, height)
+            proj.setflags(write=False)
+            self._projections[(width, height)] = proj
+        return view, proj
 
     def _render_size(self, width: Any, height: Any) -> tuple[int, int]:
         """The image size to project for: the arguments, else the camera's own width/height."""
@@ -343,3 +368,8 @@ class IntrinsicsCamera(Camera):
         proj[1, 2] = 2.0 * (self._cy + half) / h - 1.0
         self._depth_rows(proj)
         return proj
+
+
+# Cameras whose projection depends only on construction-time parameters (cacheable per size).
+_FIXED_PROJECTIONS = frozenset({PerspectiveCamera.projection_matrix, OrthographicCamera.projection_matrix,
+                                IntrinsicsCamera.projection_matrix})

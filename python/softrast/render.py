@@ -41,8 +41,9 @@ class Frame:
     __slots__ = ("color", "depth", "mask", "normal", "triangle_id", "instance_id", "coverage")
 
     def __init__(self, buffers: dict[str, np.ndarray]) -> None:
-        for name in self.__slots__:
-            setattr(self, name, buffers.get(name))
+        get = buffers.get
+        self.color, self.depth, self.mask, self.normal = get("color"), get("depth"), get("mask"), get("normal")
+        self.triangle_id, self.instance_id, self.coverage = get("triangle_id"), get("instance_id"), get("coverage")
 
     @property
     def outputs(self) -> tuple[str, ...]:
@@ -80,18 +81,15 @@ def _output_names(outputs: str | Iterable[str]) -> list[str]:
 
 
 def _out_arrays(out: Frame | dict[str, np.ndarray] | None, names: list[str]) -> dict[str, np.ndarray] | None:
+    """The arrays of ``out`` that ``names`` asks for (the core checks each one, and overlaps)."""
     if out is None:
         return None
     if isinstance(out, Frame):
-        out = out.as_dict()
-    if not isinstance(out, dict):
+        arrays = {n: a for n in names if (a := getattr(out, n)) is not None}
+    elif isinstance(out, dict):
+        arrays = {n: a for n in names if (a := out.get(n)) is not None}
+    else:
         raise TypeError(f"out must be a Frame or a dict of arrays, got {type(out).__name__}")
-    arrays = {n: out[n] for n in names if out.get(n) is not None}
-    items = list(arrays.items())
-    for i, (a_name, a) in enumerate(items):  # overlapping outputs would corrupt each other
-        for b_name, b in items[i + 1:]:
-            if np.may_share_memory(a, b):
-                raise ValueError(f"out[{a_name!r}] and out[{b_name!r}] share memory")
     return arrays
 
 
@@ -118,6 +116,7 @@ class Renderer:
         if not isinstance(simd, (bool, np.bool_)):
             raise ValueError(f"simd must be True or False, got {simd!r}")
         self._core = _core.Renderer(w, h, int(threads), bool(simd))
+        self._size = (w, h)
 
     @property
     def width(self) -> int:
@@ -173,10 +172,10 @@ class Renderer:
             raise TypeError(f"scene must be a softrast.Scene, got {type(scene).__name__}")
         if not isinstance(camera, Camera):
             raise TypeError(f"camera must be a softrast camera, got {type(camera).__name__}")
-        for name, size in (("width", camera.width), ("height", camera.height)):
-            if size is not None and size != getattr(self, name):
-                raise ValueError(
-                    f"camera {name} {size} differs from the renderer's {getattr(self, name)}")
+        w, h = self._size
+        for name, size, ours in (("width", camera.width, w), ("height", camera.height, h)):
+            if size is not None and size != ours:
+                raise ValueError(f"camera {name} {size} differs from the renderer's {ours}")
         names = _output_names(outputs)
         if cull not in _CULL:
             raise ValueError(f"cull must be one of {_CULL}, got {cull!r}")
@@ -184,34 +183,23 @@ class Renderer:
             raise ValueError(f"shading must be one of {_SHADING}, got {shading!r}")
         if shading_path not in _SHADING_PATHS:
             raise ValueError(f"shading_path must be one of {_SHADING_PATHS}, got {shading_path!r}")
-        bg = tuple(float(c) for c in background)
-        if len(bg) != 3 or not all(0.0 <= c <= 1.0 for c in bg):
+        bg = tuple(map(float, background))
+        if len(bg) != 3 or not (0.0 <= bg[0] <= 1.0 and 0.0 <= bg[1] <= 1.0 and 0.0 <= bg[2] <= 1.0):
             raise ValueError(f"background must be 3 floats in [0, 1], got {background!r}")
-        if not 0.0 <= float(ambient) <= 1.0:
+        ambient_f = float(ambient)
+        if not 0.0 <= ambient_f <= 1.0:
             raise ValueError(f"ambient must be in [0, 1], got {ambient!r}")
 
         out_arrays = _out_arrays(out, names)
-        new = [n for n in names if out_arrays is None or n not in out_arrays]  # out= arrays are reused
-        check_budget(self.width * self.height * sum(_OUTPUT_BYTES[n] for n in new),
-                     f"outputs {tuple(new)} at {self.width}x{self.height}")
+        new = names if not out_arrays else [n for n in names if n not in out_arrays]  # out= reused
+        if new:
+            check_budget(w * h * sum(_OUTPUT_BYTES[n] for n in new), f"outputs {tuple(new)} at {w}x{h}")
 
         draws = [(inst.mesh._core_data(), inst.pose, inst.instance_id, inst.color)
-                 for inst in scene.instances]
-        buffers = self._core.render(
-            draws,
-            camera.view_matrix(),
-            camera.projection_matrix(self.width, self.height),
-            camera.orthographic,
-            camera.near,
-            camera.far,
-            names,
-            cull,
-            shading,
-            bg,
-            float(ambient),
-            out_arrays,
-            shading_path,
-        )
+                 for inst in scene._instances]
+        view, proj = camera._render_matrices(w, h)
+        buffers = self._core.render(draws, view, proj, camera.orthographic, camera.near, camera.far,
+                                    names, cull, shading, bg, ambient_f, out_arrays, shading_path)
         return Frame(buffers)
 
     def __repr__(self) -> str:
