@@ -186,7 +186,7 @@ std::vector<py::ssize_t> output_shape(const OutputLayout& layout, int width, int
 py::array hand_over(Framebuffer& fb, int index) {
   const OutputLayout& layout = kOutputLayouts[index];
   std::byte* data = fb.release(index);
-  py::capsule owner(data, [](void* p) { delete[] static_cast<std::byte*>(p); });
+  py::capsule owner(data, [](void* p) { free_frame_buffer(static_cast<std::byte*>(p)); });
   return py::array(output_dtype(layout), output_shape(layout, fb.width, fb.height), {}, data, owner);
 }
 

@@ -31,7 +31,8 @@ Framebuffer::Framebuffer(int w, int h, uint32_t out, std::byte* const* external)
       continue;
     }
     const std::size_t bytes = std::size_t(w) * h * layout.channels * layout.item_bytes;
-    buffers_[i].reset(new std::byte[bytes]);  // default-init: no clearing pass
+    // Not cleared: the tile pass writes every pixel.
+    buffers_[i].reset(static_cast<std::byte*>(::operator new[](bytes, std::align_val_t(kFrameAlign))));
     data[i] = buffers_[i].get();
   }
   color = reinterpret_cast<uint8_t*>(data[0]);

@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <memory>
+#include <new>
 
 namespace sr {
 
@@ -16,6 +17,14 @@ struct OutputLayout {
 };
 extern const OutputLayout kOutputLayouts[kNumOutputs];
 
+// Output buffers start on a cache line: the tile pass's threads write neighbouring tiles' rows,
+// and with rows a whole number of lines wide (a width divisible by 64 / bytes per pixel) no line
+// is then written by two threads.
+constexpr std::size_t kFrameAlign = 64;
+
+// Frees a buffer that Framebuffer::release() gave up.
+inline void free_frame_buffer(std::byte* p) { ::operator delete[](p, std::align_val_t(kFrameAlign)); }
+
 class Framebuffer {
  public:
   // Bytes the requested outputs need; checked against kMaxFramebufferBytes before allocating.
@@ -25,8 +34,8 @@ class Framebuffer {
   // kOutputLayouts) supplies the caller's own memory of the right size, which it writes into.
   Framebuffer(int width, int height, uint32_t outputs, std::byte* const* external = nullptr);
 
-  // Gives up ownership of one output's allocated buffer (the caller frees it with delete[]);
-  // nullptr for an output written into external memory.
+  // Gives up ownership of one output's allocated buffer (the caller frees it with
+  // free_frame_buffer); nullptr for an output written into external memory.
   std::byte* release(int layout_index) { return buffers_[layout_index].release(); }
 
   int width, height;
@@ -41,7 +50,10 @@ class Framebuffer {
   uint32_t* coverage = nullptr;
 
  private:
-  std::unique_ptr<std::byte[]> buffers_[kNumOutputs];
+  struct Free {
+    void operator()(std::byte* p) const { free_frame_buffer(p); }
+  };
+  std::unique_ptr<std::byte[], Free> buffers_[kNumOutputs];
 };
 
 }  // namespace sr

@@ -232,6 +232,7 @@ def test_output_arrays_shapes_dtypes_and_ownership():
         assert arr.shape == ((h, w, ch) if ch else (h, w)), name
         assert arr.flags.c_contiguous and arr.flags.writeable, name
         assert arr.base is not None, name  # a view of C++ memory, not a copy
+        assert arr.ctypes.data % 64 == 0, name  # starts on a cache line (threads share no line)
     names = list(arrays)
     for i, a in enumerate(names):
         for b in names[i + 1:]:
