@@ -163,6 +163,8 @@ class Renderer:
               (no allocation). Each array must have exactly its output's dtype and shape, be
               C-contiguous and writeable. Requested outputs missing from ``out`` are allocated.
               Without ``out`` every render returns new arrays and never touches earlier ones.
+              A render's own arrays start on a 64-byte cache line; arrays of your own render
+              fastest if they do too (NumPy aligns only to 16 bytes: reusing a Frame is best).
         shading_path : when fragments are shaded: "forward" (as they pass the depth test),
               "deferred" (once per visible pixel, after the depth test) or "auto" (default:
               per 64x64 tile, forward unless the tile's triangles cover it over 1.5 times).
