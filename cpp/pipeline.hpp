@@ -32,8 +32,9 @@ constexpr std::size_t kMaxFramebufferBytes = std::size_t(4) << 30;
 // the result does not depend on the number of threads.
 constexpr int kTileSizePx = 64;
 
-// Triangles are set up and binned in fixed-size chunks: a chunk is the unit of geometry work
-// given to a thread, and its size, not the thread count, decides how records are grouped.
+// Triangles are set up and binned in chunks of at most this many (a small draw's are smaller:
+// renderer.cpp, chunk_faces): a chunk is the unit of geometry work given to a thread, and the
+// draw's face count, not the thread count, decides how records are grouped.
 constexpr int kTriangleChunk = 8192;
 
 enum class Cull : uint8_t { None, Back, Front };

@@ -20,6 +20,15 @@ namespace {
 // (16384 gave an 81,920-face icosphere three items for two threads).
 constexpr std::size_t kVertexBlock = 4096;
 
+// Faces per setup chunk: kTriangleChunk, or fewer for a small draw, so that its setup still
+// splits over the threads (a 1,280-face sphere was one chunk, set up on one thread). Chunking
+// does not change the output: records keep primitive order across chunks.
+constexpr std::size_t kMinChunkFaces = 256, kMinChunks = 2;
+std::size_t chunk_faces(std::size_t faces) {
+  const std::size_t share = (faces + kMinChunks - 1) / kMinChunks;
+  return std::clamp((share + 7) / 8 * 8, kMinChunkFaces, std::size_t(kTriangleChunk));
+}
+
 template <typename M>
 bool all_finite(const M& m) {
   for (int c = 0; c < 4; ++c)
@@ -168,8 +177,9 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   std::vector<Block> chunk_ranges;
   for (std::size_t d = 0; d < draws.size(); ++d) {
     const std::size_t m = draws[d].mesh->faces.size();
-    for (std::size_t b = 0; b < m; b += kTriangleChunk)
-      chunk_ranges.push_back({uint32_t(d), b, std::min(m, b + kTriangleChunk)});
+    const std::size_t step = chunk_faces(m);
+    for (std::size_t b = 0; b < m; b += step)
+      chunk_ranges.push_back({uint32_t(d), b, std::min(m, b + step)});
   }
   if (chunks_.size() < chunk_ranges.size()) chunks_.resize(chunk_ranges.size());
   // The "auto" shading path picks per tile, from overdraw estimated in setup; only when shading.
