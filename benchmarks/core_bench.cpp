@@ -81,16 +81,13 @@ int main(int argc, char** argv) {
   // Frames reused across renders, as the Python benchmarks do with `out=` (a fresh frame costs
   // page faults, not rendering).
   // Aligned as the renderer's own frames are (framebuffer.hpp, kFrameAlign).
-  struct Free {
-    void operator()(std::byte* p) const { free_frame_buffer(p); }
-  };
-  std::vector<std::unique_ptr<std::byte[], Free>> frames;
+  std::vector<FrameBufferPtr> frames;
   std::byte* external[kNumOutputs] = {};
   for (int i = 0; i < kNumOutputs; ++i) {
     const OutputLayout& layout = kOutputLayouts[i];
     if (!(outputs & layout.bit)) continue;
     const std::size_t bytes = std::size_t(width) * height * layout.channels * layout.item_bytes;
-    frames.emplace_back(static_cast<std::byte*>(::operator new[](bytes, std::align_val_t(kFrameAlign))));
+    frames.emplace_back(allocate_frame_buffer(bytes));
     external[i] = frames.back().get();
   }
   double best = 1e30;

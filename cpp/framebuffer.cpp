@@ -31,8 +31,7 @@ Framebuffer::Framebuffer(int w, int h, uint32_t out, std::byte* const* external)
       continue;
     }
     const std::size_t bytes = std::size_t(w) * h * layout.channels * layout.item_bytes;
-    // Not cleared: the tile pass writes every pixel.
-    buffers_[i].reset(static_cast<std::byte*>(::operator new[](bytes, std::align_val_t(kFrameAlign))));
+    buffers_[i].reset(allocate_frame_buffer(bytes));  // not cleared: the tile pass writes every pixel
     data[i] = buffers_[i].get();
   }
   color = reinterpret_cast<uint8_t*>(data[0]);

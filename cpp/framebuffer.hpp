@@ -22,8 +22,16 @@ extern const OutputLayout kOutputLayouts[kNumOutputs];
 // is then written by two threads.
 constexpr std::size_t kFrameAlign = 64;
 
-// Frees a buffer that Framebuffer::release() gave up.
+// One output's buffer, uninitialised, kFrameAlign-aligned; free_frame_buffer() frees it (as does
+// FrameBufferPtr), also after Framebuffer::release() gave it up.
+inline std::byte* allocate_frame_buffer(std::size_t bytes) {
+  return static_cast<std::byte*>(::operator new[](bytes, std::align_val_t(kFrameAlign)));
+}
 inline void free_frame_buffer(std::byte* p) { ::operator delete[](p, std::align_val_t(kFrameAlign)); }
+struct FreeFrameBuffer {
+  void operator()(std::byte* p) const { free_frame_buffer(p); }
+};
+using FrameBufferPtr = std::unique_ptr<std::byte[], FreeFrameBuffer>;
 
 class Framebuffer {
  public:
@@ -50,10 +58,7 @@ class Framebuffer {
   uint32_t* coverage = nullptr;
 
  private:
-  struct Free {
-    void operator()(std::byte* p) const { free_frame_buffer(p); }
-  };
-  std::unique_ptr<std::byte[], Free> buffers_[kNumOutputs];
+  FrameBufferPtr buffers_[kNumOutputs];
 };
 
 }  // namespace sr
