@@ -155,7 +155,8 @@ Cull parse_cull(const std::string& s) {
 Shading parse_shading(const std::string& s) {
   if (s == "lambert") return Shading::Lambert;
   if (s == "unlit") return Shading::Unlit;
-  throw py::value_error("shading must be 'lambert' or 'unlit', got '" + s + "'");
+  if (s == "normal") return Shading::Normal;
+  throw py::value_error("shading must be 'lambert', 'unlit' or 'normal', got '" + s + "'");
 }
 
 ShadingPath parse_shading_path(const std::string& s) {

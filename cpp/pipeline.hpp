@@ -38,7 +38,8 @@ constexpr int kTileSizePx = 64;
 constexpr int kTriangleChunk = 8192;
 
 enum class Cull : uint8_t { None, Back, Front };
-enum class Shading : uint8_t { Unlit, Lambert };
+// Shading models (shade_models.hpp): one policy struct each.
+enum class Shading : uint8_t { Unlit, Lambert, Normal };
 // When fragments are shaded: as they win the depth test (forward), or once per visible pixel
 // after the tile is rasterized (deferred). The same bits either way; Auto picks per tile by
 // its expected overdraw.

@@ -2,6 +2,8 @@
 #include "renderer.hpp"
 
 #include "clip.hpp"
+#include "normals.hpp"
+#include "outputs.hpp"
 #include "shade.hpp"
 #include "transform.hpp"
 
@@ -196,7 +198,7 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
 
   // Tiles: rasterize, then shade, each tile by one thread.
   const bool want_normals = (options.outputs & kOutNormal) ||
-                            ((options.outputs & kOutColor) && options.shading == Shading::Lambert);
+                            ((options.outputs & kOutColor) && model_reads_normal(options.shading));
   std::vector<ShadeDraw> shade_draws;
   std::vector<Block> normal_blocks;
   world_normals_.resize(draws.size());
@@ -219,8 +221,8 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   shade.shading = options.shading;
   // Headlight: the light sits at the camera and shines along its viewing axis.
   const dvec3 to_camera = glm::normalize(dvec3(glm::inverse(camera.view) * dvec4(0, 0, 1, 0)));
-  shade.to_light_world = vec3(to_camera);
-  shade.ambient = options.ambient;
+  shade.in.to_light_world = vec3(to_camera);
+  shade.in.ambient = options.ambient;
   for (int c = 0; c < 3; ++c)
     shade.background[c] = uint8_t(std::clamp(options.background[c], 0.0f, 1.0f) * 255.0f + 0.5f);
   shade.orthographic = camera.orthographic;
@@ -229,6 +231,7 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   const bool want_coverage = options.outputs & kOutCoverage;
   const std::size_t num_chunks = chunk_ranges.size();
   const bool can_forward = options.shading_path != ShadingPath::Deferred && can_shade_forward(shade);
+  const TileKernels kernels = select_tile_kernels(shade, isa_, want_coverage);
   pool_.parallel_for(viewport_.num_tiles(), [&](std::size_t tile, int worker) {
     if (!tile_scratch_[worker]) tile_scratch_[worker].reset(new TileScratch);
     if (!shade_scratch_[worker]) shade_scratch_[worker].reset(new ShadeScratch);
@@ -245,11 +248,11 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
       forward = area <= kForwardMaxOverdraw * float((rect.x1 - rect.x0) * (rect.y1 - rect.y0));
     }
     if (forward) {
-      rasterize_and_shade_tile(shade, viewport_, int(tile), chunks_, num_chunks, want_coverage,
-                               isa_, scratch, *shade_scratch_[worker]);
+      rasterize_and_shade_tile(shade, kernels, viewport_, int(tile), chunks_, num_chunks, scratch,
+                               *shade_scratch_[worker]);
     } else {
       rasterize_tile(viewport_, int(tile), chunks_, num_chunks, want_coverage, isa_, scratch);
-      shade_tile(shade, viewport_, int(tile), scratch, isa_, *shade_scratch_[worker]);
+      shade_tile(shade, kernels, viewport_, int(tile), scratch, *shade_scratch_[worker]);
     }
   });
   return framebuffer;

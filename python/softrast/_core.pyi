@@ -91,6 +91,7 @@ class Renderer:
         ``out``, which are written into the given arrays (exact dtype and shape, C-contiguous,
         writeable) and returned as they are. The GIL is released.
         cull: "none" | "back" | "front" (front = counter-clockwise in NDC, OpenGL's default).
-        shading: "lambert" (headlight: directional light along the view axis) | "unlit".
+        shading: "lambert" (headlight: directional light along the view axis) | "unlit" | "normal"
+            ((n + 1) / 2 of the world-space unit normal).
         shading_path: "auto" | "forward" | "deferred" (same bits; see Renderer.render).
         """

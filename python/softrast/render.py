@@ -14,7 +14,7 @@ from .scene import Scene
 __all__ = ["Frame", "Renderer"]
 
 _CULL = ("none", "back", "front")
-_SHADING = ("lambert", "unlit")
+_SHADING = ("lambert", "unlit", "normal")
 _SHADING_PATHS = ("auto", "forward", "deferred")
 # Bytes per pixel of each output (see Frame): what a render allocates for it.
 _OUTPUT_BYTES = {"color": 3, "depth": 4, "mask": 1, "normal": 12, "triangle_id": 4,
@@ -156,8 +156,9 @@ class Renderer:
         shading : "lambert" — base colour * (ambient + (1 - ambient) * max(0, n . l)) with a
                   headlight (a directional light along the camera's viewing axis), two-sided;
                   or "unlit" — the base colour. The base colour is the mesh's per-vertex colours
-                  if it has them, else the instance's material colour. Colours are written as
-                  given (no gamma curve), rounded to 8 bits.
+                  if it has them, else the instance's material colour; or "normal" — the
+                  world-space unit normal of the visible side as a colour, (n + 1) / 2.
+                  Colours are written as given (no gamma curve), rounded to 8 bits.
         background : RGB in [0, 1] for pixels nothing covers.
         out : a Frame from an earlier render, or a dict of arrays, to render into in place
               (no allocation). Each array must have exactly its output's dtype and shape, be

@@ -1,0 +1,149 @@
+// Outputs: resolve (depth from keys, ids from the visibility buffer) and write a tile's rows.
+#include "outputs.hpp"
+
+#include <cstring>
+#include <immintrin.h>
+
+namespace sr {
+
+namespace {
+
+using namespace simd;
+
+// Depth of the visible pixels of one row, eight at a time.
+SR_INLINE void resolve_depth_row(const float* key, const uint32_t* visible, int n,
+                                 bool orthographic, float* depth) {
+  int x = 0;
+  for (; x + kLanes <= n; x += kLanes) {
+    const f8 k = load<f8>(key + x);
+    const f8 d = orthographic ? -k : 1.0f / k;
+    store(depth + x, load<i8>(visible + x) != int32_t(kNoTriangle) ? d : f8{});
+  }
+  for (; x < n; ++x) depth[x] = visible[x] != kNoTriangle ? depth_from_key(key[x], orthographic) : 0.0f;
+}
+SR_TARGET_AVX2 void resolve_depth_row_avx2(const float* key, const uint32_t* visible, int n,
+                                           bool orthographic, float* depth) {
+  resolve_depth_row(key, visible, n, orthographic, depth);
+}
+void resolve_depth_row_generic(const float* key, const uint32_t* visible, int n,
+                               bool orthographic, float* depth) {
+  resolve_depth_row(key, visible, n, orthographic, depth);
+}
+// The same values with non-temporal stores, where the row is 16-byte aligned and whole vectors.
+SR_TARGET_AVX2 void resolve_depth_row_stream(const float* key, const uint32_t* visible, int n,
+                                             bool orthographic, float* depth) {
+  if ((reinterpret_cast<uintptr_t>(depth) & 15) != 0 || n % kLanes != 0)
+    return resolve_depth_row(key, visible, n, orthographic, depth);
+  // Intrinsics rather than f8: clang rejects non-AVX helpers returning 32-byte vectors here.
+  const __m256 one = _mm256_set1_ps(1.0f), sign = _mm256_set1_ps(-0.0f);
+  const __m256i none = _mm256_set1_epi32(int32_t(kNoTriangle));
+  for (int x = 0; x < n; x += kLanes) {
+    const __m256 k = _mm256_loadu_ps(key + x);
+    const __m256 d = orthographic ? _mm256_xor_ps(k, sign) : _mm256_div_ps(one, k);
+    const __m256i vis = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(visible + x));
+    const __m256 v = _mm256_andnot_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(vis, none)), d);
+    _mm_stream_ps(depth + x, _mm256_castps256_ps128(v));
+    _mm_stream_ps(depth + x + 4, _mm256_extractf128_ps(v, 1));
+  }
+}
+
+// Unpacks a row of packed colours (r | g << 8 | b << 16) to 3-byte pixels, background where
+// nothing is visible.
+void write_rgb_generic(const uint32_t* rgb, const uint32_t* visible, int n, uint32_t background,
+                       uint8_t* out) {
+  for (int x = 0; x < n; ++x) {
+    const uint32_t c = visible[x] == kNoTriangle ? background : rgb[x];
+    out[3 * x] = uint8_t(c);
+    out[3 * x + 1] = uint8_t(c >> 8);
+    out[3 * x + 2] = uint8_t(c >> 16);
+  }
+}
+// The same, four pixels per byte shuffle (each 16-byte store spills 4 bytes into the next pixel,
+// written afterwards; where a spill would leave the row, the last four go as 8 + 4 bytes).
+SR_TARGET_AVX2 SR_INLINE __m128i rgb_four(const uint32_t* rgb, const uint32_t* visible,
+                                           __m128i background) {
+  const __m128i pack = _mm_setr_epi8(0, 1, 2, 4, 5, 6, 8, 9, 10, 12, 13, 14, -1, -1, -1, -1);
+  const __m128i c = _mm_loadu_si128(reinterpret_cast<const __m128i*>(rgb));
+  const __m128i v = _mm_loadu_si128(reinterpret_cast<const __m128i*>(visible));
+  const __m128i none = _mm_cmpeq_epi32(v, _mm_set1_epi32(int32_t(kNoTriangle)));
+  return _mm_shuffle_epi8(_mm_blendv_epi8(c, background, none), pack);
+}
+SR_TARGET_AVX2 void write_rgb_avx2(const uint32_t* rgb, const uint32_t* visible, int n,
+                                   uint32_t background, uint8_t* out) {
+  const __m128i bg = _mm_set1_epi32(int32_t(background));
+  int x = 0;
+  for (; x + 6 <= n; x += 4)
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(out + 3 * x), rgb_four(rgb + x, visible + x, bg));
+  if (x + 4 <= n) {
+    const __m128i last = rgb_four(rgb + x, visible + x, bg);
+    _mm_storel_epi64(reinterpret_cast<__m128i*>(out + 3 * x), last);
+    const int32_t tail = _mm_extract_epi32(last, 2);
+    std::memcpy(out + 3 * x + 8, &tail, 4);
+    x += 4;
+  }
+  write_rgb_generic(rgb + x, visible + x, n - x, background, out + 3 * x);
+}
+
+// The same values with non-temporal stores: sixteen pixels as three aligned 16-byte stores,
+// where the row is 16-byte aligned and whole groups of sixteen.
+SR_TARGET_AVX2 void write_rgb_stream(const uint32_t* rgb, const uint32_t* visible, int n,
+                                     uint32_t background, uint8_t* out) {
+  if ((reinterpret_cast<uintptr_t>(out) & 15) != 0 || n % 16 != 0)
+    return write_rgb_avx2(rgb, visible, n, background, out);
+  const __m128i bg = _mm_set1_epi32(int32_t(background));
+  for (int x = 0; x < n; x += 16) {
+    // Twelve bytes each, the top four zero.
+    const __m128i p0 = rgb_four(rgb + x, visible + x, bg);
+    const __m128i p1 = rgb_four(rgb + x + 4, visible + x + 4, bg);
+    const __m128i p2 = rgb_four(rgb + x + 8, visible + x + 8, bg);
+    const __m128i p3 = rgb_four(rgb + x + 12, visible + x + 12, bg);
+    __m128i* o = reinterpret_cast<__m128i*>(out + 3 * x);
+    _mm_stream_si128(o, _mm_or_si128(p0, _mm_slli_si128(p1, 12)));
+    _mm_stream_si128(o + 1, _mm_or_si128(_mm_srli_si128(p1, 4), _mm_slli_si128(p2, 8)));
+    _mm_stream_si128(o + 2, _mm_or_si128(_mm_srli_si128(p2, 8), _mm_slli_si128(p3, 4)));
+  }
+}
+
+}  // namespace
+
+void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
+                const ShadeScratch& shaded, Isa isa) {
+  const Framebuffer& fb = *p.framebuffer;
+  const std::size_t width = std::size_t(fb.width);
+  const int n = rect.x1 - rect.x0;
+  const bool stream = p.stream && isa == Isa::Avx2;
+  const auto resolve_depth = stream                ? resolve_depth_row_stream
+                             : isa == Isa::Avx2    ? resolve_depth_row_avx2
+                                                   : resolve_depth_row_generic;
+  const auto write_rgb = stream ? write_rgb_stream
+                         : isa == Isa::Avx2 ? write_rgb_avx2 : write_rgb_generic;
+  for (int y = rect.y0; y < rect.y1; ++y) {
+    const int row = (y - rect.y0) * kTileSizePx;
+    const std::size_t o = std::size_t(y) * width + std::size_t(rect.x0);
+    const uint32_t* visible = raster.visible + row;
+    if (fb.coverage) std::memcpy(fb.coverage + o, raster.coverage + row, sizeof(uint32_t) * n);
+    if (fb.depth) resolve_depth(raster.key + row, visible, n, p.orthographic, fb.depth + o);
+    if (fb.mask)
+      for (int x = 0; x < n; ++x) fb.mask[o + x] = visible[x] != kNoTriangle;
+    if (fb.triangle_id)
+      for (int x = 0; x < n; ++x)
+        fb.triangle_id[o + x] = visible[x] == kNoTriangle ? -1 : int32_t(raster.triangles[visible[x]].tri->prim);
+    if (fb.instance_id)
+      for (int x = 0; x < n; ++x)
+        fb.instance_id[o + x] = visible[x] == kNoTriangle ? -1 : p.draws[raster.triangles[visible[x]].tri->draw].instance_id;
+    if (fb.normal) {
+      float* normal = fb.normal + 3 * o;
+      for (int x = 0; x < n; ++x) {
+        const bool bg = visible[x] == kNoTriangle;
+        for (int c = 0; c < 3; ++c) normal[3 * x + c] = bg ? 0.0f : shaded.normal[c][row + x];
+      }
+    }
+    if (fb.color) {
+      const uint32_t background = p.background[0] | p.background[1] << 8 | p.background[2] << 16;
+      write_rgb(shaded.rgb + row, visible, n, background, fb.color + 3 * o);
+    }
+  }
+  if (stream) _mm_sfence();  // order the non-temporal stores before the tile is done
+}
+
+}  // namespace sr

@@ -1,0 +1,19 @@
+// Outputs: a tile's resolved values (visibility, depth keys, shaded scratch) copied to the
+// requested framebuffers, background where nothing is visible. The only writer of output memory.
+#pragma once
+
+#include "shade.hpp"
+
+namespace sr {
+
+// Frames of at least this many output bytes are written with non-temporal stores: measured here
+// (benchmarks/RESULTS.md), they spare a 16 MB depth frame the read of every line it overwrites
+// (ico7 at 2048x2048 depth-only: -13% at 2 threads), while a 4 MB frame, which stays in cache
+// from one render to the next, gets slower (+15%).
+constexpr std::size_t kStreamFrameBytes = std::size_t(12) << 20;
+
+// Copies the tile's values to every requested output of params.framebuffer.
+void write_tile(const ShadeParams& params, const TileRect& rect, const TileScratch& raster,
+                const ShadeScratch& shaded, Isa isa);
+
+}  // namespace sr

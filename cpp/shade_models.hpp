@@ -1,0 +1,191 @@
+// Shading models as policies: what a model prepares once per visible triangle, and how it shades
+// eight pixels at a time. The shading kernels (shade.cpp) are templates over the model, so a
+// model's choices are made at compile time and what it does not read is never interpolated.
+//
+// A model is a struct with:
+//   kId            its Shading value (the enum is the model's public name: bindings.cpp)
+//   kReadsNormal   colour depends on the surface normal: normals are prepared and interpolated
+//   kReadsColor    colour depends on the base colour (vertex colours or the material colour)
+//   kUniformLit    it has a fast path for a triangle of one base colour whose normals vary
+//                  (ShadeTriangle::kUniformLit, shade_uniform below)
+//   Triangle       its per-triangle values, computed by classify()
+//   Constants      its per-triangle values splatted to eight lanes
+//   classify(in, uniform_color, s)  picks s.color_kind; for kConstantColor sets s.rgb
+//   shade(c, nx, ny, nz, r, g, b)   a varying-colour pixel: base colour r, g, b (when
+//                  kReadsColor) and unit normal n (when kReadsNormal) in, shaded colour out
+//   shade_uniform(c, s, b0, b1, b2) (kUniformLit only) packed 8-bit colour from the
+//                  unnormalised perspective weights b_k
+// Register it in ShadingModels below (the dispatch covers every listed model) and give it a
+// name in bindings.cpp and render.py (ARCHITECTURE.md, "Add a shading model").
+#pragma once
+
+#include "pipeline.hpp"
+#include "simd.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+namespace sr {
+
+// Per-render values every model may read.
+struct ShadeInputs {
+  vec3 to_light_world;  // unit vector toward the headlight (= toward the camera)
+  float ambient;        // Lambert: ambient + (1 - ambient) * max(0, n . l)
+};
+
+// std::clamp(v, 0, 1) * 255 + 0.5 truncated.
+inline uint32_t to_unorm8(float v) { return uint32_t(std::clamp(v, 0.0f, 1.0f) * 255.0f + 0.5f); }
+inline uint32_t pack_rgb(vec3 c) {
+  return to_unorm8(c.x) | to_unorm8(c.y) << 8 | to_unorm8(c.z) << 16;
+}
+
+// std::clamp(v, 0, 1) * 255 + 0.5 truncated, per lane, as to_unorm8 does.
+SR_INLINE simd::i8 to_unorm8(simd::f8 v) {
+  const simd::f8 zero = simd::splat(0.0f), one = simd::splat(1.0f);
+  const simd::f8 c = v < zero ? zero : (one < v ? one : v);
+  return __builtin_convertvector(c * 255.0f + 0.5f, simd::i8);
+}
+
+// A triangle visible in the tile being shaded, prepared once for all its pixels (shade.cpp,
+// prepare). What varies across it picks the work per pixel; each output is decided on its own,
+// so an output's bits do not depend on which other outputs were requested:
+//   colour  kConstantColor  every pixel has one colour, precomputed (s.rgb);
+//           kUniformLit     one base colour, normals varying: the model's shade_uniform;
+//           kVaryingColor   normalised weights, what the model reads interpolated, then shade;
+//   normal  one_normal: the precomputed unit normal, else the normalised interpolated normal.
+struct ShadeTriangleBase {
+  enum ColorKind : uint8_t { kVaryingColor, kUniformLit, kConstantColor };
+  float persp[3];   // 1 / (w_k * area2) / max_k(1 / w_k): E_k * persp[k] ~ perspective-correct
+                    // weight, scaled so that the largest is about 1 (no float underflow)
+  vec3 normal[3];   // world-space normal at each vertex (the face normal if flat), facing the
+                    // camera's side for back faces; zero unless normals are read
+  vec3 color[3];    // base colour at each vertex (only color[0] set where all are equal)
+  ColorKind color_kind;
+  bool one_normal;     // the three normals are equal
+  uint32_t rgb;        // kConstantColor: the packed colour of every pixel (r | g << 8 | b << 16)
+  vec3 unit_normal;    // one_normal: the unit normal of every pixel (zero if the normal is zero)
+};
+template <typename Model>
+struct ShadeTriangle : ShadeTriangleBase {
+  typename Model::Triangle model;
+};
+
+// "unlit": the base colour.
+struct UnlitModel {
+  static constexpr Shading kId = Shading::Unlit;
+  static constexpr bool kReadsNormal = false, kReadsColor = true, kUniformLit = false;
+  struct Triangle {};
+  struct Constants {
+    Constants() = default;
+    SR_INLINE Constants(const ShadeInputs&, const ShadeTriangle<UnlitModel>&) {}
+  };
+  static void classify(const ShadeInputs&, bool uniform_color, ShadeTriangle<UnlitModel>& s) {
+    if (uniform_color) {
+      s.color_kind = ShadeTriangleBase::kConstantColor;
+      s.rgb = pack_rgb(s.color[0]);
+    } else {
+      s.color_kind = ShadeTriangleBase::kVaryingColor;
+    }
+  }
+  SR_INLINE static void shade(const Constants&, simd::f8, simd::f8, simd::f8, simd::f8&,
+                              simd::f8&, simd::f8&) {}
+};
+
+// "lambert": base colour * (ambient + (1 - ambient) * max(0, n . l)), l the headlight, two-sided.
+struct LambertModel {
+  static constexpr Shading kId = Shading::Lambert;
+  static constexpr bool kReadsNormal = true, kReadsColor = true, kUniformLit = true;
+  struct Triangle {
+    float light_dot[3];  // kUniformLit: dot(normal[k], to_light_world)
+    vec3 color255;       // kUniformLit: the base colour clamped to [0, 1], times 255
+  };
+  struct Constants {
+    simd::f8 light[3];  // to_light_world, or for kUniformLit the vertices' dot(normal[k], l)
+    simd::f8 ambient, diffuse;
+    Constants() = default;
+    SR_INLINE Constants(const ShadeInputs& in, const ShadeTriangle<LambertModel>& s) {
+      for (int k = 0; k < 3; ++k)
+        light[k] = s.color_kind == ShadeTriangleBase::kUniformLit ? simd::splat(s.model.light_dot[k])
+                                                                  : simd::splat(in.to_light_world[k]);
+      ambient = simd::splat(in.ambient);
+      diffuse = simd::splat(1.0f - in.ambient);
+    }
+  };
+  static void classify(const ShadeInputs& in, bool uniform_color, ShadeTriangle<LambertModel>& s) {
+    if (uniform_color && s.one_normal) {
+      s.color_kind = ShadeTriangleBase::kConstantColor;
+      s.rgb = pack_rgb(s.color[0] * (in.ambient + (1.0f - in.ambient) *
+                                     std::max(glm::dot(s.unit_normal, in.to_light_world), 0.0f)));
+    } else if (uniform_color) {
+      s.color_kind = ShadeTriangleBase::kUniformLit;
+      for (int k = 0; k < 3; ++k) s.model.light_dot[k] = glm::dot(s.normal[k], in.to_light_world);
+      s.model.color255 = glm::clamp(s.color[0], 0.0f, 1.0f) * 255.0f;
+    } else {
+      s.color_kind = ShadeTriangleBase::kVaryingColor;
+    }
+  }
+  SR_INLINE static void shade(const Constants& c, simd::f8 nx, simd::f8 ny, simd::f8 nz,
+                              simd::f8& r, simd::f8& g, simd::f8& b) {
+    const simd::f8 d = nx * c.light[0] + ny * c.light[1] + nz * c.light[2];
+    const simd::f8 f = c.ambient + c.diffuse * (simd::f8{} < d ? d : simd::f8{});
+    r *= f; g *= f; b *= f;
+  }
+  // The Lambert term dot(n, L) / |n| of the unnormalised interpolated normal, without normalising
+  // the weights (both are scale-invariant) or interpolating colours.
+  SR_INLINE static simd::i8 shade_uniform(const Constants& c, const ShadeTriangle<LambertModel>& s,
+                                          simd::f8 b0, simd::f8 b1, simd::f8 b2) {
+    using simd::f8;
+    const f8 nx = b0 * s.normal[0].x + b1 * s.normal[1].x + b2 * s.normal[2].x;
+    const f8 ny = b0 * s.normal[0].y + b1 * s.normal[1].y + b2 * s.normal[2].y;
+    const f8 nz = b0 * s.normal[0].z + b1 * s.normal[1].z + b2 * s.normal[2].z;
+    const f8 len2 = nx * nx + ny * ny + nz * nz;
+    const f8 dot = b0 * c.light[0] + b1 * c.light[1] + b2 * c.light[2];
+    const f8 d = dot / simd::sqrt(len2);  // NaN for a zero normal: no diffuse term
+    const f8 f = c.ambient + c.diffuse * (f8{} < d ? d : f8{});
+    // f lies in [0, 1] up to rounding, so f * color255 + 0.5 in [0, 256): no clamp needed.
+    const auto unorm8 = [&](float c255) { return __builtin_convertvector(f * c255 + 0.5f, simd::i8); };
+    const vec3& c255 = s.model.color255;
+    return unorm8(c255.x) | (unorm8(c255.y) << 8) | (unorm8(c255.z) << 16);
+  }
+};
+
+// "normal": the world-space unit normal of the visible side as a colour, (n + 1) / 2 (zero
+// normals give mid-grey). Base colours are not read.
+struct NormalModel {
+  static constexpr Shading kId = Shading::Normal;
+  static constexpr bool kReadsNormal = true, kReadsColor = false, kUniformLit = false;
+  struct Triangle {};
+  struct Constants {
+    Constants() = default;
+    SR_INLINE Constants(const ShadeInputs&, const ShadeTriangle<NormalModel>&) {}
+  };
+  static void classify(const ShadeInputs&, bool, ShadeTriangle<NormalModel>& s) {
+    if (s.one_normal) {
+      s.color_kind = ShadeTriangleBase::kConstantColor;
+      s.rgb = pack_rgb(s.unit_normal * 0.5f + 0.5f);
+    } else {
+      s.color_kind = ShadeTriangleBase::kVaryingColor;
+    }
+  }
+  SR_INLINE static void shade(const Constants&, simd::f8 nx, simd::f8 ny, simd::f8 nz,
+                              simd::f8& r, simd::f8& g, simd::f8& b) {
+    r = nx * 0.5f + 0.5f;
+    g = ny * 0.5f + 0.5f;
+    b = nz * 0.5f + 0.5f;
+  }
+};
+
+// Every model the kernels are compiled for, in Shading's order.
+template <typename... M>
+struct ModelList {};
+using ShadingModels = ModelList<UnlitModel, LambertModel, NormalModel>;
+
+// True if `shading`'s colour reads normals (then a colour render prepares world normals).
+template <typename... M>
+constexpr bool reads_normal(Shading shading, ModelList<M...>) {
+  return ((M::kId == shading && M::kReadsNormal) || ...);
+}
+constexpr bool model_reads_normal(Shading shading) { return reads_normal(shading, ShadingModels{}); }
+
+}  // namespace sr

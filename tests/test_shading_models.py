@@ -1,0 +1,77 @@
+"""Shading models added through the policy seam (cpp/shade_models.hpp): "normal" shows the
+world-space unit normal as a colour, (n + 1) / 2, and must agree with the normal output to the bit."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+import softrast as sr
+
+SPHERE = trimesh.creation.icosphere(subdivisions=4)
+
+
+def _unorm8(v: np.ndarray) -> np.ndarray:
+    """The core's float -> 8-bit rule: clamp to [0, 1], * 255 + 0.5, truncate (float32 throughout)."""
+    v = np.clip(v.astype(np.float32), np.float32(0), np.float32(1))
+    return (v * np.float32(255) + np.float32(0.5)).astype(np.uint8)
+
+
+def _render(mesh: sr.Mesh, simd: bool = True, path: str = "auto", **kw) -> sr.Frame:
+    scene = sr.Scene()
+    scene.add(mesh, pose=np.diag([1.0, 1.0, 1.0, 1.0]))
+    cam = sr.PerspectiveCamera(fov_y=40.0, near=0.1, far=10.0)
+    cam.look_at((0.6, 0.8, 3.2), (0.0, 0.0, 0.0))
+    return sr.Renderer(160, 120, simd=simd).render(
+        scene, cam, outputs=("color", "normal", "mask"), shading="normal", shading_path=path,
+        background=(0.1, 0.2, 0.3), **kw)
+
+
+@pytest.mark.parametrize("smooth", [True, False])
+@pytest.mark.parametrize("simd", [True, False])
+@pytest.mark.parametrize("path", ["forward", "deferred"])
+def test_normal_model_is_the_normal_output_as_colour(smooth, simd, path):
+    normals = SPHERE.vertex_normals if smooth else None
+    frame = _render(sr.Mesh(SPHERE.vertices, SPHERE.faces, normals=normals), simd, path)
+    m = frame.mask
+    assert m.sum() > 3000
+    want = _unorm8(frame.normal[m] * np.float32(0.5) + np.float32(0.5))
+    np.testing.assert_array_equal(frame.color[m], want)
+    np.testing.assert_array_equal(frame.color[~m], np.broadcast_to(_unorm8(np.array([0.1, 0.2, 0.3])), (int((~m).sum()), 3)))
+
+
+def test_normal_model_matches_the_analytic_sphere():
+    # Smooth normals of a unit sphere centred at the origin: the normal at a visible point is the
+    # point itself. Colour (n + 1) / 2 within two 8-bit steps of the exact sphere's.
+    frame = _render(sr.Mesh(SPHERE.vertices, SPHERE.faces, normals=SPHERE.vertex_normals))
+    cam_pos = np.array([0.6, 0.8, 3.2])
+    h, w = frame.mask.shape
+    cam = sr.PerspectiveCamera(fov_y=40.0, near=0.1, far=10.0)
+    cam.look_at(cam_pos, (0.0, 0.0, 0.0))
+    # Ray through each pixel centre, intersected with the unit sphere.
+    f = 1.0 / np.tan(np.radians(40.0) / 2)
+    j, i = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
+    d_view = np.stack([(2 * j / w - 1) * w / h / f, (1 - 2 * i / h) / f, -np.ones_like(j)], -1)
+    d = d_view @ cam.pose[:3, :3].T
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    b = (d * cam_pos).sum(-1)
+    disc = b * b - (cam_pos @ cam_pos - 1.0)
+    inside = disc > 0.05  # away from the silhouette, where the tessellation differs most
+    t = -b - np.sqrt(np.where(inside, disc, 0))
+    n = cam_pos + t[..., None] * d
+    sel = inside & frame.mask
+    assert sel.sum() > 3000
+    err = np.abs(frame.color[sel].astype(int) - np.round((n[sel] + 1) / 2 * 255)).max()
+    assert err <= 2, err
+
+
+def test_normal_model_ignores_the_base_colour():
+    a = _render(sr.Mesh(SPHERE.vertices, SPHERE.faces, normals=SPHERE.vertex_normals, color=(1, 0, 0, 1)))
+    colors = np.random.default_rng(3).uniform(0, 1, (len(SPHERE.vertices), 4))
+    b = _render(sr.Mesh(SPHERE.vertices, SPHERE.faces, normals=SPHERE.vertex_normals, colors=colors))
+    np.testing.assert_array_equal(a.color, b.color)
+
+
+def test_unknown_shading_names_the_argument():
+    with pytest.raises(ValueError, match="shading"):
+        sr.Renderer(8, 8).render(sr.Scene(), sr.PerspectiveCamera(), shading="phong")
