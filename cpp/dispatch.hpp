@@ -1,18 +1,22 @@
 // Kernel dispatch: turns the run-time choices that reshape an inner loop (instruction set,
-// shading model, which outputs, coverage counting) into template arguments, once per tile pass.
+// shading model, sample pattern, which outputs, coverage counting) into template arguments,
+// once per render or tile pass.
 //
 //   const ShadeFn fn = dispatch::select<ShadeFn>(
 //       [](auto isa, auto model, auto color) -> ShadeFn { return ...<decltype(isa)::value, ...>; },
 //       isa, shading, color_requested);
 //
 // select() calls its function with one compile-time tag per choice (Bool<b>, IsaTag<isa>,
-// ModelTag<Model>), so every combination is instantiated: keep the axes to what changes the
+// ModelTag<Model>, PatternTag<Pattern>), so every combination is instantiated: keep the axes to what changes the
 // loop's code, and make everything else a per-triangle branch. IsaKernel<K, Fn> compiles one
 // kernel body (K::run, always inline) twice, for AVX2 and for the generic x86-64 target.
 #pragma once
 
 #include "shade_models.hpp"
 #include "simd.hpp"
+#include "viewport.hpp"
+
+#include <stdexcept>
 
 #include <type_traits>
 
@@ -27,6 +31,10 @@ template <typename M>
 struct ModelTag {
   using type = M;
 };
+template <typename P>
+struct PatternTag {
+  using type = P;
+};
 
 template <typename R, typename F>
 R select(F&& f) {
@@ -39,6 +47,8 @@ template <typename R, typename F, typename... Rest>
 R select(F&& f, Isa isa, Rest... rest);
 template <typename R, typename F, typename... Rest>
 R select(F&& f, Shading shading, Rest... rest);
+template <typename R, typename F, typename... Rest>
+R select(F&& f, const SamplePattern& pattern, Rest... rest);
 
 template <typename R, typename F, typename... Rest>
 R select(F&& f, bool b, Rest... rest) {
@@ -65,6 +75,23 @@ R select_model(F&& f, Shading shading, ModelList<M...>, Rest... rest) {
 template <typename R, typename F, typename... Rest>
 R select(F&& f, Shading shading, Rest... rest) {
   return select_model<R>(f, shading, ShadingModels{}, rest...);
+}
+
+template <typename R, typename F, typename... Rest, typename... P>
+R select_pattern(F&& f, const SamplePattern& pattern, PatternList<P...>, Rest... rest) {
+  R r{};
+  const bool found =
+      ((P::matches(pattern)
+            ? (r = select<R>([&](auto... t) { return f(PatternTag<P>{}, t...); }, rest...), true)
+            : false) ||
+       ...);
+  if (!found) throw std::logic_error("no kernels are compiled for this sample pattern");
+  return r;
+}
+
+template <typename R, typename F, typename... Rest>
+R select(F&& f, const SamplePattern& pattern, Rest... rest) {
+  return select_pattern<R>(f, pattern, SamplePatterns{}, rest...);
 }
 
 // One kernel body compiled for each instruction set. K::run is always inline, so all of it takes

@@ -28,9 +28,6 @@ constexpr int kMaxImageSide = 16384;
 // Requested outputs needing more than this are refused before anything is allocated.
 constexpr std::size_t kMaxFramebufferBytes = std::size_t(4) << 30;
 
-// Screen tiles: each is rasterized and shaded by one thread at a time, in primitive order, so
-// the result does not depend on the number of threads.
-constexpr int kTileSizePx = 64;
 
 // Triangles are set up and binned in chunks of at most this many (a small draw's are smaller:
 // renderer.cpp, chunk_faces): a chunk is the unit of geometry work given to a thread, and the

@@ -1,6 +1,8 @@
 // Rasterize stage: the tile entry point for deferred shading (the kernels are in rasterize.hpp).
 #include "rasterize.hpp"
 
+#include "dispatch.hpp"
+
 #include <algorithm>
 #include <limits>
 
@@ -8,32 +10,33 @@ namespace sr {
 
 namespace {
 
-template <bool kCoverage>
-SR_TARGET_AVX2 void rasterize_all_avx2(const TileRect& rect, int tile,
-                                       const std::vector<SetupChunk>& chunks,
-                                       std::size_t num_chunks, TileScratch& s) {
-  NoShading hook;
-  raster::rasterize_all<kCoverage>(rect, tile, chunks, num_chunks, s, hook);
-}
-
-template <bool kCoverage>
-void rasterize_all_generic(const TileRect& rect, int tile, const std::vector<SetupChunk>& chunks,
-                           std::size_t num_chunks, TileScratch& s) {
-  NoShading hook;
-  raster::rasterize_all<kCoverage>(rect, tile, chunks, num_chunks, s, hook);
-}
+template <typename Pattern, bool kCoverage>
+struct RasterizeAll {
+  SR_INLINE static void run(const TileRect& rect, int tile, const std::vector<SetupChunk>& chunks,
+                            std::size_t num_chunks, TileScratch& s) {
+    NoShading hook;
+    raster::rasterize_all<Pattern, kCoverage>(rect, tile, chunks, num_chunks, s, hook);
+  }
+};
 
 }  // namespace
 
-void rasterize_tile(const Viewport& viewport, int tile, const std::vector<SetupChunk>& chunks,
-                    std::size_t num_chunks, bool want_coverage, Isa isa, TileScratch& s) {
+RasterizeFn select_rasterize(Isa isa, const SamplePattern& pattern, bool want_coverage) {
+  return dispatch::select<RasterizeFn>(
+      [](auto i, auto sp, auto coverage) -> RasterizeFn {
+        using K = RasterizeAll<typename decltype(sp)::type, decltype(coverage)::value>;
+        return decltype(i)::value == Isa::Avx2 ? dispatch::IsaKernel<K, RasterizeFn>::avx2
+                                               : dispatch::IsaKernel<K, RasterizeFn>::generic;
+      },
+      isa, pattern, want_coverage);
+}
+
+void rasterize_tile(RasterizeFn kernel, const Viewport& viewport, int tile,
+                    const std::vector<SetupChunk>& chunks, std::size_t num_chunks,
+                    bool want_coverage, TileScratch& s) {
   const TileRect rect = tile_rect(viewport, tile);
   s.clear(want_coverage);
-  const bool avx2 = isa == Isa::Avx2;
-  if (want_coverage)
-    (avx2 ? rasterize_all_avx2<true> : rasterize_all_generic<true>)(rect, tile, chunks, num_chunks, s);
-  else
-    (avx2 ? rasterize_all_avx2<false> : rasterize_all_generic<false>)(rect, tile, chunks, num_chunks, s);
+  kernel(rect, tile, chunks, num_chunks, s);
 }
 
 void TileScratch::clear(bool want_coverage) {

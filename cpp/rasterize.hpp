@@ -10,16 +10,6 @@
 
 namespace sr {
 
-// Pixel rectangle of one tile, [x0, x1) x [y0, y1).
-struct TileRect {
-  int x0, y0, x1, y1;
-};
-inline TileRect tile_rect(const Viewport& vp, int tile) {
-  const int tx = tile % vp.tiles_x, ty = tile / vp.tiles_x;
-  return {tx * kTileSizePx, ty * kTileSizePx, std::min((tx + 1) * kTileSizePx, vp.width),
-          std::min((ty + 1) * kTileSizePx, vp.height)};
-}
-
 struct VisibleTriangle {
   const TriangleSetup* tri;
   const SetupChunk* chunk;  // owns tri, its TriangleShading and clip table
@@ -33,7 +23,7 @@ constexpr int kTilePixels = kTileSizePx * kTileSizePx;
 // values kept): the arrays have that much padding at the end.
 // Allocate default-initialised (new TileScratch): clear() writes what a tile reads, so zeroing
 // would only page-fault `coverage` in a first frame that does not ask for it.
-constexpr int kTileScratchPixels = kTilePixels + kTileSizePx + simd::kLanes;
+constexpr int kTileScratchPixels = kMaxSamples * kTilePixels + kTileSizePx + simd::kLanes;
 struct TileScratch {
   float key[kTileScratchPixels];         // depth key of the nearest fragment so far (larger = closer)
   uint32_t visible[kTileScratchPixels];  // index into `triangles`, or kNoTriangle
@@ -45,9 +35,14 @@ struct TileScratch {
 
 // Rasterizes every triangle binned to `tile`, chunks in order, records in order: ties in depth
 // keep the first triangle drawn, so the result is the same for any thread count.
-// `isa` picks the kernel's instruction set; the result is the same bits for either.
-void rasterize_tile(const Viewport& viewport, int tile, const std::vector<SetupChunk>& chunks,
-                    std::size_t num_chunks, bool want_coverage, Isa isa, TileScratch& scratch);
+// `kernel` (select_rasterize, once per render) is compiled for an instruction set (the same bits
+// for either), the viewport's sample pattern and whether coverage is counted.
+using RasterizeFn = void (*)(const TileRect&, int, const std::vector<SetupChunk>&, std::size_t,
+                             TileScratch&);
+RasterizeFn select_rasterize(Isa isa, const SamplePattern& pattern, bool want_coverage);
+void rasterize_tile(RasterizeFn kernel, const Viewport& viewport, int tile,
+                    const std::vector<SetupChunk>& chunks, std::size_t num_chunks,
+                    bool want_coverage, TileScratch& scratch);
 
 // Triangles whose snapped bounding box spans at most this many pixels per side take the
 // eight-lane path: their edge functions, relative to a sample in the box, fit in int32.
@@ -58,7 +53,8 @@ inline bool is_small(const TriangleSetup& t) {
   return span_x <= kSmallTrianglePx * kSubpixelOne && span_y <= kSmallTrianglePx * kSubpixelOne;
 }
 
-// Unbiased edge functions E_k at the centre of pixel (x, y), and their change per pixel step.
+// Unbiased edge functions E_k at the sample of pixel (x, y) at offset (sx, sy) from its corner
+// (fixed point; the kernels' Pattern gives it), and their change per pixel step.
 // Exact: |E| < 2^51 in general (see kGuardBandPx). For a small triangle and a pixel within its
 // bounding box widened by a vector (kLanes - 1 pixels), |E| < 2^14 * (2^14 + 2^11) * 2 < 2^30,
 // so values and steps fit in int32 and may be stepped there.
@@ -66,10 +62,12 @@ struct EdgeEquations {
   int64_t origin[3];
   int64_t step_x[3], step_y[3];
 };
+template <typename Pattern>
 inline EdgeEquations edge_equations(const TriangleSetup& t, int x, int y) {
+  static_assert(Pattern::kCount == 1, "one sample per pixel: the kernels step one sample");
   EdgeEquations e;
-  const int64_t px = int64_t(x) * kSubpixelOne + kSubpixelHalf;
-  const int64_t py = int64_t(y) * kSubpixelOne + kSubpixelHalf;
+  const int64_t px = int64_t(x) * kSubpixelOne + Pattern::kX;
+  const int64_t py = int64_t(y) * kSubpixelOne + Pattern::kY;
   for (int k = 0; k < 3; ++k) {
     const int a = kEdgeStart[k], b = kEdgeEnd[k];
     const int64_t dx = t.x[b] - t.x[a], dy = t.y[b] - t.y[a];
@@ -135,10 +133,10 @@ namespace raster {
 using namespace simd;
 
 // Any triangle, one pixel at a time, edge functions in int64.
-template <bool kCoverage, typename Hook>
+template <typename Pattern, bool kCoverage, typename Hook>
 SR_INLINE void rasterize_large(const TriangleSetup& t, int x0, int x1, int y0, int y1,
                                const TileRect& rect, uint32_t index, TileScratch& s, Hook& hook) {
-  const EdgeEquations eq = edge_equations(t, x0, y0);
+  const EdgeEquations eq = edge_equations<Pattern>(t, x0, y0);
   int64_t row[3];
   for (int k = 0; k < 3; ++k) row[k] = eq.origin[k] - t.bias[k];  // biased: inside <=> >= 0
   const float k0 = t.key_over_area[0], k1 = t.key_over_area[1], k2 = t.key_over_area[2];
@@ -215,10 +213,10 @@ SR_INLINE i8 edges_cover(const i8 (&e)[3], const TriangleLanes& lanes) {
 }
 
 // A small triangle (is_small), eight pixels of a row at a time in exact int32.
-template <bool kCoverage, typename Hook>
+template <typename Pattern, bool kCoverage, typename Hook>
 SR_INLINE void rasterize_small(const TriangleSetup& t, int x0, int x1, int y0, int y1,
                                const TileRect& rect, uint32_t index, TileScratch& s, Hook& hook) {
-  SmallEdges edges(edge_equations(t, x0, y0));
+  SmallEdges edges(edge_equations<Pattern>(t, x0, y0));
   const TriangleLanes lanes(t, index);
   const i8 lane = lane_index();
   const int width = x1 - x0 + 1;
@@ -235,10 +233,10 @@ SR_INLINE void rasterize_small(const TriangleSetup& t, int x0, int x1, int y0, i
 
 // A small triangle whose box (within the tile) is at most four pixels wide and more than one
 // row high: two rows of four pixels at a time (SmallEdgePairs), otherwise as rasterize_small.
-template <bool kCoverage, typename Hook>
+template <typename Pattern, bool kCoverage, typename Hook>
 SR_INLINE void rasterize_pairs(const TriangleSetup& t, int x0, int x1, int y0, int y1,
                                const TileRect& rect, uint32_t index, TileScratch& s, Hook& hook) {
-  SmallEdgePairs edges(edge_equations(t, x0, y0));
+  SmallEdgePairs edges(edge_equations<Pattern>(t, x0, y0));
   const TriangleLanes lanes(t, index);
   const i8 lane = lane_index(), row = lane >> 2;
   const i8 in_box_x = (lane & 3) < x1 - x0 + 1;
@@ -267,11 +265,12 @@ SR_INLINE void prefetch_record(const SetupChunk& chunk, uint32_t r) {
   if constexpr (kShades) __builtin_prefetch(chunk.shading.data() + i);
 }
 
-template <bool kCoverage, typename Hook>
+template <typename Pattern, bool kCoverage, typename Hook>
 SR_INLINE void rasterize_all(const TileRect& rect, int tile, const std::vector<SetupChunk>& chunks,
                              std::size_t num_chunks, TileScratch& s, Hook& hook) {
   for (std::size_t c = 0; c < num_chunks; ++c) {
     const SetupChunk& chunk = chunks[c];
+    if (chunk.kind != PrimitiveKind::Triangle) continue;  // (no other kind yet)
     const uint32_t end = chunk.tile_begin[tile + 1];
     for (uint32_t r = chunk.tile_begin[tile]; r < end; ++r) {
       if (r + kPrefetchRecords < end) prefetch_record<Hook::kShades>(chunk, r + kPrefetchRecords);
@@ -290,12 +289,12 @@ SR_INLINE void rasterize_all(const TileRect& rect, int tile, const std::vector<S
       if (x0 > x1 || y0 > y1) continue;
       if (is_small(t)) {
         if (x1 - x0 < 4 && y1 > y0)
-          rasterize_pairs<kCoverage>(t, x0, x1, y0, y1, rect, index, s, hook);
+          rasterize_pairs<Pattern, kCoverage>(t, x0, x1, y0, y1, rect, index, s, hook);
         else
-          rasterize_small<kCoverage>(t, x0, x1, y0, y1, rect, index, s, hook);
+          rasterize_small<Pattern, kCoverage>(t, x0, x1, y0, y1, rect, index, s, hook);
       }
       else {
-        rasterize_large<kCoverage>(t, x0, x1, y0, y1, rect, index, s, hook);
+        rasterize_large<Pattern, kCoverage>(t, x0, x1, y0, y1, rect, index, s, hook);
       }
     }
   }

@@ -231,7 +231,7 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   const bool want_coverage = options.outputs & kOutCoverage;
   const std::size_t num_chunks = chunk_ranges.size();
   const bool can_forward = options.shading_path != ShadingPath::Deferred && can_shade_forward(shade);
-  const TileKernels kernels = select_tile_kernels(shade, isa_, want_coverage);
+  const TileKernels kernels = select_tile_kernels(shade, viewport_, isa_, want_coverage);
   pool_.parallel_for(viewport_.num_tiles(), [&](std::size_t tile, int worker) {
     if (!tile_scratch_[worker]) tile_scratch_[worker].reset(new TileScratch);
     if (!shade_scratch_[worker]) shade_scratch_[worker].reset(new ShadeScratch);
@@ -251,7 +251,8 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
       rasterize_and_shade_tile(shade, kernels, viewport_, int(tile), chunks_, num_chunks, scratch,
                                *shade_scratch_[worker]);
     } else {
-      rasterize_tile(viewport_, int(tile), chunks_, num_chunks, want_coverage, isa_, scratch);
+      rasterize_tile(kernels.raster, viewport_, int(tile), chunks_, num_chunks, want_coverage,
+                     scratch);
       shade_tile(shade, kernels, viewport_, int(tile), scratch, *shade_scratch_[worker]);
     }
   });

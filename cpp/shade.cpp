@@ -250,7 +250,7 @@ SR_INLINE void shade_pairs(const ShadeParams& p, const ShadeTriangle<Model>& s,
   }
 }
 
-template <typename Model, bool kColor, bool kNormal>
+template <typename Pattern, typename Model, bool kColor, bool kNormal>
 SR_INLINE void shade_triangle(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
                               uint32_t index, ShadeScratch& out) {
   const VisibleTriangle& vt = raster.triangles[index];
@@ -259,7 +259,7 @@ SR_INLINE void shade_triangle(const ShadeParams& p, const TileRect& rect, const 
   const int y0 = std::max(int(t.y0), rect.y0), y1 = std::min(int(t.y1), rect.y1 - 1);
   ShadeTriangle<Model> s;
   prepare<Model, Model::kReadsNormal || kNormal>(p, vt, s);
-  const EdgeEquations eq = edge_equations(t, x0, y0);
+  const EdgeEquations eq = edge_equations<Pattern>(t, x0, y0);
   if (is_small(t) && x1 - x0 < 4 && y1 > y0)
     shade_pairs<Model, kColor, kNormal>(p, s, SmallEdgePairs(eq), x0, x1, y0, y1, rect, raster,
                                         index, out);
@@ -272,7 +272,7 @@ SR_INLINE void shade_triangle(const ShadeParams& p, const TileRect& rect, const 
 }
 
 // Deferred shading: each triangle that owns a pixel of the tile, once, over the pixels it owns.
-template <typename Model, bool kColor, bool kNormal>
+template <typename Pattern, typename Model, bool kColor, bool kNormal>
 struct ShadeVisible {
   SR_INLINE static void run(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
                             ShadeScratch& scratch) {
@@ -283,7 +283,7 @@ struct ShadeVisible {
         if (visible[x] != kNoTriangle) scratch.used[visible[x]] = 1;
     }
     for (uint32_t v = 0; v < scratch.used.size(); ++v)
-      if (scratch.used[v]) shade_triangle<Model, kColor, kNormal>(p, rect, raster, v, scratch);
+      if (scratch.used[v]) shade_triangle<Pattern, Model, kColor, kNormal>(p, rect, raster, v, scratch);
   }
 };
 using ShadeFn = TileKernels::Deferred;
@@ -331,51 +331,54 @@ struct ForwardShading {
   }
 };
 
-template <typename Model, bool kColor, bool kNormal, bool kCoverage>
+template <typename Pattern, typename Model, bool kColor, bool kNormal, bool kCoverage>
 struct ForwardTile {
   SR_INLINE static void run(const ShadeParams& p, const TileRect& rect, int tile,
                             const std::vector<SetupChunk>& chunks, std::size_t num_chunks,
                             TileScratch& raster, ShadeScratch& scratch) {
     scratch.large.clear();
     ForwardShading<Model, kColor, kNormal> hook{p, scratch};
-    raster::rasterize_all<kCoverage>(rect, tile, chunks, num_chunks, raster, hook);
+    raster::rasterize_all<Pattern, kCoverage>(rect, tile, chunks, num_chunks, raster, hook);
     for (const uint32_t index : scratch.large)
-      shade_triangle<Model, kColor, kNormal>(p, rect, raster, index, scratch);
+      shade_triangle<Pattern, Model, kColor, kNormal>(p, rect, raster, index, scratch);
   }
 };
 using ForwardFn = TileKernels::Forward;
 
 // The kernels for one render's choices. Without colour the model is moot (normals only: the
 // unlit instantiation); with neither colour nor normals there is nothing to shade (null).
-ShadeFn select_shade(Isa isa, Shading shading, bool color, bool normal) {
+ShadeFn select_shade(Isa isa, const SamplePattern& pattern, Shading shading, bool color,
+                     bool normal) {
   if (!color) shading = Shading::Unlit;
   return dispatch::select<ShadeFn>(
-      [](auto i, auto m, auto c, auto n) -> ShadeFn {
+      [](auto i, auto sp, auto m, auto c, auto n) -> ShadeFn {
         if constexpr (!decltype(c)::value && !decltype(n)::value) {
           return nullptr;
         } else {
-          using K = ShadeVisible<typename decltype(m)::type, decltype(c)::value, decltype(n)::value>;
+          using K = ShadeVisible<typename decltype(sp)::type, typename decltype(m)::type,
+                                 decltype(c)::value, decltype(n)::value>;
           return decltype(i)::value == Isa::Avx2 ? dispatch::IsaKernel<K, ShadeFn>::avx2
                                                  : dispatch::IsaKernel<K, ShadeFn>::generic;
         }
       },
-      isa, shading, color, normal);
+      isa, pattern, shading, color, normal);
 }
 
-ForwardFn select_forward(Isa isa, Shading shading, bool color, bool normal, bool coverage) {
+ForwardFn select_forward(Isa isa, const SamplePattern& pattern, Shading shading, bool color,
+                         bool normal, bool coverage) {
   if (!color) shading = Shading::Unlit;
   return dispatch::select<ForwardFn>(
-      [](auto i, auto m, auto c, auto n, auto cov) -> ForwardFn {
+      [](auto i, auto sp, auto m, auto c, auto n, auto cov) -> ForwardFn {
         if constexpr (!decltype(c)::value && !decltype(n)::value) {
           return nullptr;
         } else {
-          using K = ForwardTile<typename decltype(m)::type, decltype(c)::value, decltype(n)::value,
-                                decltype(cov)::value>;
+          using K = ForwardTile<typename decltype(sp)::type, typename decltype(m)::type,
+                                decltype(c)::value, decltype(n)::value, decltype(cov)::value>;
           return decltype(i)::value == Isa::Avx2 ? dispatch::IsaKernel<K, ForwardFn>::avx2
                                                  : dispatch::IsaKernel<K, ForwardFn>::generic;
         }
       },
-      isa, shading, color, normal, coverage);
+      isa, pattern, shading, color, normal, coverage);
 }
 
 }  // namespace
@@ -385,12 +388,15 @@ bool can_shade_forward(const ShadeParams& params) {
   return fb.color != nullptr || fb.normal != nullptr;
 }
 
-TileKernels select_tile_kernels(const ShadeParams& params, Isa isa, bool want_coverage) {
+TileKernels select_tile_kernels(const ShadeParams& params, const Viewport& viewport, Isa isa,
+                                bool want_coverage) {
   const Framebuffer& fb = *params.framebuffer;
   const bool color = fb.color != nullptr, normal = fb.normal != nullptr;
+  const SamplePattern& pattern = viewport.samples;
   TileKernels k;
-  k.deferred = select_shade(isa, params.shading, color, normal);
-  k.forward = select_forward(isa, params.shading, color, normal, want_coverage);
+  k.raster = select_rasterize(isa, pattern, want_coverage);
+  k.deferred = select_shade(isa, pattern, params.shading, color, normal);
+  k.forward = select_forward(isa, pattern, params.shading, color, normal, want_coverage);
   k.isa = isa;
   k.coverage = want_coverage;
   return k;

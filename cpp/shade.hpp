@@ -37,10 +37,11 @@ struct ShadeScratch {
   float normal[3][kTileScratchPixels];
 };
 
-// The tile kernels for one render's choices (instruction set, shading model, colour and normal
-// outputs, coverage counting), picked once per render (dispatch.hpp); `forward` is null when
-// nothing is shaded (can_shade_forward false), `deferred` too.
+// The tile kernels for one render's choices (instruction set, sample pattern, shading model,
+// colour and normal outputs, coverage counting), picked once per render (dispatch.hpp);
+// `forward` and `deferred` are null when nothing is shaded (can_shade_forward false).
 struct TileKernels {
+  RasterizeFn raster = nullptr;
   using Deferred = void (*)(const ShadeParams&, const TileRect&, const TileScratch&, ShadeScratch&);
   using Forward = void (*)(const ShadeParams&, const TileRect&, int, const std::vector<SetupChunk>&,
                            std::size_t, TileScratch&, ShadeScratch&);
@@ -49,7 +50,8 @@ struct TileKernels {
   Isa isa = Isa::Generic;
   bool coverage = false;
 };
-TileKernels select_tile_kernels(const ShadeParams& params, Isa isa, bool want_coverage);
+TileKernels select_tile_kernels(const ShadeParams& params, const Viewport& viewport, Isa isa,
+                                bool want_coverage);
 
 // Forward shading: rasterizes `tile` (as rasterize_tile) and shades each fragment as it wins the
 // depth test, then writes the outputs as shade_tile does. The same bits as rasterize_tile +
