@@ -156,7 +156,8 @@ Shading parse_shading(const std::string& s) {
   if (s == "lambert") return Shading::Lambert;
   if (s == "unlit") return Shading::Unlit;
   if (s == "normal") return Shading::Normal;
-  throw py::value_error("shading must be 'lambert', 'unlit' or 'normal', got '" + s + "'");
+  if (s == "uv") return Shading::Uv;
+  throw py::value_error("shading must be 'lambert', 'unlit', 'normal' or 'uv', got '" + s + "'");
 }
 
 ShadingPath parse_shading_path(const std::string& s) {

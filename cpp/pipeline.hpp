@@ -36,7 +36,7 @@ constexpr int kTriangleChunk = 8192;
 
 enum class Cull : uint8_t { None, Back, Front };
 // Shading models (shade_models.hpp): one policy struct each.
-enum class Shading : uint8_t { Unlit, Lambert, Normal };
+enum class Shading : uint8_t { Unlit, Lambert, Normal, Uv };
 // When fragments are shaded: as they win the depth test (forward), or once per visible pixel
 // after the tile is rasterized (deferred). The same bits either way; Auto picks per tile by
 // its expected overdraw.

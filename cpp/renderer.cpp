@@ -209,7 +209,8 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
     for (std::size_t b = 0; b < world_normals_[d].size(); b += kVertexBlock)
       normal_blocks.push_back({uint32_t(d), b, std::min(world_normals_[d].size(), b + kVertexBlock)});
     shade_draws.push_back({&mesh, transforms[d].normal_to_world, draws[d].color,
-                           draws[d].instance_id, smooth ? world_normals_[d].data() : nullptr});
+                           draws[d].instance_id, smooth ? world_normals_[d].data() : nullptr,
+                           draws[d].model});
   }
   pool_.parallel_for(normal_blocks.size(), [&](std::size_t item, int) {
     const Block& blk = normal_blocks[item];

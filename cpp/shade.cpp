@@ -38,6 +38,21 @@ inline vec3 flat_normal(const ShadeDraw& d, int32_t c0, int32_t c1, int32_t c2) 
               glm::cross(dvec3(positions[c1]) - p0, dvec3(positions[c2]) - p0));
 }
 
+// A mesh vertex in world space (models that read positions).
+inline vec3 world_position(const ShadeDraw& d, int32_t vertex) {
+  return vec3(d.model_to_world * dvec4(dvec3(d.mesh->positions[vertex]), 1.0));
+}
+
+// The first N floats of a vertex's attributes: its uvs, the one attribute array so far (zero
+// where the mesh has none).
+template <int N>
+inline void vertex_attributes(const MeshData& mesh, int32_t vertex, float* out) {
+  static_assert(N == 2, "uvs are the only vertex attribute array so far");
+  const vec2 uv = mesh.uvs.empty() ? vec2(0.0f) : mesh.uvs[vertex];
+  out[0] = uv.x;
+  out[1] = uv.y;
+}
+
 // Prepares one visible triangle into `s`: its perspective weights and its attributes at its own
 // three vertices. An unclipped record names its mesh vertices; a clipped triangle's vertices
 // carry weights of the source face's corners, and attributes, linear in those weights, are
@@ -69,6 +84,10 @@ SR_INLINE void prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTri
       for (int k = 0; k < 3; ++k) s.color[k] = mesh.colors[v[k]];
       uniform_color = s.color[0] == s.color[1] && s.color[0] == s.color[2];
     }
+    if constexpr (Model::kReadsPosition)
+      for (int k = 0; k < 3; ++k) s.position[k] = world_position(d, v[k]);
+    if constexpr (Model::kAttributes > 0)
+      for (int k = 0; k < 3; ++k) vertex_attributes<Model::kAttributes>(mesh, v[k], s.attr[k]);
   } else {
     const ivec3 f = mesh.faces[t.prim];
     vec3 normal_src[3] = {}, color_src[3];
@@ -86,6 +105,21 @@ SR_INLINE void prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTri
       const vec3 w = weights[k];
       s.normal[k] = w.x * normal_src[0] + w.y * normal_src[1] + w.z * normal_src[2];
       s.color[k] = w.x * color_src[0] + w.y * color_src[1] + w.z * color_src[2];
+    }
+    if constexpr (Model::kReadsPosition) {
+      vec3 src[3];
+      for (int c = 0; c < 3; ++c) src[c] = world_position(d, f[c]);
+      for (int k = 0; k < 3; ++k) {
+        const vec3 w = weights[k];
+        s.position[k] = w.x * src[0] + w.y * src[1] + w.z * src[2];
+      }
+    }
+    if constexpr (Model::kAttributes > 0) {
+      float src[3][Model::kAttributes];
+      for (int c = 0; c < 3; ++c) vertex_attributes<Model::kAttributes>(mesh, f[c], src[c]);
+      for (int k = 0; k < 3; ++k)
+        for (int j = 0; j < Model::kAttributes; ++j)
+          s.attr[k][j] = weights[k].x * src[0][j] + weights[k].y * src[1][j] + weights[k].z * src[2][j];
     }
     uniform_color = s.color[0] == s.color[1] && s.color[0] == s.color[2];
   }
@@ -167,7 +201,11 @@ SR_INLINE void shade_group(const ShadeTriangle<Model>& s, const ShadeConstants<M
     f8 b0 = e0 * c.persp[0], b1 = e1 * c.persp[1], b2 = e2 * c.persp[2];
     const f8 inv_sum = 1.0f / (b0 + b1 + b2);
     b0 *= inv_sum; b1 *= inv_sum; b2 *= inv_sum;
-    f8 nx{}, ny{}, nz{};
+    Fragment<Model> frag;
+    f8& nx = frag.normal[0];
+    f8& ny = frag.normal[1];
+    f8& nz = frag.normal[2];
+    nx = ny = nz = f8{};
     if (varying_normal || (Model::kReadsNormal && varying_color)) {
       const Lanes3 n = weighted(s.normal, b0, b1, b2);
       nx = n.x; ny = n.y; nz = n.z;
@@ -189,7 +227,13 @@ SR_INLINE void shade_group(const ShadeTriangle<Model>& s, const ShadeConstants<M
         const Lanes3 rgb = weighted(s.color, b0, b1, b2);
         r = rgb.x; g = rgb.y; b = rgb.z;
       }
-      Model::shade(c.model, nx, ny, nz, r, g, b);
+      if constexpr (Model::kReadsPosition) {
+        const Lanes3 pos = weighted(s.position, b0, b1, b2);
+        frag.position[0] = pos.x; frag.position[1] = pos.y; frag.position[2] = pos.z;
+      }
+      for (int j = 0; j < Model::kAttributes; ++j)
+        frag.attr[j] = b0 * s.attr[0][j] + b1 * s.attr[1][j] + b2 * s.attr[2][j];
+      Model::shade(c.model, frag, r, g, b);
       merge(out.rgb + i, to_unorm8(r) | (to_unorm8(g) << 8) | (to_unorm8(b) << 16));
     }
   }

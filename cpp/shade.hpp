@@ -14,6 +14,7 @@ struct ShadeDraw {
   vec4 color;            // material colour (used when the mesh has no vertex colours)
   int32_t instance_id;
   const vec3* world_normals;  // per vertex (world_normals()), or null: flat face normals
+  dmat4 model_to_world;       // for models that read world positions
 };
 
 struct ShadeParams {

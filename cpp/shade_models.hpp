@@ -6,13 +6,16 @@
 //   kId            its Shading value (the enum is the model's public name: bindings.cpp)
 //   kReadsNormal   colour depends on the surface normal: normals are prepared and interpolated
 //   kReadsColor    colour depends on the base colour (vertex colours or the material colour)
+//   kReadsPosition colour depends on the world-space position (point lights, ...)
+//   kAttributes    floats per vertex it reads from the mesh's attribute array (its uvs, two
+//                  floats, are the only one so far; 0: none)
 //   kUniformLit    it has a fast path for a triangle of one base colour whose normals vary
 //                  (ShadeTriangle::kUniformLit, shade_uniform below)
 //   Triangle       its per-triangle values, computed by classify()
 //   Constants      its per-triangle values splatted to eight lanes
 //   classify(in, uniform_color, s)  picks s.color_kind; for kConstantColor sets s.rgb
-//   shade(c, nx, ny, nz, r, g, b)   a varying-colour pixel: base colour r, g, b (when
-//                  kReadsColor) and unit normal n (when kReadsNormal) in, shaded colour out
+//   shade(c, f, r, g, b)  a varying-colour pixel: base colour r, g, b (when kReadsColor) and the
+//                  Fragment f (what the flags ask for) in, shaded colour out
 //   shade_uniform(c, s, b0, b1, b2) (kUniformLit only) packed 8-bit colour from the
 //                  unnormalised perspective weights b_k
 // Register it in ShadingModels below (the dispatch covers every listed model) and give it a
@@ -69,12 +72,25 @@ struct ShadeTriangleBase {
 template <typename Model>
 struct ShadeTriangle : ShadeTriangleBase {
   typename Model::Triangle model;
+  vec3 position[Model::kReadsPosition ? 3 : 1];  // world space at each vertex (kReadsPosition)
+  float attr[3][Model::kAttributes > 0 ? Model::kAttributes : 1];  // at each vertex (kAttributes)
+};
+
+// What a model reads at eight pixels, interpolated with perspective-correct weights. Only what
+// its flags ask for is computed; the rest is left unset.
+template <typename Model>
+struct Fragment {
+  simd::f8 normal[3];    // world-space unit normal of the visible side (kReadsNormal)
+  simd::f8 position[3];  // world-space position (kReadsPosition)
+  simd::f8 attr[Model::kAttributes > 0 ? Model::kAttributes : 1];  // vertex attributes (kAttributes)
 };
 
 // "unlit": the base colour.
 struct UnlitModel {
   static constexpr Shading kId = Shading::Unlit;
   static constexpr bool kReadsNormal = false, kReadsColor = true, kUniformLit = false;
+  static constexpr bool kReadsPosition = false;
+  static constexpr int kAttributes = 0;
   struct Triangle {};
   struct Constants {
     Constants() = default;
@@ -88,7 +104,7 @@ struct UnlitModel {
       s.color_kind = ShadeTriangleBase::kVaryingColor;
     }
   }
-  SR_INLINE static void shade(const Constants&, simd::f8, simd::f8, simd::f8, simd::f8&,
+  SR_INLINE static void shade(const Constants&, const Fragment<UnlitModel>&, simd::f8&,
                               simd::f8&, simd::f8&) {}
 };
 
@@ -96,6 +112,8 @@ struct UnlitModel {
 struct LambertModel {
   static constexpr Shading kId = Shading::Lambert;
   static constexpr bool kReadsNormal = true, kReadsColor = true, kUniformLit = true;
+  static constexpr bool kReadsPosition = false;
+  static constexpr int kAttributes = 0;
   struct Triangle {
     float light_dot[3];  // kUniformLit: dot(normal[k], to_light_world)
     vec3 color255;       // kUniformLit: the base colour clamped to [0, 1], times 255
@@ -125,11 +143,11 @@ struct LambertModel {
       s.color_kind = ShadeTriangleBase::kVaryingColor;
     }
   }
-  SR_INLINE static void shade(const Constants& c, simd::f8 nx, simd::f8 ny, simd::f8 nz,
-                              simd::f8& r, simd::f8& g, simd::f8& b) {
-    const simd::f8 d = nx * c.light[0] + ny * c.light[1] + nz * c.light[2];
-    const simd::f8 f = c.ambient + c.diffuse * (simd::f8{} < d ? d : simd::f8{});
-    r *= f; g *= f; b *= f;
+  SR_INLINE static void shade(const Constants& c, const Fragment<LambertModel>& f, simd::f8& r,
+                              simd::f8& g, simd::f8& b) {
+    const simd::f8 d = f.normal[0] * c.light[0] + f.normal[1] * c.light[1] + f.normal[2] * c.light[2];
+    const simd::f8 lit = c.ambient + c.diffuse * (simd::f8{} < d ? d : simd::f8{});
+    r *= lit; g *= lit; b *= lit;
   }
   // The Lambert term dot(n, L) / |n| of the unnormalised interpolated normal, without normalising
   // the weights (both are scale-invariant) or interpolating colours.
@@ -155,6 +173,8 @@ struct LambertModel {
 struct NormalModel {
   static constexpr Shading kId = Shading::Normal;
   static constexpr bool kReadsNormal = true, kReadsColor = false, kUniformLit = false;
+  static constexpr bool kReadsPosition = false;
+  static constexpr int kAttributes = 0;
   struct Triangle {};
   struct Constants {
     Constants() = default;
@@ -168,18 +188,48 @@ struct NormalModel {
       s.color_kind = ShadeTriangleBase::kVaryingColor;
     }
   }
-  SR_INLINE static void shade(const Constants&, simd::f8 nx, simd::f8 ny, simd::f8 nz,
-                              simd::f8& r, simd::f8& g, simd::f8& b) {
-    r = nx * 0.5f + 0.5f;
-    g = ny * 0.5f + 0.5f;
-    b = nz * 0.5f + 0.5f;
+  SR_INLINE static void shade(const Constants&, const Fragment<NormalModel>& f, simd::f8& r,
+                              simd::f8& g, simd::f8& b) {
+    r = f.normal[0] * 0.5f + 0.5f;
+    g = f.normal[1] * 0.5f + 0.5f;
+    b = f.normal[2] * 0.5f + 0.5f;
+  }
+};
+
+// "uv": the mesh's texture coordinates as a colour, (u, v, 0) clamped to [0, 1] (a mesh without
+// uvs is black). Reads one two-float vertex attribute, interpolated perspective-correctly.
+struct UvModel {
+  static constexpr Shading kId = Shading::Uv;
+  static constexpr bool kReadsNormal = false, kReadsColor = false, kUniformLit = false;
+  static constexpr bool kReadsPosition = false;
+  static constexpr int kAttributes = 2;
+  struct Triangle {};
+  struct Constants {
+    Constants() = default;
+    SR_INLINE Constants(const ShadeInputs&, const ShadeTriangle<UvModel>&) {}
+  };
+  static void classify(const ShadeInputs&, bool, ShadeTriangle<UvModel>& s) {
+    const bool one = s.attr[0][0] == s.attr[1][0] && s.attr[0][0] == s.attr[2][0] &&
+                     s.attr[0][1] == s.attr[1][1] && s.attr[0][1] == s.attr[2][1];
+    if (one) {
+      s.color_kind = ShadeTriangleBase::kConstantColor;
+      s.rgb = pack_rgb(vec3(s.attr[0][0], s.attr[0][1], 0.0f));
+    } else {
+      s.color_kind = ShadeTriangleBase::kVaryingColor;
+    }
+  }
+  SR_INLINE static void shade(const Constants&, const Fragment<UvModel>& f, simd::f8& r,
+                              simd::f8& g, simd::f8& b) {
+    r = f.attr[0];
+    g = f.attr[1];
+    b = simd::f8{};
   }
 };
 
 // Every model the kernels are compiled for, in Shading's order.
 template <typename... M>
 struct ModelList {};
-using ShadingModels = ModelList<UnlitModel, LambertModel, NormalModel>;
+using ShadingModels = ModelList<UnlitModel, LambertModel, NormalModel, UvModel>;
 
 // True if `shading`'s colour reads normals (then a colour render prepares world normals).
 template <typename... M>

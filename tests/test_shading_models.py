@@ -75,3 +75,59 @@ def test_normal_model_ignores_the_base_colour():
 def test_unknown_shading_names_the_argument():
     with pytest.raises(ValueError, match="shading"):
         sr.Renderer(8, 8).render(sr.Scene(), sr.PerspectiveCamera(), shading="phong")
+
+
+def _quad_frame(near: float, eye=(0.3, -1.6, 0.9), target=(0.0, 0.2, 0.0), simd=True, path="auto"):
+    """The square [-1, 1]^2 on z = 0 with uv = ((x + 1) / 2, (y + 1) / 2), seen at a grazing angle."""
+    positions = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], float)
+    uvs = (positions[:, :2] + 1) / 2
+    mesh = sr.Mesh(positions, [[0, 1, 2], [0, 2, 3]], uvs=uvs)
+    scene = sr.Scene()
+    scene.add(mesh)
+    cam = sr.PerspectiveCamera(fov_y=60.0, near=near, far=10.0)
+    cam.look_at(eye, target, up=(0, 0, 1))
+    w, h = 160, 120
+    frame = sr.Renderer(w, h, simd=simd).render(scene, cam, outputs=("color", "mask"), shading="uv",
+                                                cull="none", shading_path=path)
+    # Exact uv at each pixel centre: the ray through it meets z = 0 at (x, y).
+    f = 1.0 / np.tan(np.radians(60.0) / 2)
+    j, i = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
+    d = np.stack([(2 * j / w - 1) * w / h / f, (1 - 2 * i / h) / f, -np.ones_like(j)], -1) @ cam.pose[:3, :3].T
+    e = np.asarray(eye, float)
+    t = -e[2] / d[..., 2]
+    hit = e + t[..., None] * d
+    want = (hit[..., :2] + 1) / 2
+    return frame, want
+
+
+@pytest.mark.parametrize("simd", [True, False])
+@pytest.mark.parametrize("path", ["forward", "deferred"])
+def test_uv_model_is_perspective_correct(simd, path):
+    frame, want = _quad_frame(near=0.05, simd=simd, path=path)
+    m = frame.mask
+    assert m.sum() > 5000
+    got = frame.color[m][:, :2].astype(float) / 255
+    assert np.abs(got - want[m]).max() <= 1.01 / 255  # the 8-bit rounding of the exact uv
+    assert (frame.color[m][:, 2] == 0).all()
+    # Affine (screen-space) interpolation would be far off at this angle: the test can tell.
+    assert np.abs(want[m] - want[m].mean(0)).max() > 0.3
+
+
+def test_uv_model_through_near_plane_clipping():
+    # The near plane cuts the quad (clipped triangles carry their source corners' weights).
+    frame, want = _quad_frame(near=0.9, eye=(0.0, -0.5, 0.6), target=(0.0, 0.5, 0.0))
+    m = frame.mask
+    assert 1000 < m.sum() < m.size
+    got = frame.color[m][:, :2].astype(float) / 255
+    assert np.abs(got - want[m]).max() <= 1.01 / 255
+
+
+def test_uv_model_without_uvs_is_black():
+    scene = sr.Scene()
+    scene.add(sr.Mesh(SPHERE.vertices, SPHERE.faces))
+    cam = sr.PerspectiveCamera(fov_y=40.0, near=0.1, far=10.0)
+    cam.look_at((0, 0, 3), (0, 0, 0))
+    frame = sr.Renderer(64, 48).render(scene, cam, outputs=("color", "mask"), shading="uv",
+                                       background=(1, 1, 1))
+    assert frame.mask.sum() > 500
+    assert (frame.color[frame.mask] == 0).all() and (frame.color[~frame.mask] == 255).all()

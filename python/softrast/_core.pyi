@@ -92,6 +92,6 @@ class Renderer:
         writeable) and returned as they are. The GIL is released.
         cull: "none" | "back" | "front" (front = counter-clockwise in NDC, OpenGL's default).
         shading: "lambert" (headlight: directional light along the view axis) | "unlit" | "normal"
-            ((n + 1) / 2 of the world-space unit normal).
+            ((n + 1) / 2 of the world-space unit normal) | "uv" ((u, v, 0) clamped).
         shading_path: "auto" | "forward" | "deferred" (same bits; see Renderer.render).
         """

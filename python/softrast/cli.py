@@ -2,7 +2,7 @@
 
     softrast render MESH -o out.png [--size 640x480] [--depth out.exr] [--mask out.png]
                     [--normal out.exr] [--eye x,y,z] [--target x,y,z] [--up x,y,z] [--fov 45]
-                    [--near N] [--far F] [--cull back|none|front] [--shading lambert|unlit|normal]
+                    [--near N] [--far F] [--cull back|none|front] [--shading lambert|unlit|normal|uv]
                     [--threads N]
 
 Without --eye the camera frames the whole mesh from the front (+z) and slightly above (+y).
@@ -92,7 +92,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--near", type=_positive_float, help="near plane distance (default: from the mesh size)")
     r.add_argument("--far", type=_positive_float, help="far plane distance (default: from the mesh size)")
     r.add_argument("--cull", choices=("back", "none", "front"), default="back", help="face culling (default back)")
-    r.add_argument("--shading", choices=("lambert", "unlit", "normal"), default="lambert", help="shading (default lambert)")
+    r.add_argument("--shading", choices=("lambert", "unlit", "normal", "uv"), default="lambert", help="shading (default lambert)")
     r.add_argument("--threads", type=_threads, default=0, help="worker threads, 0 = one per core (default)")
     return parser
 

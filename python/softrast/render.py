@@ -14,7 +14,7 @@ from .scene import Scene
 __all__ = ["Frame", "Renderer"]
 
 _CULL = ("none", "back", "front")
-_SHADING = ("lambert", "unlit", "normal")
+_SHADING = ("lambert", "unlit", "normal", "uv")
 _SHADING_PATHS = ("auto", "forward", "deferred")
 # Bytes per pixel of each output (see Frame): what a render allocates for it.
 _OUTPUT_BYTES = {"color": 3, "depth": 4, "mask": 1, "normal": 12, "triangle_id": 4,
@@ -157,7 +157,9 @@ class Renderer:
                   headlight (a directional light along the camera's viewing axis), two-sided;
                   or "unlit" — the base colour. The base colour is the mesh's per-vertex colours
                   if it has them, else the instance's material colour; or "normal" — the
-                  world-space unit normal of the visible side as a colour, (n + 1) / 2.
+                  world-space unit normal of the visible side as a colour, (n + 1) / 2; or
+                  "uv" — the mesh's texture coordinates as a colour, (u, v, 0) clamped to
+                  [0, 1], perspective-correct (black without uvs).
                   Colours are written as given (no gamma curve), rounded to 8 bits.
         background : RGB in [0, 1] for pixels nothing covers.
         out : a Frame from an earlier render, or a dict of arrays, to render into in place
