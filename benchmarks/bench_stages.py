@@ -43,7 +43,7 @@ import softrast as sr
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FOV_Y_DEG, NEAR, FAR = 45.0, 0.05, 100.0
 SILHOUETTE_FRACTION = 0.8  # as bench_vs_pyrender.py: the sphere spans 0.8 of the image height
-ALL_OUTPUTS = ("color", "depth", "mask", "normal", "triangle_id", "instance_id", "coverage")
+ALL_OUTPUTS = sr.OUTPUTS
 SECTIONS = ("faces", "pixels", "outputs", "paths", "order", "threads", "overhead", "memory", "callgrind")
 
 

@@ -168,14 +168,14 @@ ShadingPath parse_shading_path(const std::string& s) {
 }
 
 py::dtype output_dtype(const OutputLayout& layout) {
-  switch (layout.bit) {
-    case kOutColor: return py::dtype::of<uint8_t>();
-    case kOutMask: return py::dtype::of<bool>();
-    case kOutTriangleId:
-    case kOutInstanceId: return py::dtype::of<int32_t>();
-    case kOutCoverage: return py::dtype::of<uint32_t>();
-    default: return py::dtype::of<float>();
+  switch (layout.dtype) {
+    case DType::U8: return py::dtype::of<uint8_t>();
+    case DType::Bool: return py::dtype::of<bool>();
+    case DType::I32: return py::dtype::of<int32_t>();
+    case DType::U32: return py::dtype::of<uint32_t>();
+    case DType::F32: return py::dtype::of<float>();
   }
+  throw std::logic_error("output_dtype: unknown dtype");
 }
 
 std::vector<py::ssize_t> output_shape(const OutputLayout& layout, int width, int height) {
@@ -257,7 +257,7 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::handle& 
   const auto begin = [&](int i) { return reinterpret_cast<std::uintptr_t>(external[i]); };
   const auto end = [&](int i) {
     const OutputLayout& l = kOutputLayouts[i];
-    return begin(i) + std::size_t(self.width()) * std::size_t(self.height()) * l.channels * l.item_bytes;
+    return begin(i) + std::size_t(self.width()) * std::size_t(self.height()) * l.bytes_per_pixel();
   };
   for (int i = 0; i < kNumOutputs; ++i)
     for (int j = i + 1; j < kNumOutputs; ++j)
@@ -292,9 +292,23 @@ PYBIND11_MODULE(_core, m) {
   m.attr("TILE_SIZE_PX") = kTileSizePx;
   m.attr("MAX_IMAGE_SIDE") = kMaxImageSide;
   m.attr("MAX_FRAMEBUFFER_BYTES") = py::int_(kMaxFramebufferBytes);
-  py::tuple names(kNumOutputs);
-  for (int i = 0; i < kNumOutputs; ++i) names[i] = kOutputLayouts[i].name;
+  // The output table (framebuffer.hpp), the one source of every list of outputs in Python.
+  py::tuple names(kNumOutputs), table(kNumOutputs);
+  for (int i = 0; i < kNumOutputs; ++i) {
+    const OutputLayout& l = kOutputLayouts[i];
+    names[i] = l.name;
+    py::dict row;
+    row["name"] = l.name;
+    row["dtype"] = output_dtype(l);
+    row["channels"] = l.channels;
+    row["bytes_per_pixel"] = l.bytes_per_pixel();
+    row["background"] = l.background;
+    row["pass"] = l.pass == OutputPass::Shade ? "shade" : "resolve";
+    row["doc"] = l.doc;
+    table[i] = row;
+  }
   m.attr("OUTPUTS") = names;
+  m.attr("OUTPUT_TABLE") = table;
 
   py::class_<MeshData, std::shared_ptr<MeshData>>(m, "MeshData")
       .def(py::init(&make_mesh), "positions"_a, "faces"_a, "normals"_a = py::none(),

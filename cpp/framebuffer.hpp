@@ -9,13 +9,61 @@
 
 namespace sr {
 
+// Element types of outputs (NumPy's names in bindings.cpp).
+enum class DType : uint8_t { U8, Bool, I32, U32, F32 };
+constexpr std::size_t dtype_bytes(DType t) {
+  return t == DType::U8 || t == DType::Bool ? 1 : 4;
+}
+// Which pass writes an output: the resolve of the tile's visibility buffer (depth keys, ids,
+// coverage) or shading (colour, normals: forward or deferred, then copied by write_tile).
+enum class OutputPass : uint8_t { Resolve, Shade };
+
+// The output table: one row per output, the one place that says what an output is. Bindings,
+// the Python package (softrast.OUTPUT_TABLE: render.py's lists, Frame, the memory budget, the
+// tests) and the framebuffer derive everything from it. Adding an output is a row here and in
+// OutputBit, and its writer in outputs.cpp (ARCHITECTURE.md, "Add an output").
 struct OutputLayout {
   OutputBit bit;
   const char* name;
-  int channels;          // 1 => (h, w), else (h, w, channels)
-  std::size_t item_bytes;  // bytes of one channel value
+  DType dtype;
+  int channels;            // 1 => (h, w), else (h, w, channels)
+  std::size_t item_bytes;  // bytes of one channel value (dtype_bytes(dtype))
+  double background;       // value of every channel where nothing is drawn (colour: the
+                           // render's background option instead)
+  OutputPass pass;
+  const char* doc;         // shape, dtype, unit and meaning, for docstrings
+  constexpr std::size_t bytes_per_pixel() const { return std::size_t(channels) * item_bytes; }
 };
-extern const OutputLayout kOutputLayouts[kNumOutputs];
+inline constexpr OutputLayout kOutputLayouts[kNumOutputs] = {
+    {kOutColor, "color", DType::U8, 3, 1, 0.0, OutputPass::Shade,
+     "(h, w, 3) uint8: shaded colour, row 0 = top of the image; the background colour where "
+     "nothing is hit"},
+    {kOutDepth, "depth", DType::F32, 1, 4, 0.0, OutputPass::Resolve,
+     "(h, w) float32: distance along the camera's viewing axis (-z_view) in scene units, 0 where "
+     "nothing was hit (orthographic cameras included)"},
+    {kOutMask, "mask", DType::Bool, 1, 1, 0.0, OutputPass::Resolve,
+     "(h, w) bool: True where a triangle covers the pixel centre"},
+    {kOutNormal, "normal", DType::F32, 3, 4, 0.0, OutputPass::Shade,
+     "(h, w, 3) float32: world-space unit normal of the visible side, 0 = background"},
+    {kOutTriangleId, "triangle_id", DType::I32, 1, 4, -1.0, OutputPass::Resolve,
+     "(h, w) int32: face index within its mesh, -1 = background"},
+    {kOutInstanceId, "instance_id", DType::I32, 1, 4, -1.0, OutputPass::Resolve,
+     "(h, w) int32: the instance's id from Scene.add, -1 = background"},
+    {kOutCoverage, "coverage", DType::U32, 1, 4, 0.0, OutputPass::Resolve,
+     "(h, w) uint32: number of rasterized triangles covering the pixel centre before the depth "
+     "test (a closed convex mesh with back-face culling gives exactly 1)"},
+};
+
+constexpr bool output_table_is_consistent() {
+  for (int i = 0; i < kNumOutputs; ++i)
+    if (uint32_t(kOutputLayouts[i].bit) != 1u << i ||
+        kOutputLayouts[i].item_bytes != dtype_bytes(kOutputLayouts[i].dtype))
+      return false;
+  return true;
+}
+static_assert(output_table_is_consistent(), "rows in bit order, item sizes matching dtypes");
+// The row of an output bit (exactly one bit set).
+inline int output_index(OutputBit bit) { return __builtin_ctz(uint32_t(bit)); }
 
 // Output buffers start on a cache line: the tile pass's threads write neighbouring tiles' rows,
 // and with rows a whole number of lines wide (a width divisible by 64 / bytes per pixel) no line
@@ -46,18 +94,17 @@ class Framebuffer {
   // free_frame_buffer); nullptr for an output written into external memory.
   std::byte* release(int layout_index) { return buffers_[layout_index].release(); }
 
+  // An output's memory as T (its dtype's C++ type): row-major, row 0 = top, channels
+  // interleaved; null when not requested. Every pixel is written by the render.
+  template <typename T>
+  T* get(OutputBit bit) const { return reinterpret_cast<T*>(data_[output_index(bit)]); }
+  std::byte* data(int layout_index) const { return data_[layout_index]; }
+
   int width, height;
   uint32_t outputs;
-  // Row-major, row 0 = top. Null when not requested. Every pixel is written by the render.
-  uint8_t* color = nullptr;
-  float* depth = nullptr;
-  bool* mask = nullptr;
-  float* normal = nullptr;
-  int32_t* triangle_id = nullptr;
-  int32_t* instance_id = nullptr;
-  uint32_t* coverage = nullptr;
 
  private:
+  std::byte* data_[kNumOutputs] = {};
   FrameBufferPtr buffers_[kNumOutputs];
 };
 

@@ -117,30 +117,38 @@ void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& r
                                                    : resolve_depth_row_generic;
   const auto write_rgb = stream ? write_rgb_stream
                          : isa == Isa::Avx2 ? write_rgb_avx2 : write_rgb_generic;
+  // One writer per output (kOutputLayouts), each row by row; null = not requested.
+  uint32_t* const coverage = fb.get<uint32_t>(kOutCoverage);
+  float* const depth = fb.get<float>(kOutDepth);
+  bool* const mask = fb.get<bool>(kOutMask);
+  int32_t* const triangle_id = fb.get<int32_t>(kOutTriangleId);
+  int32_t* const instance_id = fb.get<int32_t>(kOutInstanceId);
+  float* const normal = fb.get<float>(kOutNormal);
+  uint8_t* const color = fb.get<uint8_t>(kOutColor);
   for (int y = rect.y0; y < rect.y1; ++y) {
     const int row = (y - rect.y0) * kTileSizePx;
     const std::size_t o = std::size_t(y) * width + std::size_t(rect.x0);
     const uint32_t* visible = raster.visible + row;
-    if (fb.coverage) std::memcpy(fb.coverage + o, raster.coverage + row, sizeof(uint32_t) * n);
-    if (fb.depth) resolve_depth(raster.key + row, visible, n, p.orthographic, fb.depth + o);
-    if (fb.mask)
-      for (int x = 0; x < n; ++x) fb.mask[o + x] = visible[x] != kNoTriangle;
-    if (fb.triangle_id)
+    if (coverage) std::memcpy(coverage + o, raster.coverage + row, sizeof(uint32_t) * n);
+    if (depth) resolve_depth(raster.key + row, visible, n, p.orthographic, depth + o);
+    if (mask)
+      for (int x = 0; x < n; ++x) mask[o + x] = visible[x] != kNoTriangle;
+    if (triangle_id)
       for (int x = 0; x < n; ++x)
-        fb.triangle_id[o + x] = visible[x] == kNoTriangle ? -1 : int32_t(raster.triangles[visible[x]].tri->prim);
-    if (fb.instance_id)
+        triangle_id[o + x] = visible[x] == kNoTriangle ? -1 : int32_t(raster.triangles[visible[x]].tri->prim);
+    if (instance_id)
       for (int x = 0; x < n; ++x)
-        fb.instance_id[o + x] = visible[x] == kNoTriangle ? -1 : p.draws[raster.triangles[visible[x]].tri->draw].instance_id;
-    if (fb.normal) {
-      float* normal = fb.normal + 3 * o;
+        instance_id[o + x] = visible[x] == kNoTriangle ? -1 : p.draws[raster.triangles[visible[x]].tri->draw].instance_id;
+    if (normal) {
+      float* const out = normal + 3 * o;
       for (int x = 0; x < n; ++x) {
         const bool bg = visible[x] == kNoTriangle;
-        for (int c = 0; c < 3; ++c) normal[3 * x + c] = bg ? 0.0f : shaded.normal[c][row + x];
+        for (int c = 0; c < 3; ++c) out[3 * x + c] = bg ? 0.0f : shaded.normal[c][row + x];
       }
     }
-    if (fb.color) {
+    if (color) {
       const uint32_t background = p.background[0] | p.background[1] << 8 | p.background[2] << 16;
-      write_rgb(shaded.rgb + row, visible, n, background, fb.color + 3 * o);
+      write_rgb(shaded.rgb + row, visible, n, background, color + 3 * o);
     }
   }
   if (stream) _mm_sfence();  // order the non-temporal stores before the tile is done

@@ -42,18 +42,18 @@ enum class Shading : uint8_t { Unlit, Lambert, Normal, Uv };
 // its expected overdraw.
 enum class ShadingPath : uint8_t { Auto, Forward, Deferred };
 
-// Output buffers, as bits of RenderOptions::outputs.
+// Output buffers, as bits of RenderOptions::outputs; each is a row of kOutputLayouts
+// (framebuffer.cpp), which says everything else about it.
 enum OutputBit : uint32_t {
-  kOutColor = 1u << 0,       // (h, w, 3) uint8
-  kOutDepth = 1u << 1,       // (h, w) float32, -z_view in scene units, 0 = background
-  kOutMask = 1u << 2,        // (h, w) bool
-  kOutNormal = 1u << 3,      // (h, w, 3) float32, world-space unit normal, 0 = background
-  kOutTriangleId = 1u << 4,  // (h, w) int32, face index within its mesh, -1 = background
-  kOutInstanceId = 1u << 5,  // (h, w) int32, -1 = background
-  kOutCoverage = 1u << 6,    // (h, w) uint32, triangles covering the pixel centre (pre depth test)
+  kOutColor = 1u << 0,
+  kOutDepth = 1u << 1,
+  kOutMask = 1u << 2,
+  kOutNormal = 1u << 3,
+  kOutTriangleId = 1u << 4,
+  kOutInstanceId = 1u << 5,
+  kOutCoverage = 1u << 6,
 };
 constexpr int kNumOutputs = 7;
-extern const char* const kOutputNames[kNumOutputs];
 
 // Read-only view of `size` contiguous T's that something else owns (C++20's std::span<const T>,
 // as much of it as the stages use).

@@ -429,13 +429,14 @@ ForwardFn select_forward(Isa isa, const SamplePattern& pattern, Shading shading,
 
 bool can_shade_forward(const ShadeParams& params) {
   const Framebuffer& fb = *params.framebuffer;
-  return fb.color != nullptr || fb.normal != nullptr;
+  return fb.get<uint8_t>(kOutColor) != nullptr || fb.get<float>(kOutNormal) != nullptr;
 }
 
 TileKernels select_tile_kernels(const ShadeParams& params, const Viewport& viewport, Isa isa,
                                 bool want_coverage) {
   const Framebuffer& fb = *params.framebuffer;
-  const bool color = fb.color != nullptr, normal = fb.normal != nullptr;
+  const bool color = fb.get<uint8_t>(kOutColor) != nullptr;
+  const bool normal = fb.get<float>(kOutNormal) != nullptr;
   const SamplePattern& pattern = viewport.samples;
   TileKernels k;
   k.raster = select_rasterize(isa, pattern, want_coverage);

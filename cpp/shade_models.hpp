@@ -230,6 +230,9 @@ struct UvModel {
 template <typename... M>
 struct ModelList {};
 using ShadingModels = ModelList<UnlitModel, LambertModel, NormalModel, UvModel>;
+template <typename... M>
+constexpr int count_models(ModelList<M...>) { return int(sizeof...(M)); }
+constexpr int kNumShadingModels = count_models(ShadingModels{});
 
 // True if `shading`'s colour reads normals (then a colour render prepares world normals).
 template <typename... M>

@@ -16,7 +16,7 @@ import softrast as sr
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SPOT_PATH = ROOT / "assets" / "meshes" / "spot.obj"
-ALL_OUTPUTS = ("color", "depth", "mask", "normal", "triangle_id", "instance_id", "coverage")
+ALL_OUTPUTS = sr.OUTPUTS  # from the core's output table
 Z_PLANE = -10.0  # depth of geometry drawn in "pixel space" with pixel_ortho()
 
 

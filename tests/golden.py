@@ -26,6 +26,7 @@ import softrast as sr
 DATA = pathlib.Path(__file__).resolve().parent / "data"
 MESHES = DATA / "golden_meshes.npz"
 HASHES = DATA / "golden_hashes.json"
+# The outputs recorded at the commit (not sr.OUTPUTS: an output added later is not in the record).
 ALL = ("color", "depth", "mask", "normal", "triangle_id", "instance_id", "coverage")
 
 

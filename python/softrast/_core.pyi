@@ -10,7 +10,7 @@ Conventions shared with the Python layer
   so row 0 is the top of the image and the centre of pixel (row i, col j) is (j + 0.5, i + 0.5).
 * depth output = distance along the camera's viewing axis (-z_view) in scene units; 0 = background.
 """
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -19,7 +19,11 @@ SUBPIXEL_BITS: int  # fixed-point precision of snapped window coordinates (8 => 
 TILE_SIZE_PX: int  # side of the square screen tiles owned by one thread at a time
 MAX_IMAGE_SIDE: int  # largest width or height accepted
 MAX_FRAMEBUFFER_BYTES: int  # refuse a render whose requested outputs need more than this
-OUTPUTS: tuple[str, ...]  # every output name render() accepts
+OUTPUTS: tuple[str, ...]  # every output name render() accepts, in the output table's order
+# The output table (cpp/framebuffer.hpp), one dict per output: name, dtype (numpy.dtype),
+# channels (1 => (h, w), else (h, w, channels)), bytes_per_pixel, background (value where
+# nothing is drawn; colour uses the render's background), pass ("resolve" | "shade"), doc.
+OUTPUT_TABLE: tuple[dict[str, Any], ...]
 
 class MeshData:
     """Geometry uploaded once and validated.

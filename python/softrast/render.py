@@ -16,34 +16,26 @@ __all__ = ["Frame", "Renderer"]
 _CULL = ("none", "back", "front")
 _SHADING = ("lambert", "unlit", "normal", "uv")
 _SHADING_PATHS = ("auto", "forward", "deferred")
-# Bytes per pixel of each output (see Frame): what a render allocates for it.
-_OUTPUT_BYTES = {"color": 3, "depth": 4, "mask": 1, "normal": 12, "triangle_id": 4,
-                 "instance_id": 4, "coverage": 4}
+# Bytes per pixel of each output (see Frame): what a render allocates for it. From the core's
+# output table, as every list of outputs here is.
+_OUTPUT_BYTES = {row["name"]: row["bytes_per_pixel"] for row in _core.OUTPUT_TABLE}
 
 
 class Frame:
     """The buffers of one render. Outputs that were not requested are ``None``.
 
-    color       : (h, w, 3) uint8, row 0 = top of the image
-    depth       : (h, w) float32, distance along the camera's viewing axis (-z_view) in scene
-                  units, 0 where nothing was hit (orthographic cameras included)
-    mask        : (h, w) bool, True where a triangle covers the pixel centre
-    normal      : (h, w, 3) float32, world-space unit normal of the visible side, 0 = background
-    triangle_id : (h, w) int32, face index within its mesh, -1 = background
-    instance_id : (h, w) int32, the instance's id from ``Scene.add``, -1 = background
-    coverage    : (h, w) uint32, number of rasterized triangles covering the pixel centre before
-                  the depth test (a closed convex mesh with back-face culling gives exactly 1)
+{outputs}
 
     Every array views memory the C++ renderer allocated for this frame alone (``arr.base`` owns
     it; nothing is copied). Later renders never write into it.
     """
 
-    __slots__ = ("color", "depth", "mask", "normal", "triangle_id", "instance_id", "coverage")
+    __slots__ = _core.OUTPUTS
 
     def __init__(self, buffers: dict[str, np.ndarray]) -> None:
         get = buffers.get
-        self.color, self.depth, self.mask, self.normal = get("color"), get("depth"), get("mask"), get("normal")
-        self.triangle_id, self.instance_id, self.coverage = get("triangle_id"), get("instance_id"), get("coverage")
+        for name in _core.OUTPUTS:
+            setattr(self, name, get(name))
 
     @property
     def outputs(self) -> tuple[str, ...]:
@@ -56,6 +48,10 @@ class Frame:
     def __repr__(self) -> str:
         shapes = ", ".join(f"{n}={getattr(self, n).shape}" for n in self.outputs)
         return f"Frame({shapes})"
+
+
+Frame.__doc__ = (Frame.__doc__ or "").replace("{outputs}", "\n".join(
+    f"    {row['name']:<11} : {row['doc']}" for row in _core.OUTPUT_TABLE))
 
 
 def _image_side(value: Any, name: str) -> int:
@@ -149,8 +145,8 @@ class Renderer:
     ) -> Frame:
         """Render ``scene`` seen by ``camera``; only ``outputs`` are allocated and written.
 
-        outputs : any of "color", "depth", "mask", "normal", "triangle_id", "instance_id",
-                  "coverage" (see Frame for shapes, dtypes and units).
+        outputs : any of softrast.OUTPUTS (see Frame, or softrast.OUTPUT_TABLE, for shapes,
+                  dtypes, units and background values).
         cull : "back" (default), "front" or "none". Front faces are counter-clockwise in the
                image as OpenGL defines it; a mirroring pose flips the winding, and the test.
         shading : "lambert" — base colour * (ambient + (1 - ambient) * max(0, n . l)) with a

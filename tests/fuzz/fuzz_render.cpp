@@ -151,26 +151,26 @@ int check_frame(const Framebuffer& fb, const MeshData& mesh, std::size_t num_dra
       if (hit >= 0 && bool(hit) != h) fail(what, i);
       hit = h;
     };
-    if (fb.mask) agree(fb.mask[i], "mask");
-    if (fb.depth) {
-      if (!(std::isfinite(fb.depth[i]) && fb.depth[i] >= 0.0f)) fail("depth finite and >= 0", i);
-      agree(fb.depth[i] > 0.0f, "mask == (depth > 0)");
+    if (fb.get<bool>(kOutMask)) agree(fb.get<bool>(kOutMask)[i], "mask");
+    if (fb.get<float>(kOutDepth)) {
+      if (!(std::isfinite(fb.get<float>(kOutDepth)[i]) && fb.get<float>(kOutDepth)[i] >= 0.0f)) fail("depth finite and >= 0", i);
+      agree(fb.get<float>(kOutDepth)[i] > 0.0f, "mask == (depth > 0)");
     }
-    if (fb.triangle_id) {
-      if (fb.triangle_id[i] < -1 || fb.triangle_id[i] >= int64_t(mesh.faces.size()))
+    if (fb.get<int32_t>(kOutTriangleId)) {
+      if (fb.get<int32_t>(kOutTriangleId)[i] < -1 || fb.get<int32_t>(kOutTriangleId)[i] >= int64_t(mesh.faces.size()))
         fail("triangle_id in [-1, faces)", i);
-      agree(fb.triangle_id[i] != -1, "triangle_id == -1 exactly where mask is false");
+      agree(fb.get<int32_t>(kOutTriangleId)[i] != -1, "triangle_id == -1 exactly where mask is false");
     }
-    if (fb.coverage && hit == 1 && fb.coverage[i] == 0) fail("visible pixel has coverage 0", i);
-    if (fb.instance_id && hit == 0 && fb.instance_id[i] != -1) fail("background instance_id", i);
-    if (fb.normal) {
-      const float* nrm = fb.normal + 3 * i;
+    if (fb.get<uint32_t>(kOutCoverage) && hit == 1 && fb.get<uint32_t>(kOutCoverage)[i] == 0) fail("visible pixel has coverage 0", i);
+    if (fb.get<int32_t>(kOutInstanceId) && hit == 0 && fb.get<int32_t>(kOutInstanceId)[i] != -1) fail("background instance_id", i);
+    if (fb.get<float>(kOutNormal)) {
+      const float* nrm = fb.get<float>(kOutNormal) + 3 * i;
       for (int k = 0; k < 3; ++k)
         if (!std::isfinite(nrm[k])) fail("normal finite", i);
       if (hit == 0 && (nrm[0] != 0.0f || nrm[1] != 0.0f || nrm[2] != 0.0f))
         fail("background normal is 0", i);
     }
-    if (fb.color && hit == 0 && std::memcmp(fb.color + 3 * i, background, 3) != 0)
+    if (fb.get<uint8_t>(kOutColor) && hit == 0 && std::memcmp(fb.get<uint8_t>(kOutColor) + 3 * i, background, 3) != 0)
       fail("background colour", i);
     if (hit == 1 && num_draws == 0) fail("a hit without draws", i);
     hits += hit == 1;
@@ -181,19 +181,8 @@ int check_frame(const Framebuffer& fb, const MeshData& mesh, std::size_t num_dra
 bool same_frames(const Framebuffer& a, const Framebuffer& b) {
   for (int i = 0; i < kNumOutputs; ++i) {
     if (!(a.outputs & kOutputLayouts[i].bit)) continue;
-    const void* pa = nullptr; const void* pb = nullptr;
-    switch (i) {
-      case 0: pa = a.color; pb = b.color; break;
-      case 1: pa = a.depth; pb = b.depth; break;
-      case 2: pa = a.mask; pb = b.mask; break;
-      case 3: pa = a.normal; pb = b.normal; break;
-      case 4: pa = a.triangle_id; pb = b.triangle_id; break;
-      case 5: pa = a.instance_id; pb = b.instance_id; break;
-      default: pa = a.coverage; pb = b.coverage; break;
-    }
-    const std::size_t bytes = std::size_t(a.width) * a.height * kOutputLayouts[i].channels *
-                              kOutputLayouts[i].item_bytes;
-    if (std::memcmp(pa, pb, bytes) != 0) return false;
+    const std::size_t bytes = std::size_t(a.width) * a.height * kOutputLayouts[i].bytes_per_pixel();
+    if (std::memcmp(a.data(i), b.data(i), bytes) != 0) return false;
   }
   return true;
 }
@@ -216,7 +205,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
   RenderOptions options;
   options.outputs = in.u8();
   options.cull = Cull(in.u8() % 3);
-  options.shading = Shading(in.u8() % 2);
+  options.shading = Shading(in.u8() % kNumShadingModels);
   const uint8_t flags = in.u8();
   for (int c = 0; c < 3; ++c) options.background[c] = in.value_f();
   options.ambient = in.value_f();
