@@ -8,7 +8,7 @@ from ._core import MAX_IMAGE_SIDE, OUTPUTS, SUBPIXEL_BITS, TILE_SIZE_PX
 from .camera import Camera, IntrinsicsCamera, OrthographicCamera, PerspectiveCamera
 from .io import imread, imwrite
 from .limits import get_memory_budget, set_memory_budget
-from .mesh import Mesh, load_mesh
+from .mesh import Mesh, PrecisionWarning, load_mesh
 from .render import Frame, Renderer
 from .scene import Scene
 
@@ -23,6 +23,7 @@ __all__ = [
     "OUTPUTS",
     "OrthographicCamera",
     "PerspectiveCamera",
+    "PrecisionWarning",
     "Renderer",
     "SUBPIXEL_BITS",
     "Scene",
