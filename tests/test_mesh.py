@@ -631,6 +631,66 @@ def test_chunked_conversion_is_bit_identical_to_a_plain_cast(n, rng):
             arr.flags.writeable = True
 
 
+# -- copy and pickle (issue 20, item 10) -----------------------------------------------------------
+
+def _render_all(mesh: Mesh) -> dict[str, np.ndarray]:
+    scene = sr.Scene()
+    scene.add(mesh)
+    cam = sr.PerspectiveCamera(fov_y=50.0)
+    cam.look_at(eye=(0.5, 0.4, 3.5), target=(0.0, 0.0, 0.0))
+    return sr.Renderer(64, 48).render(scene, cam, outputs=sr.OUTPUTS).as_dict()
+
+
+def _full_mesh() -> Mesh:
+    tm = trimesh.creation.icosphere(subdivisions=3)
+    n = len(tm.vertices)
+    return Mesh(tm.vertices, tm.faces, normals=tm.vertex_normals, uvs=tm.vertices[:, :2] * 0.5 + 0.5,
+                colors=np.linspace(0, 255, 3 * n).reshape(n, 3).astype(np.uint8), color=(0.2, 0.4, 0.6))
+
+
+def test_copy_and_deepcopy_return_the_immutable_mesh_itself():
+    import copy
+
+    mesh = _full_mesh()
+    assert copy.copy(mesh) is mesh and copy.deepcopy(mesh) is mesh
+    scene = sr.Scene()
+    scene.add(mesh)
+    assert copy.deepcopy(scene).instances[0].mesh is mesh  # meshes are shared, never duplicated
+    assert copy.deepcopy([mesh, mesh])[1] is mesh
+
+
+@pytest.mark.parametrize("protocol", range(2, pickle.HIGHEST_PROTOCOL + 1))
+@pytest.mark.parametrize("rendered_first", [False, True])
+def test_pickle_round_trip_is_read_only_and_renders_identically(protocol, rendered_first):
+    mesh = _full_mesh()
+    before = _render_all(mesh) if rendered_first else None  # the core upload is not pickled
+    clone = pickle.loads(pickle.dumps(mesh, protocol=protocol))
+    assert type(clone) is Mesh and clone is not mesh and clone.color == mesh.color
+    for name in ("positions", "faces", "normals", "uvs", "colors"):
+        arr, original = getattr(clone, name), getattr(mesh, name)
+        assert arr.dtype == original.dtype and arr.flags.c_contiguous
+        np.testing.assert_array_equal(arr, original)
+        assert not arr.flags.writeable
+        with pytest.raises(ValueError):
+            arr[0, 0] = 0
+        with pytest.raises(ValueError):
+            arr.flags.writeable = True
+        assert type(_bytes_under(arr)) is bytes  # so the core views it in place
+    for name, want in (before or _render_all(mesh)).items():
+        np.testing.assert_array_equal(_render_all(clone)[name], want, err_msg=name)
+
+
+def test_unpickled_mesh_is_validated():
+    # Unpickling goes through the constructor: a tampered pickle cannot reach the core.
+    mesh = Mesh(TRI_POS, TRI_FACES)
+    state = pickle.dumps(mesh, protocol=4)
+    good = np.asarray(TRI_FACES, np.int32).tobytes()
+    bad = np.array([[0, 1, 2], [0, 2, 9]], np.int32).tobytes()
+    assert state.count(good) == 1
+    with pytest.raises(ValueError, match=r"faces: index 9 in face 1 is outside \[0, 4\)"):
+        pickle.loads(state.replace(good, bad))
+
+
 def test_precision_warning_for_coordinates_too_small_for_float32():
     # 1e-43 is subnormal in float32 (steps of 1.4e-45): the triangle is distorted, not far away.
     with pytest.warns(sr.PrecisionWarning, match=r"too small for float32\. Scale the mesh up"):

@@ -247,6 +247,8 @@ class Mesh:
     color : 3 or 4 floats in [0, 1], the base colour used when ``colors`` is None.
 
     All stored arrays are immutable copies, so later edits to the inputs never reach the mesh.
+    ``copy.copy`` and ``copy.deepcopy`` return the mesh itself (it cannot change); pickling
+    rebuilds it through this constructor, read-only and bit-identical.
 
     Raises TypeError / ValueError naming the argument (and the vertex or face) for a wrong dtype
     or shape, NaN or inf, a finite value beyond float32's range (|x| > 3.4028235e38, e.g. 1e39,
@@ -361,6 +363,21 @@ class Mesh:
     def bounds(self) -> npt.NDArray[np.float64]:
         """(2, 3) float64: row 0 = per-axis minimum, row 1 = maximum, object space."""
         return np.stack([self._positions.min(axis=0), self._positions.max(axis=0)]).astype(np.float64)
+
+    # -- copy and pickle ----------------------------------------------------------------------
+    # A Mesh is immutable, so a copy is the mesh itself (as for tuples); it also keeps the cached
+    # core upload. Pickling stores the arrays and rebuilds through the validating constructor, so an
+    # unpickled mesh is read-only, checked and bit-identical (float32 values round-trip exactly, and
+    # warn no more than the original). The core upload is not pickled: it is rebuilt on first use.
+    def __copy__(self) -> "Mesh":
+        return self
+
+    def __deepcopy__(self, memo: dict[int, Any]) -> "Mesh":
+        return self
+
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        return (type(self), (self._positions, self._faces, self._normals, self._uvs, self._colors,
+                             self._color))
 
     def __repr__(self) -> str:
         attrs = [a for a in ("normals", "uvs", "colors") if getattr(self, "_" + a) is not None]
