@@ -185,13 +185,19 @@ def _rgba(value: Any, name: str = "color") -> tuple[float, float, float, float]:
 
 
 def _column_bounds(arr: np.ndarray) -> tuple[list[float], list[float]]:
-    """Per-column minima and maxima as Python numbers, without temporaries."""
-    if arr.shape[0] <= 1024:  # 4 us for 42 rows; column by column has 12 calls' overhead (11 us)
-        return arr.min(axis=0).tolist(), arr.max(axis=0).tolist()
-    # NumPy reduces (n, 3) along axis 0 with an inner loop of 3: 3.7 ms for 163,842 rows, 25x
-    # slower than reducing each strided column (0.15 ms).
-    columns = [arr[:, c] for c in range(arr.shape[1])]
-    return [float(c.min()) for c in columns], [float(c.max()) for c in columns]
+    """Per-column minima and maxima as Python numbers.
+
+    NumPy reduces a (n, 3) array along axis 0 with an inner loop of 3 (62 us for 642 rows, 7 ms
+    for 65,536); a transposed copy of each chunk reduces along contiguous rows instead (5 us,
+    0.13 ms), 12x to 55x faster, for a chunk-sized temporary.
+    """
+    lo: list[float] = []
+    hi: list[float] = []
+    for rows in _chunks(arr.shape[0]):
+        t = np.ascontiguousarray(arr[rows].T)
+        lo = [min(a, b) for a, b in zip(lo, t.min(axis=1).tolist())] if lo else t.min(axis=1).tolist()
+        hi = [max(a, b) for a, b in zip(hi, t.max(axis=1).tolist())] if hi else t.max(axis=1).tolist()
+    return lo, hi
 
 
 def _warn_if_imprecise(given: np.ndarray, stored: np.ndarray) -> None:
