@@ -80,9 +80,11 @@ ConstSpan<V> rows_from_array(const py::handle& obj, const char* name, int cols,
   const std::string arg(name);
   if (!py::isinstance<py::array>(obj)) throw py::type_error(arg + " must be a numpy array");
   auto arr = py::reinterpret_borrow<py::array>(obj);
-  if (!arr.dtype().is(py::dtype::of<T>()))
+  // dtypes are compared by value: an equal dtype need not be NumPy's cached instance (one that
+  // was unpickled, or np.dtype('<f4')), while a byte-swapped '>f4' is unequal and refused.
+  if (!arr.dtype().equal(py::dtype::of<T>()))
     throw py::type_error(arg + " must have dtype " + std::string(py::str(py::dtype::of<T>())) +
-                         ", got " + std::string(py::str(arr.dtype())));
+                         " (native byte order), got " + std::string(py::str(arr.dtype())));
   if (arr.ndim() != 2 || arr.shape(1) != cols)
     throw py::value_error(arg + " must have shape (n, " + std::to_string(cols) + ")");
   const std::size_t n = std::size_t(arr.shape(0));
@@ -200,9 +202,14 @@ std::byte* external_buffer(const py::handle& obj, const OutputLayout& layout, in
   const auto shape = output_shape(layout, width, height);
   const bool shape_ok = arr.ndim() == py::ssize_t(shape.size()) &&
                         std::equal(shape.begin(), shape.end(), arr.shape());
-  if (!arr.dtype().is(output_dtype(layout)) || !shape_ok)
+  // By value, not identity (an unpickled array's dtype is a distinct but equal object). The core
+  // writes native-endian values in place, so a byte-swapped array ('>f4') is refused, not converted.
+  if (!arr.dtype().equal(output_dtype(layout)) || !shape_ok)
     throw py::value_error(name + " must be a " + std::string(py::str(output_dtype(layout))) +
-                          " array of shape " + std::string(py::str(py::tuple(py::cast(shape)))));
+                          " array (native byte order) of shape " +
+                          std::string(py::str(py::tuple(py::cast(shape)))) + ", got a " +
+                          std::string(py::str(arr.dtype())) + " array of shape " +
+                          std::string(py::str(arr.attr("shape"))));
   if (!(arr.flags() & py::array::c_style)) throw py::value_error(name + " must be C-contiguous");
   if (!arr.writeable()) throw py::value_error(name + " must be writeable");
   return static_cast<std::byte*>(arr.mutable_data());

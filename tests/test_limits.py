@@ -91,15 +91,22 @@ def test_imread_budget(tmp_path):
 def test_mesh_budget():
     m = trimesh.creation.icosphere(subdivisions=2)
     n, f = len(m.vertices), len(m.faces)
-    needed = 2 * 4 * (3 * n + 3 * f)  # float32 positions + int32 faces, our copy and the core's
+    needed = 4 * (3 * n + 3 * f)  # the stored float32 positions + int32 faces (the core views them)
+    mesh = sr.Mesh(m.vertices, m.faces)
+    assert needed == mesh.positions.nbytes + mesh.faces.nbytes
     sr.set_memory_budget(needed)
     sr.Mesh(m.vertices, m.faces)
     sr.set_memory_budget(needed - 1)
     with pytest.raises(ValueError, match=rf"mesh with {n} vertices and {f} triangles needs {needed}"):
         sr.Mesh(m.vertices, m.faces)
-    sr.set_memory_budget(needed + 2 * 4 * 3 * n - 1)  # normals add 3 floats per vertex
-    with pytest.raises(ValueError, match="mesh with"):
-        sr.Mesh(m.vertices, m.faces, normals=m.vertex_normals)
+    # Attributes: normals 3, uvs 2 and colours 4 float32 per vertex (RGB is stored as RGBA).
+    uvs, rgb = m.vertices[:, :2], np.full((n, 3), 0.5)
+    with_all = needed + 4 * (3 + 2 + 4) * n
+    sr.set_memory_budget(with_all)
+    sr.Mesh(m.vertices, m.faces, normals=m.vertex_normals, uvs=uvs, colors=rgb)
+    sr.set_memory_budget(with_all - 1)
+    with pytest.raises(ValueError, match=rf"mesh with {n} vertices and {f} triangles needs {with_all}"):
+        sr.Mesh(m.vertices, m.faces, normals=m.vertex_normals, uvs=uvs, colors=rgb)
 
 
 def test_mesh_file_budget_from_header(tmp_path):

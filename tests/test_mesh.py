@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import pathlib
+import pickle
 import subprocess
 import sys
 import types
@@ -10,6 +11,7 @@ import numpy as np
 import pytest
 import trimesh
 
+import softrast as sr
 from softrast.mesh import Mesh, load_mesh
 
 SPOT_PATH = pathlib.Path(__file__).resolve().parents[1] / "assets" / "meshes" / "spot.obj"
@@ -453,3 +455,245 @@ def test_load_mesh_without_triangles(tmp_path, name, text):
     path.write_text(text)
     with pytest.raises(ValueError, match=name):
         load_mesh(path)
+
+
+# -- values beyond float32, precision far from the origin (issue 20, item 7) ---------------------
+
+FLT_MAX = float(np.finfo(np.float32).max)
+
+
+@pytest.mark.parametrize("name, cols", [("positions", 3), ("normals", 3), ("uvs", 2)])
+@pytest.mark.parametrize("value", [1e39, -1e39, 1e300, np.longdouble(FLT_MAX) * 2])
+def test_finite_values_beyond_float32_are_refused_by_name_and_vertex(name, cols, value):
+    # float32 would store them as inf: the mesh used to be built and fail only at render time.
+    arrays = {"positions": np.array(TRI_POS), "normals": np.ones((4, 3)), "uvs": np.zeros((4, 2))}
+    bad = arrays[name].astype(np.result_type(arrays[name], value))
+    bad[2, cols - 1] = value
+    bad[3, 0] = value  # a later one is not the one reported
+    arrays[name] = bad
+    with pytest.raises(ValueError, match=rf"^{name} has a value beyond float32's range .* at vertex 2: "):
+        Mesh(arrays["positions"], TRI_FACES, normals=arrays["normals"], uvs=arrays["uvs"])
+
+
+def test_largest_float32_is_accepted_and_values_rounding_to_it_too():
+    # Round to nearest: up to half a float32 step above FLT_MAX still rounds to FLT_MAX, not inf.
+    half_step = 2.0**103  # float32 steps are 2**104 in the top binade
+    pos = np.array([[0.0, 0.0, 0.0], [FLT_MAX, 0.0, 0.0], [0.0, FLT_MAX + half_step * 0.99, 0.0]])
+    mesh = Mesh(pos, [[0, 1, 2]])
+    assert mesh.positions[1, 0] == mesh.positions[2, 1] == np.float32(FLT_MAX)
+    with pytest.raises(ValueError, match="positions has a value beyond float32's range .* at vertex 2"):
+        Mesh(pos + [[0, 0, 0], [0, 0, 0], [0, half_step * 1.01, 0]], [[0, 1, 2]])
+
+
+def test_colors_beyond_float32_refused_as_out_of_range():
+    with pytest.raises(ValueError, match="colors must be uint8 or float in \\[0, 1\\]"):
+        Mesh(TRI_POS, TRI_FACES, colors=np.full((4, 3), 1e39))
+
+
+def _sphere_at(offset: float, dtype=np.float64) -> np.ndarray:
+    """A unit icosphere's vertices (irrational: float32 rounds every one) moved by ``offset``."""
+    return (np.asarray(trimesh.creation.icosphere(subdivisions=2).vertices) + offset).astype(dtype)
+
+
+@pytest.mark.parametrize("offset", [0.0, -3.0, 100.0, 1e3, 1e4, -3e4, 1e5, 1e7])
+def test_precision_warning_when_float32_moves_vertices(offset):
+    """PrecisionWarning exactly when a stored vertex moved by > 1e-4 of the bounding-box diagonal."""
+    from softrast.mesh import PRECISION_WARNING_FRACTION
+
+    given = _sphere_at(offset)
+    faces = trimesh.creation.icosphere(subdivisions=2).faces
+    moved = np.abs(given.astype(np.float32).astype(np.float64) - given).max()
+    diagonal = np.linalg.norm(np.ptp(given, axis=0))
+    expected = moved > PRECISION_WARNING_FRACTION * diagonal
+    assert expected == (abs(offset) >= 1e4)  # the cases span both sides of the threshold
+    if expected:
+        with pytest.warns(sr.PrecisionWarning, match=r"positions: storing them as float32 moved vertex "
+                          r"\d+ by .* bounding-box diagonal .*Centre the mesh .*pose") as record:
+            mesh = Mesh(given, faces)
+        assert len(record) == 1 and record[0].filename == __file__  # points at the caller
+    else:  # filterwarnings = error: any warning fails the test
+        mesh = Mesh(given, faces)
+    np.testing.assert_array_equal(mesh.positions, given.astype(np.float32))  # stored all the same
+
+
+def test_precision_warning_is_public_and_specific():
+    assert "PrecisionWarning" in sr.__all__ and issubclass(sr.PrecisionWarning, UserWarning)
+    with pytest.warns(sr.PrecisionWarning):
+        mesh = Mesh(_sphere_at(1e7), trimesh.creation.icosphere(subdivisions=2).faces)
+    # At 1e7 float32 steps are 1.0: a sphere of radius 1 has 3 values per axis left, and its 162
+    # vertices collapse onto at most 3**3 points.
+    assert len(np.unique(mesh.positions, axis=0)) <= 27
+
+
+def test_same_offset_in_the_pose_renders_correctly():
+    # What the warning suggests: the centred mesh with the offset in the (float64) pose renders
+    # as the mesh at the origin does, seen from the same relative viewpoint.
+    faces = trimesh.creation.icosphere(subdivisions=2).faces
+    offset = np.array([1e7, -2e7, 5e6])
+    renders = []
+    for where in (np.zeros(3), offset):
+        scene = sr.Scene()
+        pose = np.eye(4)
+        pose[:3, 3] = where
+        scene.add(Mesh(_sphere_at(0.0), faces), pose=pose)
+        cam = sr.PerspectiveCamera(fov_y=50.0)
+        cam.look_at(eye=where + (0.0, 0.0, 3.0), target=where)
+        renders.append(sr.Renderer(48, 48).render(scene, cam, outputs=("mask", "depth")))
+    np.testing.assert_array_equal(renders[0].mask, renders[1].mask)
+    np.testing.assert_allclose(renders[0].depth, renders[1].depth, atol=1e-5)
+
+
+@pytest.mark.parametrize("given", [
+    _sphere_at(1e7, np.float32),  # float32 input: stored exactly, nothing lost here
+    np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]]) + 10**6,  # integers below 2**24 are exact
+    np.array([[0.0, 0.0, 1e7], [1.0, 0.0, 1e7], [0.0, 1.0, 1e7]]),  # a plane at an exact 1e7
+    np.full((3, 3), 1e7 + 0.3),  # a single point: no size to distort
+])
+def test_no_precision_warning_when_nothing_moves(given):
+    Mesh(given, [[0, 1, 2]] if len(given) == 3 else trimesh.creation.icosphere(subdivisions=2).faces)
+
+
+def test_suite_and_example_meshes_do_not_warn():
+    # Under filterwarnings = error any PrecisionWarning fails this: spot.obj, the primitives the
+    # tests and examples use, example 01's triangle and the soak test's random grids.
+    load_mesh(SPOT_PATH)
+    for tm in (trimesh.creation.icosphere(subdivisions=4), trimesh.creation.box(extents=(1.2, 1.2, 1.2)),
+               trimesh.creation.cylinder(radius=0.5, height=2.0)):
+        Mesh.from_trimesh(tm)
+    Mesh([[-0.8, -0.6, 0.0], [0.8, -0.6, 0.0], [0.0, 0.7, 0.0]], [[0, 1, 2]])
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("soak", SPOT_PATH.parents[2] / "benchmarks" / "soak.py")
+    soak = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(soak)
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        soak.random_mesh(rng)
+
+
+# -- validation in chunks (issue 20, item 8): same results, first bad value named ----------------
+
+CHUNK = 2**16
+
+
+@pytest.mark.parametrize("where", [0, CHUNK - 1, CHUNK, CHUNK + 1, 2 * CHUNK + 5])
+def test_chunked_validation_reports_the_first_bad_value(where):
+    n = 2 * CHUNK + 10
+    positions = np.zeros((n, 3))
+    faces = np.tile(np.array([[0, 1, 2]]), (n, 1))
+    later = min(where + CHUNK, n - 1)  # a later bad value, usually in another chunk
+    for value, message in ((np.nan, "contains NaN or inf"), (-np.inf, "contains NaN or inf"),
+                           (1e39, "has a value beyond float32's range")):
+        for name in ("positions", "normals", "uvs"):
+            arrays = {"positions": positions, "normals": np.ones((n, 3)), "uvs": np.zeros((n, 2))}
+            bad = arrays[name].copy()
+            bad[where, 1] = value
+            bad[later, 0] = np.nan
+            arrays[name] = bad
+            with pytest.raises(ValueError, match=rf"^{name} {message}.* at vertex {where}\b"):
+                Mesh(arrays["positions"], faces, normals=arrays["normals"], uvs=arrays["uvs"])
+    for index in (-1, n, 2**40, -2**40):
+        bad = faces.copy()
+        bad[where, 2] = index
+        bad[later, 0] = n + 7
+        with pytest.raises(ValueError, match=rf"^faces: index {index} in face {where} is outside \[0, {n}\)"):
+            Mesh(positions, bad)
+    colors = np.full((n, 4), 0.5)
+    colors[where, 3] = np.nan
+    with pytest.raises(ValueError, match=f"^colors contains NaN or inf at vertex {where}$"):
+        Mesh(positions, faces, colors=colors)
+    colors[where, 3] = 1.5
+    with pytest.raises(ValueError, match="colors must be uint8 or float in \\[0, 1\\]"):
+        Mesh(positions, faces, colors=colors)
+
+
+@pytest.mark.parametrize("n", [5, CHUNK, 3 * CHUNK + 17])
+def test_chunked_conversion_is_bit_identical_to_a_plain_cast(n, rng):
+    positions = rng.normal(size=(n, 3)) * 10.0
+    faces = rng.integers(0, n, size=(2 * n, 3), dtype=np.int64)
+    normals = rng.normal(size=(n, 3))
+    uvs = rng.random((n, 2)).astype(np.float16)
+    rgb8 = rng.integers(0, 256, size=(n, 3), dtype=np.uint8)
+    rgba = rng.random((n, 4))
+    mesh = Mesh(positions[::-1].astype(">f8"), faces.astype(">i8"), normals=np.asfortranarray(normals),
+                uvs=uvs, colors=rgb8)  # byte-swapped, reversed, Fortran-ordered, float16
+    np.testing.assert_array_equal(mesh.positions, positions[::-1].astype(np.float32))
+    np.testing.assert_array_equal(mesh.faces, faces.astype(np.int32))
+    np.testing.assert_array_equal(mesh.normals, normals.astype(np.float32))
+    np.testing.assert_array_equal(mesh.uvs, uvs.astype(np.float32))
+    expected = np.ones((n, 4), np.float32)
+    expected[:, :3] = rgb8.astype(np.float32) / np.float32(255.0)
+    np.testing.assert_array_equal(mesh.colors, expected)
+    np.testing.assert_array_equal(Mesh(positions, faces, colors=rgba).colors, rgba.astype(np.float32))
+    for arr in (mesh.positions, mesh.faces, mesh.normals, mesh.uvs, mesh.colors):
+        assert arr.flags.c_contiguous and not arr.flags.writeable and type(_bytes_under(arr)) is bytes
+        with pytest.raises(ValueError):
+            arr.flags.writeable = True
+
+
+# -- copy and pickle (issue 20, item 10) -----------------------------------------------------------
+
+def _render_all(mesh: Mesh) -> dict[str, np.ndarray]:
+    scene = sr.Scene()
+    scene.add(mesh)
+    cam = sr.PerspectiveCamera(fov_y=50.0)
+    cam.look_at(eye=(0.5, 0.4, 3.5), target=(0.0, 0.0, 0.0))
+    return sr.Renderer(64, 48).render(scene, cam, outputs=sr.OUTPUTS).as_dict()
+
+
+def _full_mesh() -> Mesh:
+    tm = trimesh.creation.icosphere(subdivisions=3)
+    n = len(tm.vertices)
+    return Mesh(tm.vertices, tm.faces, normals=tm.vertex_normals, uvs=tm.vertices[:, :2] * 0.5 + 0.5,
+                colors=np.linspace(0, 255, 3 * n).reshape(n, 3).astype(np.uint8), color=(0.2, 0.4, 0.6))
+
+
+def test_copy_and_deepcopy_return_the_immutable_mesh_itself():
+    import copy
+
+    mesh = _full_mesh()
+    assert copy.copy(mesh) is mesh and copy.deepcopy(mesh) is mesh
+    scene = sr.Scene()
+    scene.add(mesh)
+    assert copy.deepcopy(scene).instances[0].mesh is mesh  # meshes are shared, never duplicated
+    assert copy.deepcopy([mesh, mesh])[1] is mesh
+
+
+@pytest.mark.parametrize("protocol", range(2, pickle.HIGHEST_PROTOCOL + 1))
+@pytest.mark.parametrize("rendered_first", [False, True])
+def test_pickle_round_trip_is_read_only_and_renders_identically(protocol, rendered_first):
+    mesh = _full_mesh()
+    before = _render_all(mesh) if rendered_first else None  # the core upload is not pickled
+    clone = pickle.loads(pickle.dumps(mesh, protocol=protocol))
+    assert type(clone) is Mesh and clone is not mesh and clone.color == mesh.color
+    for name in ("positions", "faces", "normals", "uvs", "colors"):
+        arr, original = getattr(clone, name), getattr(mesh, name)
+        assert arr.dtype == original.dtype and arr.flags.c_contiguous
+        np.testing.assert_array_equal(arr, original)
+        assert not arr.flags.writeable
+        with pytest.raises(ValueError):
+            arr[0, 0] = 0
+        with pytest.raises(ValueError):
+            arr.flags.writeable = True
+        assert type(_bytes_under(arr)) is bytes  # so the core views it in place
+    for name, want in (before or _render_all(mesh)).items():
+        np.testing.assert_array_equal(_render_all(clone)[name], want, err_msg=name)
+
+
+def test_unpickled_mesh_is_validated():
+    # Unpickling goes through the constructor: a tampered pickle cannot reach the core.
+    mesh = Mesh(TRI_POS, TRI_FACES)
+    state = pickle.dumps(mesh, protocol=4)
+    good = np.asarray(TRI_FACES, np.int32).tobytes()
+    bad = np.array([[0, 1, 2], [0, 2, 9]], np.int32).tobytes()
+    assert state.count(good) == 1
+    with pytest.raises(ValueError, match=r"faces: index 9 in face 1 is outside \[0, 4\)"):
+        pickle.loads(state.replace(good, bad))
+
+
+def test_precision_warning_for_coordinates_too_small_for_float32():
+    # 1e-43 is subnormal in float32 (steps of 1.4e-45): the triangle is distorted, not far away.
+    with pytest.warns(sr.PrecisionWarning, match=r"too small for float32\. Scale the mesh up"):
+        Mesh(np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.3, 1.0, 0.0]]) * 1.234567e-43, [[0, 1, 2]])
+    with pytest.warns(sr.PrecisionWarning, match=r"too small"):  # 1e-300 rounds to 0: collapses
+        Mesh(np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]) * 1e-300, [[0, 1, 2]])

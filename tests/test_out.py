@@ -1,6 +1,10 @@
 """Rendering into caller-supplied arrays (out=)."""
 from __future__ import annotations
 
+import copy
+import pickle
+import sys
+
 import numpy as np
 import pytest
 import trimesh
@@ -82,3 +86,66 @@ def test_partly_overlapping_out_arrays_are_refused_and_neighbours_are_not(setup)
                             out={"depth": as_depth(0), "triangle_id": as_ids(n)})
     np.testing.assert_array_equal(frame.depth, fresh.depth)
     np.testing.assert_array_equal(frame.triangle_id, fresh.triangle_id)
+
+
+# -- dtypes are compared by value, not identity (issue 20, item 10) ---------------------------------
+
+def _equal_not_identical(dtype: np.dtype) -> list[np.dtype]:
+    """Dtypes equal to ``dtype`` that are other objects than NumPy's cached instance."""
+    variants = [pickle.loads(pickle.dumps(dtype)), copy.deepcopy(dtype), dtype.newbyteorder("="),
+                np.dtype(dtype, metadata={"from": "test"})]
+    assert all(v == dtype and v is not dtype for v in variants)
+    return variants
+
+
+def test_unpickled_out_frame_is_accepted_for_every_output(setup):
+    # Arrays that travelled through pickle (a worker pool's results, say) used to be refused with
+    # "must be a float32 array" although they were float32: the dtype object is another instance.
+    renderer, scene, cam = setup
+    fresh = renderer.render(scene, cam, outputs=sr.OUTPUTS).as_dict()
+    arrays = pickle.loads(pickle.dumps({name: np.zeros_like(a) for name, a in fresh.items()}))
+    assert any(a.dtype is not fresh[name].dtype for name, a in arrays.items())
+    frame = renderer.render(scene, cam, outputs=sr.OUTPUTS, out=arrays)
+    for name, want in fresh.items():
+        assert getattr(frame, name) is arrays[name]
+        np.testing.assert_array_equal(arrays[name], want)
+
+
+@pytest.mark.parametrize("variant", range(5))
+def test_equal_dtype_objects_are_accepted(setup, variant):
+    renderer, scene, cam = setup
+    dtypes = _equal_not_identical(np.dtype(np.float32)) + [np.dtype("<f4" if sys.byteorder == "little" else ">f4")]
+    depth = np.zeros((60, 80), dtypes[variant])
+    renderer.render(scene, cam, outputs=("depth",), out={"depth": depth})
+    np.testing.assert_array_equal(depth, renderer.render(scene, cam, outputs=("depth",)).depth)
+
+
+@pytest.mark.parametrize("name, dtype", [("depth", ">f4"), ("triangle_id", ">i4"), ("coverage", ">u4"),
+                                         ("normal", ">f4")])
+def test_byte_swapped_out_arrays_are_refused_with_a_clear_message(setup, name, dtype):
+    # The core writes native values in place, so a big-endian array cannot be filled: refused.
+    renderer, scene, cam = setup
+    shape = (60, 80, 3) if name == "normal" else (60, 80)
+    with pytest.raises(ValueError, match=rf"^out\['{name}'\] must be a \w+ array \(native byte order\) "
+                                         rf"of shape \({', '.join(map(str, shape))}\), got a {dtype} array"):
+        renderer.render(scene, cam, outputs=(name,), out={name: np.zeros(shape, dtype)})
+
+
+def test_core_mesh_data_compares_dtypes_by_value():
+    # The same identity check guarded _core.MeshData (which sr.Mesh feeds): equal dtypes are
+    # accepted, a byte-swapped one is refused by argument name. sr.Mesh itself converts any
+    # real dtype, '>f4' included, to native float32.
+    from softrast import _core
+
+    positions = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)
+    faces = np.array([[0, 1, 2]], np.int32)
+    for f32, i32 in zip(_equal_not_identical(positions.dtype), _equal_not_identical(faces.dtype)):
+        assert _core.MeshData(positions.astype(f32), faces.astype(i32)).num_faces == 1
+    with pytest.raises(TypeError, match=r"^positions must have dtype float32 \(native byte order\), got >f4"):
+        _core.MeshData(positions.astype(">f4"), faces)
+    with pytest.raises(TypeError, match=r"^faces must have dtype int32 \(native byte order\), got >i4"):
+        _core.MeshData(positions, faces.astype(">i4"))
+    swapped = sr.Mesh(positions.astype(">f4"), faces.astype(">i4"), normals=positions.astype(">f8"))
+    assert swapped.positions.dtype == np.float32 and swapped.positions.dtype.isnative
+    np.testing.assert_array_equal(swapped.positions, positions)
+    np.testing.assert_array_equal(swapped.faces, faces)

@@ -8,7 +8,7 @@ from ._core import MAX_IMAGE_SIDE, OUTPUT_TABLE, OUTPUTS, SUBPIXEL_BITS, TILE_SI
 from .camera import Camera, IntrinsicsCamera, OrthographicCamera, PerspectiveCamera
 from .io import imread, imwrite
 from .limits import get_memory_budget, set_memory_budget
-from .mesh import Mesh, load_mesh
+from .mesh import Mesh, PrecisionWarning, load_mesh
 from .render import Frame, Renderer
 from .scene import Scene
 
@@ -24,6 +24,7 @@ __all__ = [
     "OUTPUT_TABLE",
     "OrthographicCamera",
     "PerspectiveCamera",
+    "PrecisionWarning",
     "Renderer",
     "SUBPIXEL_BITS",
     "Scene",
