@@ -391,13 +391,19 @@ def test_daemon_thread_rendering_while_the_interpreter_exits(tmp_path):
     runs = 10
     parked = 0
     children = [start_child(tmp_path, EXIT_WHILE_RENDERING) for _ in range(runs)]
-    for child in children:
-        proc = finish_child(child)
-        assert proc.returncode == 0, proc.stdout + proc.stderr
-        assert "terminate" not in proc.stderr, proc.stderr
-        match = re.fullmatch(r"parked (\d+)\n", proc.stdout)
-        assert match, proc.stdout + proc.stderr
-        parked += int(match.group(1))
+    try:
+        for child in children:
+            proc = finish_child(child)
+            assert proc.returncode == 0, proc.stdout + proc.stderr
+            assert "terminate" not in proc.stderr, proc.stderr
+            match = re.fullmatch(r"parked (\d+)\n", proc.stdout)
+            assert match, proc.stdout + proc.stderr
+            parked += int(match.group(1))
+    finally:
+        for child in children:
+            if child.poll() is None:  # after a failure: leave no child behind
+                os.killpg(child.pid, signal.SIGKILL)
+                child.communicate()
     # The overlap was real: the daemon thread ended a render during finalization in most runs
     # (the others caught it between renders, where Python ends it without our help).
     assert parked >= runs // 2, parked
