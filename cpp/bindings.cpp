@@ -8,7 +8,11 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <cxxabi.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <atomic>
 #include <cstdint>
 #include <cstring>
 #include <string>
@@ -38,15 +42,47 @@ bool interpreter_finalizing() {
 #endif
 }
 
+std::atomic<int> g_parked_threads{0};  // _parked_threads(), for tests
+
+// For a thread that must not return to Python because the interpreter is finalizing: sleeps
+// until the process exits, touching nothing of Python's (its thread state may be freed already).
+[[noreturn]] void park_forever() {
+  g_parked_threads.fetch_add(1);
+  for (;;) pause();
+}
+
+// Takes back the GIL released for a render, outside any destructor. During finalization Python
+// ends a thread that asks for the GIL with pthread_exit, whose forced unwind aborted the process
+// when it reached pybind11's gil_scoped_release destructor (noexcept): a daemon thread rendering
+// while the interpreter exited died with "terminate called without an active exception" in 10
+// runs of 10 (pybind11 issue 2215). Such a thread parks instead: when finalization has begun
+// before it asks, or when the unwind arrives (finalization began in between). Its render is
+// complete and its Renderer unlocked; the references it holds are never dropped.
+void take_gil_or_park(PyThreadState* state) {
+  if (interpreter_finalizing()) park_forever();
+  try {
+    PyEval_RestoreThread(state);
+  } catch (abi::__forced_unwind&) {
+    park_forever();  // not rethrown: the handler is never left
+  }
+}
+
 // The last reference to a MeshData may go on a thread without the GIL (rendering releases it)
 // => take the GIL to drop the Python references. Once the interpreter is shutting down, taking
-// it could block or end the thread => leak them instead (the process is exiting).
+// it could block or end the thread => leak them instead (the process is exiting), and park if
+// finalization begins while asking for it (as take_gil_or_park; this runs in a noexcept deleter).
 void release_owner(PyMeshOwner* owner) {
   if (PyGILState_Check()) {
     for (PyObject* obj : owner->viewed) Py_DECREF(obj);
   } else if (!owner->viewed.empty() && Py_IsInitialized() && !interpreter_finalizing()) {
-    py::gil_scoped_acquire gil;
+    PyGILState_STATE gil;
+    try {
+      gil = PyGILState_Ensure();
+    } catch (abi::__forced_unwind&) {
+      park_forever();
+    }
     for (PyObject* obj : owner->viewed) Py_DECREF(obj);
+    PyGILState_Release(gil);
   }
   delete owner;
 }
@@ -272,11 +308,18 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::handle& 
         throw py::value_error(std::string("out['") + kOutputLayouts[i].name + "'] and out['" +
                               kOutputLayouts[j].name + "'] share memory");
 
+  // Python threads may render concurrently. The GIL is released and taken back by hand, not by
+  // py::gil_scoped_release: see take_gil_or_park. Renderer::render must not wait for the GIL
+  // (it does not: pure C++), else fork(), which waits for renders, could deadlock.
   std::unique_ptr<Framebuffer> fb;
-  {
-    py::gil_scoped_release release;  // Python threads may render concurrently
+  PyThreadState* const saved = PyEval_SaveThread();
+  try {
     fb = self.render(draws, camera, options, external);
+  } catch (...) {
+    take_gil_or_park(saved);
+    throw;
   }
+  take_gil_or_park(saved);
   py::dict result;
   for (int i = 0; i < kNumOutputs; ++i) {
     const OutputLayout& layout = kOutputLayouts[i];
@@ -299,6 +342,7 @@ PYBIND11_MODULE(_core, m) {
   m.attr("TILE_SIZE_PX") = kTileSizePx;
   m.attr("MAX_IMAGE_SIDE") = kMaxImageSide;
   m.attr("MAX_FRAMEBUFFER_BYTES") = py::int_(kMaxFramebufferBytes);
+  m.attr("MAX_THREADS") = kMaxThreads;
   // The output table (framebuffer.hpp), the one source of every list of outputs in Python.
   py::tuple names(kNumOutputs), table(kNumOutputs);
   for (int i = 0; i < kNumOutputs; ++i) {
@@ -326,6 +370,15 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("num_vertices", [](const MeshData& m) { return m.positions.size(); })
       .def_property_readonly("num_faces", [](const MeshData& m) { return m.faces.size(); });
 
+  // Testing only (tests/test_lifecycle.py), hence the underscores.
+  m.def("_fail_thread_start", &fail_thread_start, "n"_a,
+        "The n-th worker thread started from now on (1 = the next) fails as if the system had "
+        "refused it; 0 = off.");
+  m.def("_parked_threads", [] { return g_parked_threads.load(); },
+        "Threads parked for good because they finished a render while the interpreter finalized.");
+
+  // ValueError for threads outside [0, MAX_THREADS] (std::invalid_argument), RuntimeError naming
+  // `threads` when the system refuses a worker thread (std::runtime_error; none is left running).
   py::class_<Renderer>(m, "Renderer")
       .def(py::init<int, int, int, bool>(), "width"_a, "height"_a, "threads"_a = 0, "simd"_a = true)
       .def_property_readonly("width", &Renderer::width)

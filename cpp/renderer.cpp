@@ -11,12 +11,43 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <pthread.h>
 #include <stdexcept>
 #include <string>
 
 namespace sr {
 
 namespace {
+
+// fork() copies only the thread that calls it: a render running on another thread would leave
+// its Renderer's mutex locked for good in the child (and its scratch half written). So every
+// live Renderer's mutex is registered here, and pthread_atfork's prepare handler takes them all:
+// fork() waits until the renders in progress end; the parent and child handlers release them.
+// No deadlock: a render holds its mutex without waiting for anything the forking thread may
+// hold (from Python it runs with the GIL released, bindings.cpp), and Renderers take the
+// registry's lock only to add or remove themselves. Never freed: a Renderer may be destroyed
+// during exit, after static destructors have run.
+struct ForkGuard {
+  std::mutex mutex;
+  std::vector<std::mutex*> renderers;
+};
+ForkGuard& fork_guard() {
+  static ForkGuard* const guard = new ForkGuard;
+  return *guard;
+}
+void lock_renderers() {
+  ForkGuard& guard = fork_guard();
+  guard.mutex.lock();
+  for (std::mutex* m : guard.renderers) m->lock();
+}
+void unlock_renderers() {
+  ForkGuard& guard = fork_guard();
+  for (std::mutex* m : guard.renderers) m->unlock();
+  guard.mutex.unlock();
+}
+// Registered when the library loads (the guard is created first, not inside fork()).
+[[maybe_unused]] const int g_fork_handlers =
+    (fork_guard(), pthread_atfork(lock_renderers, unlock_renderers, unlock_renderers));
 
 // Vertices per work item: small enough that a mid-size mesh splits evenly over the threads
 // (16384 gave an 81,920-face icosphere three items for two threads).
@@ -126,7 +157,17 @@ Renderer::Renderer(int width, int height, int threads, bool simd)
       pool_(threads),
       isa_(simd ? best_isa() : Isa::Generic),
       tile_scratch_(pool_.size()),
-      shade_scratch_(pool_.size()) {}
+      shade_scratch_(pool_.size()) {
+  ForkGuard& guard = fork_guard();
+  std::lock_guard<std::mutex> lock(guard.mutex);
+  guard.renderers.push_back(&mutex_);
+}
+
+Renderer::~Renderer() {
+  ForkGuard& guard = fork_guard();
+  std::lock_guard<std::mutex> lock(guard.mutex);
+  guard.renderers.erase(std::find(guard.renderers.begin(), guard.renderers.end(), &mutex_));
+}
 
 std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
                                               const CameraParams& camera,

@@ -19,9 +19,14 @@ namespace sr {
 
 class Renderer {
  public:
-  // Throws std::invalid_argument for sizes outside [1, kMaxImageSide]. `simd`: use the best
-  // instruction set the CPU has (false: the generic kernels; the images are the same bits).
+  // Throws std::invalid_argument for sizes outside [1, kMaxImageSide] or threads outside
+  // [0, kMaxThreads], std::runtime_error when the system refuses a worker thread (ThreadPool).
+  // `simd`: use the best instruction set the CPU has (false: the generic kernels; the images are
+  // the same bits).
   Renderer(int width, int height, int threads, bool simd = true);
+  ~Renderer();
+  Renderer(const Renderer&) = delete;
+  Renderer& operator=(const Renderer&) = delete;
 
   int width() const { return viewport_.width; }
   int height() const { return viewport_.height; }
@@ -29,7 +34,9 @@ class Renderer {
   Isa isa() const { return isa_; }
 
   // Renders the draws in order into a new framebuffer holding only options.outputs.
-  // Thread-safe: concurrent calls on one Renderer run one after the other.
+  // Thread-safe: concurrent calls on one Renderer run one after the other. fork() waits for
+  // renders in progress to end (so the child inherits no render half done and no lock held);
+  // a render must therefore never wait for the thread that forks (e.g. for Python's GIL).
   // Throws std::invalid_argument for an invalid camera, options or draw.
   // `external` (optional, indexed like kOutputLayouts) supplies caller memory for some outputs.
   std::unique_ptr<Framebuffer> render(const std::vector<Draw>& draws, const CameraParams& camera,
@@ -40,7 +47,7 @@ class Renderer {
   Viewport viewport_;
   ThreadPool pool_;
   Isa isa_;
-  std::mutex mutex_;
+  std::mutex mutex_;  // held for a whole render, and by fork() (see renderer.cpp)
   // Scratch reused across renders: no per-frame allocation once sizes settle.
   std::vector<ScratchArray<ProjectedVertex>> vertices_;  // per draw
   std::vector<SetupChunk> chunks_;

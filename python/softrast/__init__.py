@@ -4,7 +4,7 @@ Conventions (see README): world and view space are right-handed; cameras look do
 unless an IntrinsicsCamera uses convention="opencv"; image row 0 is the top; depth is the
 distance along the camera's viewing axis in scene units, 0 where nothing was hit.
 """
-from ._core import MAX_IMAGE_SIDE, OUTPUT_TABLE, OUTPUTS, SUBPIXEL_BITS, TILE_SIZE_PX
+from ._core import MAX_IMAGE_SIDE, MAX_THREADS, OUTPUT_TABLE, OUTPUTS, SUBPIXEL_BITS, TILE_SIZE_PX
 from .camera import Camera, IntrinsicsCamera, OrthographicCamera, PerspectiveCamera
 from .io import imread, imwrite
 from .limits import get_memory_budget, set_memory_budget
@@ -19,6 +19,7 @@ __all__ = [
     "Frame",
     "IntrinsicsCamera",
     "MAX_IMAGE_SIDE",
+    "MAX_THREADS",
     "Mesh",
     "OUTPUTS",
     "OUTPUT_TABLE",

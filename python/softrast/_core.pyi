@@ -19,6 +19,7 @@ SUBPIXEL_BITS: int  # fixed-point precision of snapped window coordinates (8 => 
 TILE_SIZE_PX: int  # side of the square screen tiles owned by one thread at a time
 MAX_IMAGE_SIDE: int  # largest width or height accepted
 MAX_FRAMEBUFFER_BYTES: int  # refuse a render whose requested outputs need more than this
+MAX_THREADS: int  # largest thread count a Renderer accepts (256)
 OUTPUTS: tuple[str, ...]  # every output name render() accepts, in the output table's order
 # The output table (cpp/framebuffer.hpp), one dict per output: name, dtype (numpy.dtype),
 # channels (1 => (h, w), else (h, w, channels)), bytes_per_pixel, background (value where
@@ -52,9 +53,17 @@ class MeshData:
     @property
     def num_faces(self) -> int: ...
 
+def _fail_thread_start(n: int) -> None:
+    """Testing only: the n-th worker thread started from now on fails (0 = off)."""
+
+def _parked_threads() -> int:
+    """Testing only: threads parked for good after a render ended during interpreter exit."""
+
 class Renderer:
     def __init__(self, width: int, height: int, threads: int = 0, simd: bool = True) -> None:
-        """threads = 0 => one worker per hardware core; simd = False => generic kernels."""
+        """threads = 0 => one worker per hardware core (at most MAX_THREADS); simd = False =>
+        generic kernels. ValueError for threads outside [0, MAX_THREADS]; RuntimeError naming
+        ``threads`` when the system refuses a worker thread (none is left running)."""
     @property
     def width(self) -> int: ...
     @property

@@ -95,13 +95,22 @@ class Renderer:
     Parameters
     ----------
     width, height : image size in pixels, each in [1, softrast.MAX_IMAGE_SIDE].
-    threads : worker threads (0 = one per core). The images are bit-identical for any count.
+    threads : worker threads, the calling thread included, in [0, softrast.MAX_THREADS] (0 = one
+        per core, at most MAX_THREADS). The images are bit-identical for any count. Raises
+        ``ValueError`` for a count outside that range and ``RuntimeError`` (naming ``threads``)
+        when the system refuses to start a worker thread (``ulimit -u``, ``ulimit -v``, memory);
+        the workers already started are stopped first, so none is left behind.
     simd : use the widest instruction set the CPU has for the per-pixel kernels (AVX2 where
         available; see ``isa``). False forces the generic x86-64 kernels. The images are
         bit-identical either way.
 
     The GIL is released while rendering, so Python threads may render concurrently (calls on one
     Renderer are serialised; use one Renderer per thread for parallelism).
+
+    Fork-safe: ``os.fork()`` (and so ``multiprocessing``'s "fork" start method) waits for renders
+    in progress on other threads to end; in the child an inherited Renderer starts its own worker
+    threads at its first render, renders the same bits and can be destroyed. A daemon thread
+    still rendering when the interpreter exits is left asleep (the process exits normally).
     """
 
     def __init__(self, width: int, height: int, threads: int = 0, simd: bool = True) -> None:
@@ -109,6 +118,8 @@ class Renderer:
         h = _image_side(height, "height")
         if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 0:
             raise ValueError(f"threads must be an int >= 0, got {threads!r}")
+        if threads > _core.MAX_THREADS:
+            raise ValueError(f"threads must be in [0, {_core.MAX_THREADS}] (0 = one per core), got {threads}")
         if not isinstance(simd, (bool, np.bool_)):
             raise ValueError(f"simd must be True or False, got {simd!r}")
         self._core = _core.Renderer(w, h, int(threads), bool(simd))
