@@ -310,7 +310,7 @@ def load_mesh(path: str | os.PathLike[str], smooth: bool = True, color: Sequence
     path_str = os.fspath(path)
     if not os.path.isfile(path_str):
         raise FileNotFoundError(errno.ENOENT, "mesh file not found", path_str)
-    check_mesh_file(path_str)
+    stated_faces = check_mesh_file(path_str)
     # trimesh raises anything from KeyError to struct.error while parsing, and more later, from
     # its lazily computed properties (an IndexError for a face index past the vertices, a
     # ModuleNotFoundError when merging textured parts needs Pillow): all of it is this file's
@@ -327,6 +327,9 @@ def load_mesh(path: str | os.PathLike[str], smooth: bool = True, color: Sequence
                 loaded = parts[0] if len(parts) == 1 else trimesh.util.concatenate(parts)
             if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0 or len(loaded.vertices) == 0:
                 raise _FileProblem("the file contains no triangles")
+            if len(loaded.faces) < stated_faces:
+                raise _FileProblem(f"it has {stated_faces} faces but only {len(loaded.faces)} "
+                                   "could be read: corrupt face rows were skipped")
             faces, count = np.asarray(loaded.faces), len(loaded.vertices)
             bad = (faces < 0) | (faces >= count)
             if bad.any():
