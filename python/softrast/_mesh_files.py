@@ -178,33 +178,33 @@ def _check_ply_ascii(path_str: str, start: int, size: int,
 def _check_off(path_str: str, size: int) -> int:
     """OFF states its vertex and face counts; trimesh reads that many non-blank lines and
     ignores the rest (a file cut at 70% loaded 62 of 320 faces). As for ascii PLY, the lines
-    must number exactly what the counts say and the rows at each boundary must parse; here every
-    row's number of values is checked as well. Comments (#) and blank lines are skipped, as
-    trimesh does; one pass over the lines (~25 ms per 100,000, a tenth of trimesh's load)."""
-    found_off, counts, rows = False, None, 0
+    must number exactly what the counts say and the rows at each boundary must parse (a face
+    row in the middle that trimesh skips is caught by the face count, in load_mesh). Comments
+    (#) and blank lines are skipped, as trimesh does. One pass over the lines."""
+    found_off, counts, rows, nv, nf = False, None, 0, 0, 0
     want: dict[int, str] = {}
     text: dict[int, bytes] = {}
     # trimesh's comment_strip repeats the text between the first line end and the first '#'
     # right after it, unless the file starts with '#': a comment inside the data shifts every
     # row after it ("OFF\n4 2 0\n0 0 0\n# c\n..." gave the vertex (4, 2, 0) and no faces).
-    text_after_line_1 = False
-    comment_row = None  # data rows before the first comment, if trimesh misplaces it
+    # So what matters is the first '#': harmless on line 0 or with nothing but blanks and
+    # comments between it and line 0, else it must come after the last row trimesh reads.
+    first_text = None  # the first line after line 0 with anything but a comment on it
+    comment_row = None  # data rows before the first '#', if trimesh repeats text there
     hash_seen = False
-    first_bad = None  # the first data row whose shape is wrong
-    nv = nf = 0
     with open(path_str, "rb") as f:
         for number, line in enumerate(f):
-            if number == 0 and line.startswith(b"#"):
-                text_after_line_1 = None  # trimesh strips comments right in such a file
-            content = line.split(b"#", 1)[0].strip()
-            if number > 0 and text_after_line_1 is False and content:
-                text_after_line_1 = True
-            if b"#" in line and not hash_seen:  # only the first '#' matters
-                hash_seen = True
-                if text_after_line_1:
+            if b"#" in line:
+                before = line.split(b"#", 1)[0]
+                if not hash_seen and number > 0 and (first_text is not None or before.strip()):
                     comment_row = rows if counts is not None else -1
+                hash_seen = True
+                line = before
+            content = line.strip()
             if not content:
                 continue
+            if first_text is None and number > 0:
+                first_text = number
             if not found_off:
                 at = content.find(b"OFF")
                 if at < 0:
@@ -225,14 +225,6 @@ def _check_off(path_str: str, size: int) -> int:
                 continue
             if rows in want:
                 text[rows] = content[:_MAX_ROW]
-            elif first_bad is None and rows < nv + nf:
-                # Every row's shape (cheap; the boundary rows are parsed in full below): trimesh
-                # drops a face row with too few indices ("3 9$32 28") without a word.
-                words = content.split()
-                if len(words) < 3 if rows < nv else (
-                        not words[0].isdigit() or len(words) < int(words[0]) + 1):
-                    first_bad = rows
-                    text[rows] = content[:_MAX_ROW]
             rows += 1
     if counts is None:
         return 0  # no counts line: trimesh reports that
@@ -243,8 +235,6 @@ def _check_off(path_str: str, size: int) -> int:
         raise _corrupt(path_str, f"the OFF header declares {nv} vertices and {nf} faces "
                                  f"({nv + nf} lines) but {rows} lines follow it: "
                                  + ("truncated" if rows < nv + nf else "its counts do not match the data"))
-    if first_bad is not None:
-        want[first_bad] = "vertex" if first_bad < nv else "face"
     for r, kind in sorted(want.items()):
         if r < 0 or r not in text:
             continue
