@@ -304,8 +304,10 @@ def load_mesh(path: str | os.PathLike[str], smooth: bool = True, color: Sequence
     ``smooth`` and ``color``.
 
     Raises FileNotFoundError if ``path`` (or a buffer or texture file a glTF references) does not
-    exist, ValueError if it cannot be parsed, holds no triangles, is truncated, or its header
-    declares more data than ``softrast.get_memory_budget()`` (checked before parsing).
+    exist, ValueError (naming the file) for every other failure: it cannot be parsed, holds no
+    triangles, is truncated or disagrees with its own counts (PLY, OFF, STL, glTF; an OBJ or
+    ASCII STL cut mid-line), has a face index out of range, or its header declares more data
+    than ``softrast.get_memory_budget()`` (checked before parsing).
     """
     path_str = os.fspath(path)
     if not os.path.isfile(path_str):
