@@ -327,7 +327,8 @@ def load_mesh(path: str | os.PathLike[str], smooth: bool = True, color: Sequence
                 if not parts:
                     raise _FileProblem("the file contains no triangles")
                 loaded = parts[0] if len(parts) == 1 else trimesh.util.concatenate(parts)
-            if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0 or len(loaded.vertices) == 0:
+            if (not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0
+                    or len(loaded.vertices) == 0):
                 raise _FileProblem("the file contains no triangles")
             if len(loaded.faces) < stated_faces:
                 raise _FileProblem(f"it has {stated_faces} faces but only {len(loaded.faces)} "
@@ -335,8 +336,8 @@ def load_mesh(path: str | os.PathLike[str], smooth: bool = True, color: Sequence
             faces, count = np.asarray(loaded.faces), len(loaded.vertices)
             bad = (faces < 0) | (faces >= count)
             if bad.any():
-                raise _FileProblem(f"face {int(np.flatnonzero(bad.any(axis=1))[0])} has a vertex index "
-                                 f"{int(faces[bad][0])} out of bounds for {count} vertices")
+                raise _FileProblem(f"face {int(np.flatnonzero(bad.any(axis=1))[0])} has a vertex "
+                                   f"index {int(faces[bad][0])} out of bounds for {count} vertices")
     except ImportError as exc:  # trimesh imports optional modules lazily (and hides .name)
         hint = " (Pillow, a softrast dependency: pip install pillow)" if "PIL" in str(exc) else ""
         raise ValueError(f"could not load mesh {path_str!r}: trimesh needs a module that is not "
