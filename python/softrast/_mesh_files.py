@@ -88,7 +88,8 @@ def _check_ply(path_str: str, size: int) -> int:
 def _scan_lines(path_str: str, start: int, size: int, wanted: list[int]) -> tuple[int, dict[int, bytes]]:
     """The number of lines in file[start:size] up to its last non-whitespace byte (so a final
     newline or trailing blank lines add none), and the text of the ``wanted`` lines (0-based,
-    each cut at 64 KiB). One pass, 1 MiB at a time: a 300 MB file costs ~0.1 s and 1 MiB."""
+    each cut at 64 KiB). One pass, 1 MiB at a time (measured on a 12.5 MB, 327,680-face PLY:
+    17 ms and 3.3 MiB at peak, against 1.4 s for trimesh's parse)."""
     term = b"\n"  # as trimesh's PLY header reader (readline); "\r\n" ends a line too
     want = sorted(set(wanted))
     offsets: dict[int, int] = {}
@@ -301,7 +302,8 @@ def _obj_line_problem(line: bytes) -> str | None:
 
 def _count_obj_faces(path_str: str) -> int:
     """The number of face statements ("f" lines): each gives trimesh at least one triangle.
-    One pass, 1 MiB at a time (a C-speed count: ~2 ms per 10 MB)."""
+    One pass, 1 MiB at a time (12.8 MB, 327,680 faces: 32 ms with the last-line check, against
+    0.7 s for trimesh's parse; 3 MiB at peak)."""
     faces = 0
     with open(path_str, "rb") as f:
         buf = b"\n"  # so that a face on the first line counts too
@@ -334,7 +336,8 @@ def _check_obj(path_str: str, size: int) -> int:
     return faces
 
 
-# trimesh reads only the vertices; "outer loop" / "endloop" are not counted (~15 ms per 10 MB each).
+# trimesh reads only the vertices; "outer loop" / "endloop" are not counted (each count is
+# another full pass: ~25 ms per 10 MB).
 _STL_KEYS = (b"facet", b"endfacet", b"vertex")
 
 
@@ -343,8 +346,8 @@ def _check_stl_ascii(path_str: str, size: int) -> int:
     each solid...endsolid block, so a file cut inside a solid whose earlier solid ended loaded
     half the mesh. Count the keywords as trimesh reads them (case-insensitively) in one pass:
     solids must be closed, every facet needs its endfacet and 3 vertices, and
-    the file must end on an endsolid line. Words in solid names are not counted. ~15 ms per 10
-    MB (a third of trimesh's own time on it)."""
+    the file must end on an endsolid line. Words in solid names are not counted. 98 MB, 327,680
+    facets: 0.25-0.6 s and 6 MiB at peak, against 3.8 s for trimesh's parse."""
     counts = dict.fromkeys(_STL_KEYS, 0)
     solids = ends = 0
     last = b""
