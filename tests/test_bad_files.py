@@ -115,6 +115,27 @@ CASES: dict[str, tuple[str, str, str]] = {
     "missing_bin.gltf": ("mesh", "FileNotFoundError", "nothere.bin"),
     "missing_texture.gltf": ("mesh", "FileNotFoundError", "nothere.png"),
     "does_not_exist.obj": ("mesh", "FileNotFoundError", ""),
+    # Issue 20 item 4: truncated or header-inconsistent files that trimesh loads as partial meshes.
+    "cut_at_90_percent_ascii.ply": ("mesh", "ValueError", "truncated"),
+    "declares_50_more_vertices.ply": ("mesh", "ValueError", "212 'vertex'"),
+    "declares_1_face_fewer.ply": ("mesh", "ValueError", "counts do not match"),
+    "last_row_cut.ply": ("mesh", "ValueError", "'face' row 319"),
+    "cut_at_70_percent.off": ("mesh", "ValueError", "320 faces"),
+    "declares_1_face_fewer.off": ("mesh", "ValueError", "counts do not match"),
+    "comment_inside_data.off": ("mesh", "ValueError", "comment inside the OFF data"),
+    "cut_inside_second_solid.stl": ("mesh", "ValueError", "endsolid"),
+    "cut_mid_facet_then_endsolid.stl": ("mesh", "ValueError", "'endfacet'"),
+    "cut_inside_last_face.obj": ("mesh", "ValueError", "truncated"),
+    "cut_inside_keyword.obj": ("mesh", "ValueError", "keyword cut short"),
+    "cut_inside_number.obj": ("mesh", "ValueError", "not a number"),
+    "index_count_not_multiple_of_3.gltf": ("mesh", "ValueError", "not a multiple of 3"),
+    # Found by tests/test_file_fuzz.py: one corrupt face row in the middle, skipped by trimesh.
+    "corrupt_face_row_mid_file.obj": ("mesh", "ValueError", "321 faces but only 320"),
+    "corrupt_face_row_mid_file.off": ("mesh", "ValueError", "321 faces but only 320"),
+    # Item 5: trimesh's IndexError (from a lazily computed property) escaped load_mesh.
+    "face_index_past_vertices_ascii.ply": ("mesh", "ValueError", "out of bounds for 3 vertices"),
+    "face_index_past_vertices_binary.ply": ("mesh", "ValueError", "out of bounds for 3 vertices"),
+    "face_index_past_vertices.gltf": ("mesh", "ValueError", "out of bounds for 3 vertices"),
     "truncated.png": ("image", "ValueError", ""),
     "garbage_idat.png": ("image", "ValueError", ""),
     "claims_100000x100000_no_idat.png": ("image", "ValueError", ""),
@@ -161,6 +182,8 @@ def _write_cases(d: pathlib.Path) -> None:
     (d / "triangle.bin").write_bytes(TRIANGLE_BLOB)
     (d / "missing_texture.gltf").write_text(_gltf("triangle.bin", len(TRIANGLE_BLOB), image_uri="nothere.png"))
 
+    _write_inconsistent_meshes(d, sphere)
+
     rng = np.random.default_rng(5)
     sr.imwrite(d / "good.png", rng.integers(0, 256, (64, 64, 3), dtype=np.uint8))
     png = (d / "good.png").read_bytes()
@@ -179,6 +202,52 @@ def _write_cases(d: pathlib.Path) -> None:
     (d / "absurd_data_window.exr").write_bytes(_exr_with_data_window(exr, (0, 0, 10**9 - 1, 10**9 - 1)))
     (d / "data_window_40000x40000.exr").write_bytes(_exr_with_data_window(exr, (0, 0, 39999, 39999)))
     (d / "inverted_data_window.exr").write_bytes(_exr_with_data_window(exr, (100, 100, 0, 0)))
+
+
+def _gltf_blob(indices: list[int], count: int | None = None) -> str:
+    """_gltf's triangle with ``indices`` (uint32) and an index accessor of ``count`` (default all)."""
+    blob = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32).tobytes() \
+        + np.array(indices, np.uint32).tobytes()
+    doc = json.loads(_gltf("data:application/octet-stream;base64," + base64.b64encode(blob).decode(),
+                           len(blob)))
+    doc["bufferViews"][1]["byteLength"] = 4 * len(indices)
+    doc["accessors"][1]["count"] = len(indices) if count is None else count
+    return json.dumps(doc)
+
+
+def _write_inconsistent_meshes(d: pathlib.Path, sphere: trimesh.Trimesh) -> None:
+    """Issue 20 items 4 and 5 (the sphere has 162 vertices and 320 faces)."""
+    ply = sphere.export(file_type="ply", encoding="ascii")
+    (d / "cut_at_90_percent_ascii.ply").write_bytes(ply[: int(len(ply) * 0.9)])  # loaded 241 faces
+    (d / "declares_50_more_vertices.ply").write_bytes(  # read face lines as vertices
+        ply.replace(b"element vertex 162", b"element vertex 212"))
+    (d / "declares_1_face_fewer.ply").write_bytes(ply.replace(b"element face 320", b"element face 319"))
+    (d / "last_row_cut.ply").write_bytes(ply[: ply.rstrip().rindex(b" ")])  # "3 a b c" -> "3 a b"
+    off = sphere.export(file_type="off").encode()
+    (d / "cut_at_70_percent.off").write_bytes(off[: int(len(off) * 0.7)])  # loaded 62 of 320
+    (d / "declares_1_face_fewer.off").write_bytes(off.replace(b"162 320 0", b"162 319 0"))
+    # trimesh repeats the lines before the first '#' after it: a face line read as 162 indices.
+    (d / "comment_inside_data.off").write_bytes(off.replace(b"\n3 ", b"\n# a face\n3 ", 1))
+    stl = sphere.export(file_type="stl_ascii").encode()
+    two = stl + stl.replace(b"solid", b"solid second")  # two solids; the cut is 2 facets into the second
+    (d / "cut_inside_second_solid.stl").write_bytes(two[: len(stl) + 600])
+    (d / "cut_mid_facet_then_endsolid.stl").write_bytes(stl[: len(stl) // 2] + b"\nendsolid\n")
+    obj = sphere.export(file_type="obj").encode().rstrip()
+    last = obj.rindex(b" ")
+    (d / "cut_inside_last_face.obj").write_bytes(obj[:last])  # "f a b c" -> "f a b"
+    (d / "cut_inside_keyword.obj").write_bytes(obj + b"\nusem")
+    (d / "cut_inside_number.obj").write_bytes(obj + b"\nv 0.5 1.5 2.5e-")
+    (d / "index_count_not_multiple_of_3.gltf").write_text(_gltf_blob([0, 1, 2, 0]))
+    (d / "corrupt_face_row_mid_file.obj").write_bytes(obj.replace(b"\nf ", b"\nf 30 33010\nf ", 1))
+    rows = off.replace(b"162 320 0", b"162 321 0").split(b"\n")
+    (d / "corrupt_face_row_mid_file.off").write_bytes(b"\n".join(rows[:200] + [b"3 9$32 28"] + rows[200:]))
+    (d / "face_index_past_vertices_ascii.ply").write_bytes(
+        _ply_header("ascii", 3, 1) + b"0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n")
+    tri_bin = np.array([0, 0, 0, 1, 0, 0, 0, 1, 0], np.float32).tobytes() + b"\x03" \
+        + np.array([0, 1, 7], np.int32).tobytes()
+    (d / "face_index_past_vertices_binary.ply").write_bytes(
+        _ply_header("binary_little_endian", 3, 1) + tri_bin)
+    (d / "face_index_past_vertices.gltf").write_text(_gltf_blob([0, 1, 5]))
 
 
 @pytest.fixture(scope="module")
@@ -237,3 +306,80 @@ def test_files_are_valid_apart_from_the_defect(tmp_path):
     # A highly compressible PNG (ratio ~650:1) is legitimate and is not mistaken for a bomb.
     sr.imwrite(tmp_path / "white.png", np.full((2000, 2000), 255, np.uint8))
     assert sr.imread(tmp_path / "white.png").shape == (2000, 2000)
+
+
+def _unpadded_glb(mesh: trimesh.Trimesh) -> bytes:
+    """The GLB trimesh writes, with its JSON chunk re-written compactly to a length that is not a
+    multiple of 4 (no padding): trimesh reads such files."""
+    glb = mesh.export(file_type="glb")
+    json_length = struct.unpack("<I", glb[12:16])[0]
+    text = json.dumps(json.loads(glb[20:20 + json_length]), separators=(",", ":")).encode()
+    text += b" " * (len(text) % 4 == 0)
+    rest = glb[20 + json_length:]
+    return struct.pack("<4sIII4s", b"glTF", 2, 20 + len(text) + len(rest), len(text), b"JSON") + text + rest
+
+
+def test_odd_but_valid_mesh_files_load(tmp_path):
+    # The other side of the truncation checks: files that are unusual but complete load in full.
+    sphere = trimesh.creation.icosphere(subdivisions=2)  # 320 faces
+    n = len(sphere.faces)
+    obj = sphere.export(file_type="obj").encode().rstrip()
+    tri = b"v 0 0 0\nv 1 0 0\nv 0 1 0\n"
+    ply = sphere.export(file_type="ply", encoding="ascii")
+    off = sphere.export(file_type="off").encode()
+    stl = sphere.export(file_type="stl_ascii").encode()
+    files = {
+        # OBJ: a complete last line needs no newline after it, whatever the statement.
+        "no_final_newline.obj": (obj, n),
+        "last_line_comment.obj": (obj + b"\n# the end", n),
+        "last_line_unknown_statement.obj": (obj + b"\nshadow_obj sphere.obj", n),
+        "last_line_group_without_name.obj": (obj + b"\ng", n),
+        "last_line_vt_one_value.obj": (tri + b"f 1 2 3\nvt 0.5", 1),
+        "last_line_refs_with_uv_and_normal.obj": (tri + b"vt 0 0\nvn 0 0 1\nf 1/1/1 2/1/1 3/1/1", 1),
+        # PLY: CRLF line ends, trailing blank lines, no final newline.
+        "crlf.ply": (ply.replace(b"\n", b"\r\n"), n),
+        "trailing_blank_lines.ply": (ply + b"\n\n  \n", n),
+        "no_final_newline.ply": (ply.rstrip(), n),
+        # OFF: comments (in a file that starts with one: see comment_inside_data.off) and blank
+        # lines anywhere, counts on the OFF line, colours after a face.
+        "comments_and_blank_lines.off": (b"# sphere\n" + off.replace(b"\n3 ", b"\n# a face\n\n3 ", 5), n),
+        "comment_on_off_line.off": (b"OFF # cube\n3 1 0\n0 0 0\n1 0 0 # x\n0 1 0\n3 0 1 2 # f\n", 1),
+        "counts_on_off_line.off": (b"OFF 3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 255 0 0", 1),
+        # STL: upper case (trimesh ignores case), keywords in solid names, two solids, CRLF.
+        "upper_case.stl": (stl.upper(), n),
+        "keywords_in_names.stl": (stl.replace(b"solid", b"solid facet loop endloop"), n),
+        "two_solids.stl": (stl + stl.replace(b"solid", b"solid second"), 2 * n),
+        "crlf.stl": (stl.replace(b"\n", b"\r\n").rstrip(), n),
+    }
+    for name, (data, faces) in files.items():
+        path = tmp_path / name
+        path.write_bytes(data)
+        assert trimesh.load(path, process=False) is not None  # trimesh reads it
+        assert sr.load_mesh(path).num_faces == faces, name
+
+
+def test_glb_with_unpadded_json_chunk_loads(tmp_path):
+    # Issue 20 item 6: the spec pads chunks to 4 bytes, but trimesh writes and reads GLBs whose
+    # JSON chunk is not padded; the pre-check looked for the BIN chunk at the padded offset.
+    sphere = trimesh.creation.icosphere(subdivisions=2)
+    path = tmp_path / "unpadded_json.glb"
+    path.write_bytes(_unpadded_glb(sphere))
+    assert struct.unpack("<I", path.read_bytes()[12:16])[0] % 4 != 0
+    assert len(trimesh.load(path, process=False).dump()[0].faces) == len(sphere.faces)
+    assert sr.load_mesh(path).num_faces == len(sphere.faces)
+
+
+def test_obj_whose_textured_parts_need_pillow(tmp_path):
+    # Issue 20 item 5: two materials (one missing from the file), with uvs: trimesh merges the
+    # parts' textures with Pillow, and without it ModuleNotFoundError escaped load_mesh. Pillow
+    # is a dependency now; without it, the ValueError names the file and the module.
+    v = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nvt 1 1\n"
+    path = tmp_path / "usemtl_missing_material.obj"
+    path.write_bytes(v + b"usemtl a\nf 1/1 2/2 3/3\nusemtl b\nf 2/2 4/4 3/3\n")
+    try:
+        import PIL  # noqa: F401
+    except ImportError:
+        with pytest.raises(ValueError, match="usemtl_missing_material.obj.*PIL.*pip install pillow"):
+            sr.load_mesh(path)
+    else:
+        assert sr.load_mesh(path).num_faces == 2

@@ -432,6 +432,10 @@ class Mesh:
         )
 
 
+class _FileProblem(ValueError):
+    """What load_mesh itself finds wrong with a loaded file (reported without a type name)."""
+
+
 @contextlib.contextmanager
 def _keep_ctrl_c() -> Iterator[None]:
     """Make Ctrl-C inside trimesh reach the caller.
@@ -472,28 +476,51 @@ def load_mesh(path: str | os.PathLike[str], smooth: bool = True, color: Sequence
     ``smooth`` and ``color``.
 
     Raises FileNotFoundError if ``path`` (or a buffer or texture file a glTF references) does not
-    exist, ValueError if it cannot be parsed, holds no triangles, is truncated, or its header
-    declares more data than ``softrast.get_memory_budget()`` (checked before parsing).
+    exist, ValueError (naming the file) for every other failure: it cannot be parsed, holds no
+    triangles, is truncated or disagrees with its own counts (PLY, OFF, STL, glTF; an OBJ or
+    ASCII STL cut mid-line), has a face index out of range, or its header declares more data
+    than ``softrast.get_memory_budget()`` (checked before parsing).
     """
     path_str = os.fspath(path)
     if not os.path.isfile(path_str):
         raise FileNotFoundError(errno.ENOENT, "mesh file not found", path_str)
-    check_mesh_file(path_str)
+    stated_faces = check_mesh_file(path_str)
+    # trimesh raises anything from KeyError to struct.error while parsing, and more later, from
+    # its lazily computed properties (an IndexError for a face index past the vertices, a
+    # ModuleNotFoundError when merging textured parts needs Pillow): all of it is this file's
+    # failure to load, so it becomes a ValueError naming the file.
     try:
         with _keep_ctrl_c():
             import trimesh
 
             loaded = trimesh.load(path_str, process=False)  # process=False keeps the vertex order
-    except Exception as exc:  # trimesh raises anything from KeyError to struct.error
-        raise ValueError(f"could not load mesh {path_str!r}: {type(exc).__name__}: {exc}") from exc
-    if isinstance(loaded, trimesh.Scene):
-        parts = [g for g in loaded.dump() if isinstance(g, trimesh.Trimesh) and len(g.faces)]
-        if not parts:
-            raise ValueError(f"mesh file {path_str!r} contains no triangles")
-        loaded = parts[0] if len(parts) == 1 else trimesh.util.concatenate(parts)
-    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0 or len(loaded.vertices) == 0:
-        raise ValueError(f"mesh file {path_str!r} contains no triangles")
+            if isinstance(loaded, trimesh.Scene):
+                parts = [g for g in loaded.dump() if isinstance(g, trimesh.Trimesh) and len(g.faces)]
+                if not parts:
+                    raise _FileProblem("the file contains no triangles")
+                loaded = parts[0] if len(parts) == 1 else trimesh.util.concatenate(parts)
+            if (not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0
+                    or len(loaded.vertices) == 0):
+                raise _FileProblem("the file contains no triangles")
+            if len(loaded.faces) < stated_faces:
+                raise _FileProblem(f"it has {stated_faces} faces but only {len(loaded.faces)} "
+                                   "could be read: corrupt face rows were skipped")
+            faces, count = np.asarray(loaded.faces), len(loaded.vertices)
+            bad = (faces < 0) | (faces >= count)
+            if bad.any():
+                raise _FileProblem(f"face {int(np.flatnonzero(bad.any(axis=1))[0])} has a vertex "
+                                   f"index {int(faces[bad][0])} out of bounds for {count} vertices")
+    except ImportError as exc:  # trimesh imports optional modules lazily (and hides .name)
+        hint = " (Pillow, a softrast dependency: pip install pillow)" if "PIL" in str(exc) else ""
+        raise ValueError(f"could not load mesh {path_str!r}: trimesh needs a module that is not "
+                         f"installed to read it: {exc}{hint}") from exc
+    except Exception as exc:
+        what = str(exc) if isinstance(exc, _FileProblem) else f"{type(exc).__name__}: {exc}"
+        raise ValueError(f"could not load mesh {path_str!r}: {what}") from exc
     try:
         return Mesh.from_trimesh(loaded, smooth=smooth, color=color)
-    except ValueError as exc:  # NaN vertices and the like: say which file they came from
-        raise ValueError(f"could not load mesh {path_str!r}: {exc}") from exc
+    except TypeError:
+        raise  # an argument (color) of the wrong type: it names the argument, not the file
+    except Exception as exc:  # NaN vertices and the like: say which file they came from
+        what = str(exc) if type(exc) is ValueError else f"{type(exc).__name__}: {exc}"
+        raise ValueError(f"could not load mesh {path_str!r}: {what}") from exc
