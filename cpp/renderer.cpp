@@ -4,6 +4,7 @@
 #include "clip.hpp"
 #include "normals.hpp"
 #include "outputs.hpp"
+#include "plan.hpp"
 #include "shade.hpp"
 #include "transform.hpp"
 
@@ -148,6 +149,23 @@ void validate_camera(const CameraParams& camera) {
     throw std::invalid_argument("far must be finite and > near");
 }
 
+RenderPlan make_plan(const RenderOptions& options, int width, int height) {
+  RenderPlan plan;
+  plan.outputs = options.outputs;
+  plan.color = options.outputs & kOutColor;
+  plan.normal = options.outputs & kOutNormal;
+  plan.coverage = options.outputs & kOutCoverage;
+  plan.shade = plan.color || plan.normal;
+  plan.world_normals = plan.normal || (plan.color && model_reads_normal(options.shading));
+  // The "auto" shading path picks per tile, from overdraw estimated in setup; only when shading.
+  plan.estimate_overdraw = plan.shade && options.shading_path == ShadingPath::Auto;
+  plan.forward_allowed = plan.shade && options.shading_path != ShadingPath::Deferred;
+  plan.bytes = Framebuffer::bytes_needed(width, height, options.outputs);
+  plan.stream = plan.bytes >= kStreamFrameBytes;
+  plan.shading = options.shading;
+  return plan;
+}
+
 Renderer::Renderer(int width, int height, int threads, bool simd)
     : viewport_((width >= 1 && width <= kMaxImageSide && height >= 1 && height <= kMaxImageSide)
                     ? Viewport(width, height)
@@ -189,9 +207,9 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
     if (!(std::isfinite(c.r) && std::isfinite(c.g) && std::isfinite(c.b) && std::isfinite(c.a)))
       throw std::invalid_argument("color of draw " + std::to_string(d) + " is not finite");
   }
-  const std::size_t bytes = Framebuffer::bytes_needed(width(), height(), options.outputs);
-  if (bytes > kMaxFramebufferBytes)
-    throw std::invalid_argument("requested outputs need " + std::to_string(bytes) +
+  const RenderPlan plan = make_plan(options, width(), height());
+  if (plan.bytes > kMaxFramebufferBytes)
+    throw std::invalid_argument("requested outputs need " + std::to_string(plan.bytes) +
                                 " bytes, over the limit of " + std::to_string(kMaxFramebufferBytes));
 
   std::lock_guard<std::mutex> lock(mutex_);
@@ -225,27 +243,21 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
       chunk_ranges.push_back({uint32_t(d), b, std::min(m, b + step)});
   }
   if (chunks_.size() < chunk_ranges.size()) chunks_.resize(chunk_ranges.size());
-  // The "auto" shading path picks per tile, from overdraw estimated in setup; only when shading.
-  const bool choose_path = options.shading_path == ShadingPath::Auto &&
-                           (options.outputs & (kOutColor | kOutNormal)) != 0;
-  const bool shade_any = (options.outputs & (kOutColor | kOutNormal)) != 0;
   pool_.parallel_for(chunk_ranges.size(), [&](std::size_t item, int) {
     const Block& blk = chunk_ranges[item];
     SetupParams params{draws[blk.draw].mesh.get(), &transforms[blk.draw],
                        vertices_[blk.draw].data(), blk.draw, camera.orthographic, options.cull,
-                       &planes, viewport_, choose_path, shade_any, isa_};
+                       &planes, viewport_, plan.estimate_overdraw, plan.shade, isa_};
     setup_chunk(params, blk.begin, blk.end, chunks_[item]);
   });
 
   // Tiles: rasterize, then shade, each tile by one thread.
-  const bool want_normals = (options.outputs & kOutNormal) ||
-                            ((options.outputs & kOutColor) && model_reads_normal(options.shading));
   std::vector<ShadeDraw> shade_draws;
   std::vector<Block> normal_blocks;
   world_normals_.resize(draws.size());
   for (std::size_t d = 0; d < draws.size(); ++d) {
     const MeshData& mesh = *draws[d].mesh;
-    const bool smooth = want_normals && !mesh.normals.empty();
+    const bool smooth = plan.world_normals && !mesh.normals.empty();
     world_normals_[d].resize(smooth ? mesh.normals.size() : 0);
     for (std::size_t b = 0; b < world_normals_[d].size(); b += kVertexBlock)
       normal_blocks.push_back({uint32_t(d), b, std::min(world_normals_[d].size(), b + kVertexBlock)});
@@ -268,18 +280,16 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   for (int c = 0; c < 3; ++c)
     shade.background[c] = uint8_t(std::clamp(options.background[c], 0.0f, 1.0f) * 255.0f + 0.5f);
   shade.orthographic = camera.orthographic;
-  shade.stream = bytes >= kStreamFrameBytes;
+  shade.stream = plan.stream;
   shade.framebuffer = framebuffer.get();
-  const bool want_coverage = options.outputs & kOutCoverage;
   const std::size_t num_chunks = chunk_ranges.size();
-  const bool can_forward = options.shading_path != ShadingPath::Deferred && can_shade_forward(shade);
-  const TileKernels kernels = select_tile_kernels(shade, viewport_, isa_, want_coverage);
+  const TileKernels kernels = select_tile_kernels(plan, viewport_, isa_);
   pool_.parallel_for(viewport_.num_tiles(), [&](std::size_t tile, int worker) {
     if (!tile_scratch_[worker]) tile_scratch_[worker].reset(new TileScratch);
     if (!shade_scratch_[worker]) shade_scratch_[worker].reset(new ShadeScratch);
     TileScratch& scratch = *tile_scratch_[worker];
-    bool forward = can_forward;
-    if (choose_path) {
+    bool forward = plan.forward_allowed;
+    if (plan.estimate_overdraw) {
       // Forward shading shades every fragment that wins the depth test, deferred each visible
       // pixel once after a second walk over its triangle: forward wins up to about this much
       // overdraw (benchmarks/RESULTS.md, the crossover).
@@ -293,7 +303,7 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
       rasterize_and_shade_tile(shade, kernels, viewport_, int(tile), chunks_, num_chunks, scratch,
                                *shade_scratch_[worker]);
     } else {
-      rasterize_tile(kernels.raster, viewport_, int(tile), chunks_, num_chunks, want_coverage,
+      rasterize_tile(kernels.raster, viewport_, int(tile), chunks_, num_chunks, plan.coverage,
                      scratch);
       shade_tile(shade, kernels, viewport_, int(tile), scratch, *shade_scratch_[worker]);
     }

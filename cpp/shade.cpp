@@ -427,23 +427,14 @@ ForwardFn select_forward(Isa isa, const SamplePattern& pattern, Shading shading,
 
 }  // namespace
 
-bool can_shade_forward(const ShadeParams& params) {
-  const Framebuffer& fb = *params.framebuffer;
-  return fb.get<uint8_t>(kOutColor) != nullptr || fb.get<float>(kOutNormal) != nullptr;
-}
-
-TileKernels select_tile_kernels(const ShadeParams& params, const Viewport& viewport, Isa isa,
-                                bool want_coverage) {
-  const Framebuffer& fb = *params.framebuffer;
-  const bool color = fb.get<uint8_t>(kOutColor) != nullptr;
-  const bool normal = fb.get<float>(kOutNormal) != nullptr;
+TileKernels select_tile_kernels(const RenderPlan& plan, const Viewport& viewport, Isa isa) {
   const SamplePattern& pattern = viewport.samples;
   TileKernels k;
-  k.raster = select_rasterize(isa, pattern, want_coverage);
-  k.deferred = select_shade(isa, pattern, params.shading, color, normal);
-  k.forward = select_forward(isa, pattern, params.shading, color, normal, want_coverage);
+  k.raster = select_rasterize(isa, pattern, plan.coverage);
+  k.deferred = select_shade(isa, pattern, plan.shading, plan.color, plan.normal);
+  k.forward = select_forward(isa, pattern, plan.shading, plan.color, plan.normal, plan.coverage);
   k.isa = isa;
-  k.coverage = want_coverage;
+  k.coverage = plan.coverage;
   return k;
 }
 

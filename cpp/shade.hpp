@@ -3,6 +3,7 @@
 
 #include "framebuffer.hpp"
 #include "rasterize.hpp"
+#include "plan.hpp"
 #include "shade_models.hpp"
 
 namespace sr {
@@ -40,7 +41,7 @@ struct ShadeScratch {
 
 // The tile kernels for one render's choices (instruction set, sample pattern, shading model,
 // colour and normal outputs, coverage counting), picked once per render (dispatch.hpp);
-// `forward` and `deferred` are null when nothing is shaded (can_shade_forward false).
+// `forward` and `deferred` are null when nothing is shaded (RenderPlan::shade false).
 struct TileKernels {
   RasterizeFn raster = nullptr;
   using Deferred = void (*)(const ShadeParams&, const TileRect&, const TileScratch&, ShadeScratch&);
@@ -51,14 +52,12 @@ struct TileKernels {
   Isa isa = Isa::Generic;
   bool coverage = false;
 };
-TileKernels select_tile_kernels(const ShadeParams& params, const Viewport& viewport, Isa isa,
-                                bool want_coverage);
+TileKernels select_tile_kernels(const RenderPlan& plan, const Viewport& viewport, Isa isa);
 
 // Forward shading: rasterizes `tile` (as rasterize_tile) and shades each fragment as it wins the
 // depth test, then writes the outputs as shade_tile does. The same bits as rasterize_tile +
 // shade_tile; faster without overdraw (no second walk over each triangle), slower with much.
-// Only when can_shade_forward(): colour or normals requested.
-bool can_shade_forward(const ShadeParams& params);
+// Only when the plan shades (colour or normals requested).
 void rasterize_and_shade_tile(const ShadeParams& params, const TileKernels& kernels,
                               const Viewport& viewport, int tile,
                               const std::vector<SetupChunk>& chunks, std::size_t num_chunks,
