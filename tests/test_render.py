@@ -769,3 +769,68 @@ def test_pose_of_rank_one_or_zero_is_well_defined(diag, smooth):
         np.testing.assert_array_equal(frame.normal[m], 0.0)
         assert (frame.color[m] == [102, 77, 51]).all()  # 0.5 * (0.8, 0.6, 0.4) * 255, rounded
         assert (frame.color[~m] == 0).all()
+
+
+# --------------------------------------------------------------------------------------------
+# 12. Every argument checked by name (issue 20, item 11)
+# --------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("kwargs, error, name", [
+    ({"background": None}, TypeError, "background"),  # was: 'NoneType' object is not iterable
+    ({"background": "abc"}, TypeError, "background"),  # was: could not convert string to float
+    ({"background": ("0.1", "0.2", "0.3")}, TypeError, "background"),  # numeric strings
+    ({"background": (True, False, False)}, TypeError, "background"),  # bools are not numbers
+    ({"background": (0.1, 0.2, 0.3j)}, TypeError, "background"),
+    ({"background": (0.1, 0.2)}, ValueError, "background"),
+    ({"background": (0.1, 0.2, 1.5)}, ValueError, "background"),
+    ({"background": (0.1, 0.2, np.nan)}, ValueError, "background"),
+    ({"outputs": None}, TypeError, "outputs"),  # was: 'NoneType' object is not iterable
+    ({"outputs": 5}, TypeError, "outputs"),  # was: 'int' object is not iterable
+    ({"outputs": b"color"}, TypeError, "outputs"),
+    ({"outputs": ("color", 5)}, TypeError, "outputs"),
+    ({"outputs": ()}, ValueError, "outputs"),
+    ({"ambient": None}, TypeError, "ambient"),  # was: float() argument must be ...
+    ({"ambient": np.array([0.5])}, TypeError, "ambient"),  # was: a NumPy DeprecationWarning
+    ({"ambient": 0.5 + 0j}, TypeError, "ambient"),  # was: float() argument must be ...
+    ({"ambient": True}, TypeError, "ambient"),  # was: accepted as 1.0
+    ({"ambient": "0.5"}, TypeError, "ambient"),  # was: accepted as 0.5
+    ({"ambient": np.nan}, ValueError, "ambient"),
+    ({"ambient": 10**400}, ValueError, "ambient"),  # was: OverflowError
+    ({"cull": None}, TypeError, "cull"),
+    ({"cull": ["back"]}, TypeError, "cull"),
+    ({"shading": np.array(["lambert"])}, TypeError, "shading"),  # was: ambiguous truth value
+    ({"shading_path": 1}, TypeError, "shading_path"),
+])
+def test_bad_render_option_raises_naming_it(kwargs, error, name):
+    with pytest.raises(error, match=f"^{name}"):
+        render(_sphere_scene(), _origin_cam(), 16, 16, **kwargs)
+
+
+def test_render_options_accept_numpy_and_plain_numbers():
+    reference = render(_sphere_scene(), _origin_cam(), 16, 16, background=(0.2, 0.4, 0.6), ambient=0.5)
+    for background, ambient in [(np.array([0.2, 0.4, 0.6]), np.float32(0.5)),
+                                ([np.float64(0.2), 0.4, 0.6], np.array(0.5)),
+                                ((0.2, 0.4, 0.6), 0.5)]:
+        frame = render(_sphere_scene(), _origin_cam(), 16, 16, background=background, ambient=ambient)
+        for name in ALL_OUTPUTS:
+            assert np.array_equal(getattr(frame, name), getattr(reference, name)), name
+    # One name, a list or an array of names; a name given twice is one output.
+    for outputs in ("depth", ["depth"], np.array(["depth"]), ("depth", "depth")):
+        frame = sr.Renderer(16, 16).render(_sphere_scene(), _origin_cam(), outputs=outputs)
+        assert frame.outputs == ("depth",) and np.array_equal(frame.depth, reference.depth)
+
+
+@pytest.mark.parametrize("kwargs, error, name", [
+    ({"threads": True}, TypeError, "threads"),  # was: ValueError
+    ({"threads": 1.0}, TypeError, "threads"),
+    ({"threads": "2"}, TypeError, "threads"),
+    ({"threads": -1}, ValueError, "threads"),
+    ({"width": True}, TypeError, "width"),
+    ({"height": np.float64(16)}, TypeError, "height"),
+    ({"width": None}, TypeError, "width"),
+])
+def test_bad_renderer_argument_raises_naming_it(kwargs, error, name):
+    args = {"width": 16, "height": 16, **kwargs}
+    with pytest.raises(error, match=f"^{name}"):
+        sr.Renderer(**args)
+    assert sr.Renderer(np.int64(16), np.int32(8), threads=np.int64(1)).threads == 1
