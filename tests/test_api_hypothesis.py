@@ -221,6 +221,8 @@ def _strategies():
         ("render", "shading_path"): st.sampled_from([None, "fast", 2]),
         ("render", "background"): st.one_of(not_numbers_or_none, st.sampled_from([(0.1, 0.2), (2.0, 0.0, 0.0), nan3,
                                                                           (True, 0, 0), ("0", "0", "0")])),
+        ("render", "out"): st.sampled_from([5, "abc", [np.zeros((4, 4))], {n: np.zeros((41, 41, 3)) for n in OUTPUTS},
+                                            {n: np.zeros((41, 41), np.int32) for n in OUTPUTS}]),
         ("render", "ambient"): st.one_of(not_numbers_or_none, st.sampled_from([-0.1, 1.5, math.nan, 10**400])),
     }
     # The name a message must contain for each bad argument (an empty mesh names itself).
@@ -240,6 +242,7 @@ def _strategies():
             "place": draw(placement()),
             "render": draw(render_args()),
         }
+        spec["reuse_out"] = draw(st.integers(0, 3)) == 0  # render again into the frame's arrays
         spec["adds"] = [{"pose": draw(st.one_of(st.none(), model_pose())),
                          "instance_id": draw(st.one_of(st.none(), st.integers(0, 2**31 - 1))),
                          "color": draw(st.one_of(st.none(), rgb))} for _ in spec["meshes"]]
@@ -371,6 +374,12 @@ def _main():
         assert which is None, f"bad {which[1]} was accepted"
         counts["with pixels hit"] += _check_frame(frame, spec, renderer, scene, cam)
         counts["rendered"] += 1
+        if spec["reuse_out"]:  # out=: the same arrays, written with the same bits
+            before = {name: arr.copy() for name, arr in frame.as_dict().items()}
+            again = renderer.render(scene, cam, out=frame, **spec["render"])
+            for name, arr in before.items():
+                assert getattr(again, name) is getattr(frame, name), f"out= {name} not reused"
+                assert np.array_equal(getattr(again, name), arr), f"out= {name} differs"
 
     property_()
     print(f"examples: {counts['examples']} rendered: {counts['rendered']} refused: {counts['refused']} "

@@ -54,6 +54,8 @@ def _float32_finite(x: float) -> bool:
 def _check_pose(pose: Any) -> npt.NDArray[np.float64]:
     m = affine_pose(pose)
     r = m[:3, :3]
+    # Entries of a rotation are in [-1, 1]: testing that first keeps r.T @ r from overflowing
+    # (a 1e200 scale raised NumPy's overflow RuntimeWarning, an error under warnings-as-errors).
     if np.abs(r).max() > 1.0 + _ORTHONORMAL_TOL or np.abs(r.T @ r - np.eye(3)).max() > _ORTHONORMAL_TOL:
         raise ValueError("pose rotation part (pose[:3, :3]) must be orthonormal (no scale or shear)")
     if np.linalg.det(r) < 0.0:  # a mirror would silently swap front and back faces
@@ -220,7 +222,8 @@ class Camera(abc.ABC):
 class PerspectiveCamera(Camera):
     """A pinhole camera with a vertical field of view (pyrender / gluPerspective).
 
-    fov_y : vertical field of view in degrees, in (0, 180).
+    fov_y : vertical field of view in degrees, in (0, 180), and large enough that the projection
+        is finite in float32 (at least 5.5e-33 degrees without a fixed aspect or image size).
     aspect : width / height of the view volume; None => the aspect of the rendered image.
     width, height : optional image size in pixels (informational; None if not fixed).
     near, far : clipping distances in scene units, 0 < near < far.
