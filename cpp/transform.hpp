@@ -10,7 +10,8 @@ namespace sr {
 struct DrawTransform {
   mat4 model_view;         // model -> view
   mat4 proj;               // view -> clip
-  dmat3 normal_to_world;   // inverse-transpose of the model's 3x3 (double: normals may be huge)
+  dmat3 normal_to_world;   // inverse-transpose of the model's 3x3 (double: normals may be huge),
+                           // its cofactor matrix where that does not exist (transform.cpp)
   bool mirrored = false;   // det(model) < 0: the winding flips, so front/back facing swap too
 };
 

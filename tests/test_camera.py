@@ -365,3 +365,79 @@ def test_intrinsics_refuses_other_image_size():
     with pytest.raises(ValueError, match="64x48"):
         cam.projection_matrix(128, 96)
     np.testing.assert_array_equal(cam.projection_matrix(), cam.projection_matrix(64, 48))
+
+
+# Issue 20, item 11: every camera argument checked by name at construction; nothing that passes
+# can fail at render time ("projection matrix is not finite", ZeroDivisionError).
+
+@pytest.mark.parametrize("make, error, name", [
+    (lambda: PerspectiveCamera(fov_y=True), TypeError, "fov_y"),  # was: accepted as 1 degree
+    (lambda: PerspectiveCamera(fov_y="45"), TypeError, "fov_y"),  # was: accepted as 45
+    (lambda: PerspectiveCamera(fov_y=45 + 0j), TypeError, "fov_y"),
+    (lambda: PerspectiveCamera(fov_y=None), TypeError, "fov_y"),
+    (lambda: PerspectiveCamera(fov_y=np.array([45.0])), TypeError, "fov_y"),
+    (lambda: PerspectiveCamera(fov_y=5e-324), ValueError, "fov_y"),  # was: ZeroDivisionError at render
+    (lambda: PerspectiveCamera(fov_y=1e-35), ValueError, "fov_y"),  # f * 16384 > float32 max
+    (lambda: PerspectiveCamera(fov_y=1e-34, width=1, height=16384), ValueError, "fov_y"),
+    (lambda: PerspectiveCamera(aspect=1e-300), ValueError, "aspect"),
+    (lambda: PerspectiveCamera(aspect="1.5"), TypeError, "aspect"),
+    (lambda: PerspectiveCamera(near=True), TypeError, "near"),
+    (lambda: PerspectiveCamera(far="100"), TypeError, "far"),
+    (lambda: PerspectiveCamera(near=None), TypeError, "near"),
+    (lambda: PerspectiveCamera(near=1e30, far=1e30 + 1e15), ValueError, "near and far"),
+    (lambda: PerspectiveCamera(near=1e39, far=1e40), ValueError, "near and far"),
+    (lambda: OrthographicCamera(near=1e-39, far=2e-39), ValueError, "near and far"),  # 2 / (f - n) = 2e39
+    (lambda: PerspectiveCamera(width=True), TypeError, "width"),
+    (lambda: PerspectiveCamera(height=10**6), ValueError, "height"),
+    (lambda: OrthographicCamera(xmag=5e-324), ValueError, "xmag"),  # was: "projection matrix is not finite"
+    (lambda: OrthographicCamera(ymag=1e-39), ValueError, "ymag"),
+    (lambda: OrthographicCamera(xmag=True), TypeError, "xmag"),
+    (lambda: OrthographicCamera(ymag="1"), TypeError, "ymag"),
+    (lambda: IntrinsicsCamera(True, 100, 32, 24, 64, 48), TypeError, "fx"),
+    (lambda: IntrinsicsCamera(100, "100", 32, 24, 64, 48), TypeError, "fy"),
+    (lambda: IntrinsicsCamera(1e308, 100, 32, 24, 64, 48), ValueError, "fx"),  # 2 fx / w = inf
+    (lambda: IntrinsicsCamera(100, 1e40, 32, 24, 64, 48), ValueError, "fy"),
+    (lambda: IntrinsicsCamera(100, 100, 1e308, 24, 64, 48), ValueError, "cx"),
+    (lambda: IntrinsicsCamera(100, 100, 32, -1e40, 64, 48), ValueError, "cy"),
+    (lambda: IntrinsicsCamera(100, 100, 32, 24, 64, 48, convention=None), TypeError, "convention"),
+    (lambda: IntrinsicsCamera(100, 100, 32, 24, 64.0, 48), TypeError, "width"),
+    (lambda: PerspectiveCamera().look_at((True, 0, 0), (0, 0, -1)), TypeError, "eye"),
+    (lambda: PerspectiveCamera().look_at((0, 0, 1), "abc"), TypeError, "target"),
+    (lambda: PerspectiveCamera().look_at((0, 0, 1), (0, 0, 0), up=None), TypeError, "up"),
+    (lambda: PerspectiveCamera().look_at((1e308, 0, 0), (-1e308, 0, 0)), ValueError, "eye"),  # overflow
+])
+def test_bad_camera_argument_raises_at_construction_naming_it(make, error, name):
+    with pytest.raises(error, match=f"^{name}"):
+        make()
+
+
+@pytest.mark.parametrize("pose, error", [
+    ([["1", "0", "0", "0"], ["0", "1", "0", "0"], ["0", "0", "1", "0"], ["0", "0", "0", "1"]], TypeError),
+    (np.eye(4, dtype=bool), TypeError),
+    (np.diag([1e200, 1e200, 1e200, 1.0]), ValueError),  # was: a RuntimeWarning (overflow)
+])
+def test_bad_camera_pose_raises_naming_it(pose, error):
+    cam = PerspectiveCamera()
+    with pytest.raises(error, match="^pose"):
+        cam.pose = pose
+
+
+@pytest.mark.parametrize("make", [
+    lambda: PerspectiveCamera(fov_y=1e-34, width=16, height=16),  # f = 1.1e36: finite at 1:1
+    lambda: PerspectiveCamera(fov_y=179.9999, near=1e-30, far=1e30),
+    lambda: PerspectiveCamera(fov_y=1e-30, aspect=1e-3),
+    lambda: OrthographicCamera(xmag=1e-38, ymag=1e38, near=1e-30, far=1e30),
+    lambda: IntrinsicsCamera(1e38, 1e-300, 1e38, -1e38, 64, 48),
+])
+def test_extreme_but_valid_cameras_render(make):
+    # What construction accepts, the core renders (finite projection in float32).
+    import softrast as sr
+
+    scene = sr.Scene()
+    scene.add(sr.Mesh([[0, 0, -1.0], [1, 0, -1.0], [0, 1, -1.0]], [[0, 1, 2]]))
+    cam = make()
+    w, h = cam.width or 64, cam.height or 48
+    proj = cam.projection_matrix(w, h)
+    assert (np.abs(proj) <= np.finfo(np.float32).max).all()
+    frame = sr.Renderer(w, h).render(scene, cam, outputs=("depth", "mask", "normal"))
+    assert np.isfinite(frame.depth).all() and np.array_equal(frame.mask, frame.depth > 0)

@@ -681,3 +681,156 @@ def test_flat_lambert_is_constant_per_face():
     ids = frame.triangle_id
     for face in np.unique(ids[ids >= 0]):
         assert len(np.unique(frame.color[ids == face], axis=0)) == 1, face
+
+
+# --------------------------------------------------------------------------------------------
+# 11. Singular poses (issue 20, item 9)
+# --------------------------------------------------------------------------------------------
+
+def _flattening_pose(rot_axis, angle, diag):
+    """rotation(angle about rot_axis) @ diag(diag), translated to (0.2, -0.1, -4): world pose."""
+    pose = np.eye(4)
+    rot = trimesh.transformations.rotation_matrix(angle, rot_axis)[:3, :3]
+    pose[:3, :3] = rot @ np.diag(diag)
+    pose[:3, 3] = [0.2, -0.1, -4.0]
+    return pose, rot
+
+
+def _sphere_mesh(smooth):
+    m = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
+    return sr.Mesh(np.asarray(m.vertices), np.asarray(m.faces),
+                   normals=np.asarray(m.vertices) if smooth else None)
+
+
+@pytest.mark.parametrize("diag", [[1.0, 1.0, 0.0], [-1.0, 0.7, 0.0], [0.0, 1.3, 0.8]])
+@pytest.mark.parametrize("smooth", [False, True])
+def test_pose_flattening_a_sphere_gives_the_discs_normal(diag, smooth):
+    # A pose with zero scale on one axis flattens the sphere into an ellipse in the plane its
+    # rotation gives (normal: the rotated zero axis). Its normal matrix, the inverse-transpose,
+    # does not exist (det 0), and every normal came out zero: ambient-only shading. The normals
+    # of the flattened surface are defined (the cofactor matrix maps a face's normal to the
+    # transformed face's): the disc's normal, on the side the camera sees.
+    pose, rot = _flattening_pose([1.0, 2.0, 0.5], 0.5, diag)
+    disc_n = rot[:, int(np.flatnonzero(np.asarray(diag) == 0.0)[0])]
+    eye = pose[:3, 3] + 3.0 * disc_n  # looking at the disc along its normal: the headlight is n
+    cam = sr.PerspectiveCamera(fov_y=50.0, near=0.05, far=100.0).look_at(eye, pose[:3, 3], up=rot[:, 1])
+    base = np.array([0.8, 0.6, 0.4])
+    scene = sr.Scene()
+    scene.add(_sphere_mesh(smooth), pose=pose, color=tuple(base))
+    frame = render(scene, cam, 64, 48, cull="none")
+    m = frame.mask
+    assert m.sum() > 500
+    n = frame.normal[m].astype(np.float64)
+    assert np.isfinite(frame.normal).all()
+    if not smooth:  # flat: every face of the disc has the disc's normal, toward the camera
+        np.testing.assert_allclose(n, np.broadcast_to(disc_n, n.shape), atol=1e-6)
+        # n . l = 1: the full base colour (ambient + (1 - ambient) * 1), to rounding.
+        assert np.abs(frame.color[m] - 255 * base).max() <= 0.5 + 1e-3
+    else:
+        # Vertex normals become +-n (or 0 where the sphere's normal lies in the disc's plane,
+        # on its rim); interpolated, every pixel's normal is +-n except on such a vertex's edge.
+        nonzero = np.linalg.norm(n, axis=1) > 0.0
+        assert nonzero.mean() > 0.99
+        np.testing.assert_allclose(np.abs(n[nonzero] @ disc_n), 1.0, atol=1e-6)
+
+
+def test_singular_pose_renders_as_its_near_singular_limit():
+    # Scale 1e-30 on an axis worked (the inverse-transpose is finite); scale 0 must give what
+    # the limit does: the same pixels, colour and depth, and the same normals to rounding.
+    frames = []
+    for z in (1e-30, 0.0):
+        pose, rot = _flattening_pose([0.3, -1.0, 0.2], 0.7, [1.0, 1.0, z])
+        cam = sr.PerspectiveCamera(fov_y=50.0).look_at(pose[:3, 3] + 3.0 * rot[:, 2] + rot[:, 0],
+                                                       pose[:3, 3])
+        scene = sr.Scene()
+        scene.add(_sphere_mesh(False), pose=pose, color=(0.8, 0.6, 0.4))
+        frames.append(render(scene, cam, 64, 48, cull="none"))
+    a, b = frames
+    assert a.mask.sum() > 300 and (a.color[a.mask] > 0.5 * 255 * 0.4).all()  # lit, not ambient-only
+    for name in ("mask", "color", "depth", "triangle_id", "coverage"):
+        assert np.array_equal(getattr(a, name), getattr(b, name)), name
+    np.testing.assert_allclose(a.normal, b.normal, atol=1e-6)
+
+
+@pytest.mark.parametrize("diag", [[1.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 2.0, 0.0]])
+@pytest.mark.parametrize("smooth", [False, True])
+def test_pose_of_rank_one_or_zero_is_well_defined(diag, smooth):
+    # Rank <= 1: the mesh collapses to a segment or a point; no face has a normal (the cofactor
+    # matrix is 0) and none has an area, in the world or on screen. Whatever the snapped screen
+    # positions cover, outputs are finite, normals are 0 or unit, colour is the ambient term.
+    for rot_axis in ([0.0, 0.0, 1.0], [1.0, 2.0, 0.5]):
+        pose, _ = _flattening_pose(rot_axis, 0.6, diag)
+        scene = sr.Scene()
+        scene.add(_sphere_mesh(smooth), pose=pose, color=(0.8, 0.6, 0.4))
+        frame = render(scene, _origin_cam(), 64, 48, cull="none", ambient=0.5)
+        m = frame.mask
+        assert np.isfinite(frame.normal).all() and np.isfinite(frame.depth).all()
+        np.testing.assert_array_equal(frame.normal[~m], 0.0)
+        np.testing.assert_array_equal(frame.normal[m], 0.0)
+        assert (frame.color[m] == [102, 77, 51]).all()  # 0.5 * (0.8, 0.6, 0.4) * 255, rounded
+        assert (frame.color[~m] == 0).all()
+
+
+# --------------------------------------------------------------------------------------------
+# 12. Every argument checked by name (issue 20, item 11)
+# --------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("kwargs, error, name", [
+    ({"background": None}, TypeError, "background"),  # was: 'NoneType' object is not iterable
+    ({"background": "abc"}, TypeError, "background"),  # was: could not convert string to float
+    ({"background": ("0.1", "0.2", "0.3")}, TypeError, "background"),  # numeric strings
+    ({"background": (True, False, False)}, TypeError, "background"),  # bools are not numbers
+    ({"background": (0.1, 0.2, 0.3j)}, TypeError, "background"),
+    ({"background": (0.1, 0.2)}, ValueError, "background"),
+    ({"background": (0.1, 0.2, 1.5)}, ValueError, "background"),
+    ({"background": (0.1, 0.2, np.nan)}, ValueError, "background"),
+    ({"outputs": None}, TypeError, "outputs"),  # was: 'NoneType' object is not iterable
+    ({"outputs": 5}, TypeError, "outputs"),  # was: 'int' object is not iterable
+    ({"outputs": b"color"}, TypeError, "outputs"),
+    ({"outputs": ("color", 5)}, TypeError, "outputs"),
+    ({"outputs": ()}, ValueError, "outputs"),
+    ({"ambient": None}, TypeError, "ambient"),  # was: float() argument must be ...
+    ({"ambient": np.array([0.5])}, TypeError, "ambient"),  # was: a NumPy DeprecationWarning
+    ({"ambient": 0.5 + 0j}, TypeError, "ambient"),  # was: float() argument must be ...
+    ({"ambient": True}, TypeError, "ambient"),  # was: accepted as 1.0
+    ({"ambient": "0.5"}, TypeError, "ambient"),  # was: accepted as 0.5
+    ({"ambient": np.nan}, ValueError, "ambient"),
+    ({"ambient": 10**400}, ValueError, "ambient"),  # was: OverflowError
+    ({"cull": None}, TypeError, "cull"),
+    ({"cull": ["back"]}, TypeError, "cull"),
+    ({"shading": np.array(["lambert"])}, TypeError, "shading"),  # was: ambiguous truth value
+    ({"shading_path": 1}, TypeError, "shading_path"),
+])
+def test_bad_render_option_raises_naming_it(kwargs, error, name):
+    with pytest.raises(error, match=f"^{name}"):
+        render(_sphere_scene(), _origin_cam(), 16, 16, **kwargs)
+
+
+def test_render_options_accept_numpy_and_plain_numbers():
+    reference = render(_sphere_scene(), _origin_cam(), 16, 16, background=(0.2, 0.4, 0.6), ambient=0.5)
+    for background, ambient in [(np.array([0.2, 0.4, 0.6]), np.float32(0.5)),
+                                ([np.float64(0.2), 0.4, 0.6], np.array(0.5)),
+                                ((0.2, 0.4, 0.6), 0.5)]:
+        frame = render(_sphere_scene(), _origin_cam(), 16, 16, background=background, ambient=ambient)
+        for name in ALL_OUTPUTS:
+            assert np.array_equal(getattr(frame, name), getattr(reference, name)), name
+    # One name, a list or an array of names; a name given twice is one output.
+    for outputs in ("depth", ["depth"], np.array(["depth"]), ("depth", "depth")):
+        frame = sr.Renderer(16, 16).render(_sphere_scene(), _origin_cam(), outputs=outputs)
+        assert frame.outputs == ("depth",) and np.array_equal(frame.depth, reference.depth)
+
+
+@pytest.mark.parametrize("kwargs, error, name", [
+    ({"threads": True}, TypeError, "threads"),  # was: ValueError
+    ({"threads": 1.0}, TypeError, "threads"),
+    ({"threads": "2"}, TypeError, "threads"),
+    ({"threads": -1}, ValueError, "threads"),
+    ({"width": True}, TypeError, "width"),
+    ({"height": np.float64(16)}, TypeError, "height"),
+    ({"width": None}, TypeError, "width"),
+])
+def test_bad_renderer_argument_raises_naming_it(kwargs, error, name):
+    args = {"width": 16, "height": 16, **kwargs}
+    with pytest.raises(error, match=f"^{name}"):
+        sr.Renderer(**args)
+    assert sr.Renderer(np.int64(16), np.int32(8), threads=np.int64(1)).threads == 1

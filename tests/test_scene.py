@@ -108,3 +108,27 @@ def test_largest_instance_id_and_numpy_ints(cube):
 def test_add_rejects_non_mesh():
     with pytest.raises(TypeError, match="mesh"):
         Scene().add(trimesh.creation.box())
+
+
+@pytest.mark.parametrize("kwargs, error", [
+    ({"pose": [["1", "0", "0", "0"], ["0", "1", "0", "0"], ["0", "0", "1", "0"], ["0", "0", "0", "1"]]},
+     TypeError),  # numeric strings were converted by NumPy and accepted
+    ({"pose": np.eye(4, dtype=bool)}, TypeError),  # bools are not numbers (was: accepted)
+    ({"pose": np.eye(4) * (1 + 0j)}, TypeError),
+    ({"pose": [[1, 0, 0], [0, 1]]}, TypeError),  # ragged
+    ({"pose": None}, None),  # None => identity
+    ({"instance_id": np.bool_(True)}, TypeError),
+    ({"instance_id": "3"}, TypeError),
+    ({"instance_id": np.float64(3.0)}, TypeError),
+    ({"color": "red"}, TypeError),
+    ({"color": (True, False, False)}, TypeError),
+])
+def test_add_arguments_of_the_wrong_kind_raise_naming_them(cube, kwargs, error):
+    scene = Scene()
+    if error is None:
+        scene.add(cube, **kwargs)
+        return
+    name = next(iter(kwargs))
+    with pytest.raises(error, match=f"^{name}"):
+        scene.add(cube, **kwargs)
+    assert len(scene) == 0

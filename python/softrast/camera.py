@@ -15,13 +15,13 @@ from __future__ import annotations
 
 import abc
 import math
-import operator
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-from ._checks import affine_pose
+from . import _core
+from ._checks import FLOAT32_MAX, affine_pose, choice, finite_real, image_side, positive_real, real_array
 
 __all__ = ["Camera", "PerspectiveCamera", "OrthographicCamera", "IntrinsicsCamera"]
 
@@ -29,47 +29,16 @@ _ORTHONORMAL_TOL = 1e-4  # float32-sourced rotations are orthonormal to ~1e-7; 1
 _GL_FROM_CV = np.diag([1.0, -1.0, -1.0, 1.0])  # flips y and z: OpenCV camera axes <-> OpenGL view axes
 
 
-def _positive_finite(value: Any, name: str) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"{name} must be a number, got {type(value).__name__}") from exc
-    if not math.isfinite(v) or v <= 0.0:
-        raise ValueError(f"{name} must be positive and finite, got {value!r}")
-    return v
-
-
-def _finite(value: Any, name: str) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"{name} must be a number, got {type(value).__name__}") from exc
-    if not math.isfinite(v):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return v
-
-
 def _image_side(value: Any, name: str, optional: bool) -> int | None:
     if value is None:
         if optional:
             return None
         raise ValueError(f"{name} is required")
-    if isinstance(value, bool):
-        raise TypeError(f"{name} must be an int, got bool")
-    try:
-        v = operator.index(value)
-    except TypeError as exc:
-        raise TypeError(f"{name} must be an int, got {type(value).__name__}") from exc
-    if v <= 0:
-        raise ValueError(f"{name} must be a positive number of pixels, got {v}")
-    return v
+    return image_side(value, name)
 
 
 def _vec3(value: Any, name: str) -> npt.NDArray[np.float64]:
-    try:
-        v = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"{name} must be 3 numbers, got {value!r}") from exc
+    v = real_array(value, name)
     if v.shape != (3,):
         raise ValueError(f"{name} must be 3 numbers, got shape {v.shape}")
     if not np.isfinite(v).all():
@@ -77,10 +46,17 @@ def _vec3(value: Any, name: str) -> npt.NDArray[np.float64]:
     return v
 
 
+def _float32_finite(x: float) -> bool:
+    """``x`` stays finite in the core, which rounds projection matrices to float32."""
+    return abs(x) <= FLOAT32_MAX  # False for NaN too
+
+
 def _check_pose(pose: Any) -> npt.NDArray[np.float64]:
     m = affine_pose(pose)
     r = m[:3, :3]
-    if np.abs(r.T @ r - np.eye(3)).max() > _ORTHONORMAL_TOL:
+    # Entries of a rotation are in [-1, 1]: testing that first keeps r.T @ r from overflowing
+    # (a 1e200 scale raised NumPy's overflow RuntimeWarning, an error under warnings-as-errors).
+    if np.abs(r).max() > 1.0 + _ORTHONORMAL_TOL or np.abs(r.T @ r - np.eye(3)).max() > _ORTHONORMAL_TOL:
         raise ValueError("pose rotation part (pose[:3, :3]) must be orthonormal (no scale or shear)")
     if np.linalg.det(r) < 0.0:  # a mirror would silently swap front and back faces
         raise ValueError("pose rotation part must be a proper rotation (determinant +1), not a reflection")
@@ -106,10 +82,23 @@ class Camera(abc.ABC):
 
     def __init__(self, near: float = 0.05, far: float = 100.0,
                  width: int | None = None, height: int | None = None) -> None:
-        near_f = _positive_finite(near, "near")
-        far_f = _finite(far, "far")
+        near_f = positive_real(near, "near")
+        far_f = finite_real(far, "far")
         if far_f <= near_f:
             raise ValueError(f"far must be greater than near ({near_f}), got {far_f}")
+        # The projection's depth rows (see _depth_rows and OrthographicCamera) must be finite in
+        # float32, as the core uses them: a near/far pair closer than that (1e30 and 1e30 + 1e15:
+        # 2 f n / (f - n) = 2e45) or beyond float32 (near 1e39) was refused only at render time,
+        # by a "projection matrix is not finite" that named neither.
+        n, f = near_f, far_f
+        if self.orthographic:
+            rows = (2.0 / (f - n), (f + n) / (f - n))
+        else:
+            rows = ((f + n) / (f - n), 2.0 * f * n / (f - n))
+        if not all(_float32_finite(x) for x in rows):
+            raise ValueError(f"near and far ({near_f!r}, {far_f!r}) give a projection that is not finite "
+                             f"in float32 (depth terms {rows[0]:.3g}, {rows[1]:.3g}): far must differ "
+                             "more from near, and both stay below 1.7e38")
         self._near, self._far = near_f, far_f
         self._width = _image_side(width, "width", optional=True)
         self._height = _image_side(height, "height", optional=True)
@@ -158,12 +147,16 @@ class Camera(abc.ABC):
         eye, target, up : 3 world-space numbers. Sets ``pose`` and returns ``self``.
         """
         eye_w, target_w, up_w = _vec3(eye, "eye"), _vec3(target, "target"), _vec3(up, "up")
-        back = eye_w - target_w  # OpenGL camera +z points away from what it looks at
-        dist = np.linalg.norm(back)
+        with np.errstate(over="ignore", invalid="ignore"):  # checked below, by name
+            back = eye_w - target_w  # OpenGL camera +z points away from what it looks at
+            dist = np.linalg.norm(back)
+            up_norm = np.linalg.norm(up_w)
+        if not (np.isfinite(dist) and np.isfinite(up_norm)):
+            raise ValueError("eye, target and up must be within float64's range: "
+                             "target - eye or the length of up overflows")
         if dist == 0.0 or dist <= 1e-12 * max(np.abs(eye_w).max(), np.abs(target_w).max()):
             raise ValueError("eye and target must be different points")
         z_axis = back / dist
-        up_norm = np.linalg.norm(up_w)
         if up_norm == 0.0:
             raise ValueError("up must be a non-zero vector")
         x_axis = np.cross(up_w / up_norm, z_axis)
@@ -229,7 +222,8 @@ class Camera(abc.ABC):
 class PerspectiveCamera(Camera):
     """A pinhole camera with a vertical field of view (pyrender / gluPerspective).
 
-    fov_y : vertical field of view in degrees, in (0, 180).
+    fov_y : vertical field of view in degrees, in (0, 180), and large enough that the projection
+        is finite in float32 (at least 5.5e-33 degrees without a fixed aspect or image size).
     aspect : width / height of the view volume; None => the aspect of the rendered image.
     width, height : optional image size in pixels (informational; None if not fixed).
     near, far : clipping distances in scene units, 0 < near < far.
@@ -238,11 +232,31 @@ class PerspectiveCamera(Camera):
     def __init__(self, fov_y: float = 45.0, width: int | None = None, height: int | None = None,
                  near: float = 0.05, far: float = 100.0, aspect: float | None = None) -> None:
         super().__init__(near, far, width, height)
-        fov = _finite(fov_y, "fov_y")
+        fov = finite_real(fov_y, "fov_y")
         if not 0.0 < fov < 180.0:
             raise ValueError(f"fov_y must be in (0, 180) degrees, got {fov_y!r}")
+        aspect_f = None if aspect is None else positive_real(aspect, "aspect")
+        # projection_matrix's x and y scales, f / aspect and f with f = 1 / tan(fov_y / 2), must
+        # be finite in float32: fov_y = 5e-324 made tan 0 (ZeroDivisionError at render time).
+        # Without a fixed aspect the image's is used, w / h >= 1 / MAX_IMAGE_SIDE: fov_y must
+        # then be at least 5.5e-33 degrees.
+        half = math.radians(fov) / 2.0
+        f = 1.0 / math.tan(half) if half > 0.0 else math.inf
+        if aspect_f is not None:
+            widest, by = 1.0 / aspect_f, f"aspect {aspect_f!r}"
+        elif self._width is not None and self._height is not None:
+            widest, by = self._height / self._width, f"the aspect of width x height {self._width}x{self._height}"
+        else:
+            widest, by = float(_core.MAX_IMAGE_SIDE), f"any image aspect down to 1/{_core.MAX_IMAGE_SIDE}"
+        if not (_float32_finite(f) and _float32_finite(f * max(widest, 1.0))):
+            if _float32_finite(f) and aspect_f is not None:
+                raise ValueError(f"aspect {aspect!r} is too small for fov_y {fov_y!r}: the projection's "
+                                 f"x scale (f / aspect = {f / aspect_f:.3g}) is not finite in float32")
+            least = math.degrees(2.0 * math.atan(max(widest, 1.0) / FLOAT32_MAX))
+            raise ValueError(f"fov_y must be large enough for a finite projection with {by} "
+                             f"(at least {least:.3g} degrees), got {fov_y!r}")
         self._fov_y = fov
-        self._aspect = None if aspect is None else _positive_finite(aspect, "aspect")
+        self._aspect = aspect_f
 
     @property
     def fov_y(self) -> float:
@@ -278,8 +292,14 @@ class OrthographicCamera(Camera):
     def __init__(self, xmag: float = 1.0, ymag: float = 1.0, width: int | None = None,
                  height: int | None = None, near: float = 0.05, far: float = 100.0) -> None:
         super().__init__(near, far, width, height)
-        self._xmag = _positive_finite(xmag, "xmag")
-        self._ymag = _positive_finite(ymag, "ymag")
+        self._xmag = positive_real(xmag, "xmag")
+        self._ymag = positive_real(ymag, "ymag")
+        # The projection scales by 1 / xmag and 1 / ymag, in float32 in the core: a denormal
+        # xmag (5e-324) was refused only at render time, as "projection matrix is not finite".
+        for name, mag in (("xmag", self._xmag), ("ymag", self._ymag)):
+            if not _float32_finite(1.0 / mag):
+                raise ValueError(f"{name} must be at least {1.0 / FLOAT32_MAX:.3g} (1 / {name} finite "
+                                 f"in float32), got {mag!r}")
 
     @property
     def xmag(self) -> float:
@@ -320,16 +340,23 @@ class IntrinsicsCamera(Camera):
 
     def __init__(self, fx: float, fy: float, cx: float, cy: float, width: int, height: int,
                  near: float = 0.05, far: float = 100.0, convention: str = "opencv") -> None:
-        if convention not in ("opencv", "opengl"):
-            raise ValueError(f"convention must be 'opencv' or 'opengl', got {convention!r}")
+        choice(convention, "convention", ("opencv", "opengl"))
         w = _image_side(width, "width", optional=False)
         h = _image_side(height, "height", optional=False)
         super().__init__(near, far, w, h)
         self._convention = convention
-        self._fx = _positive_finite(fx, "fx")
-        self._fy = _positive_finite(fy, "fy")
-        self._cx = _finite(cx, "cx")
-        self._cy = _finite(cy, "cy")
+        self._fx = positive_real(fx, "fx")
+        self._fy = positive_real(fy, "fy")
+        self._cx = finite_real(cx, "cx")
+        self._cy = finite_real(cy, "cy")
+        # The entries projection_matrix makes of them must be finite in float32 (see there).
+        half = 0.5 if convention == "opencv" else 0.0
+        for name, term in (("fx", 2.0 * self._fx / w), ("fy", 2.0 * self._fy / h),
+                           ("cx", 1.0 - 2.0 * (self._cx + half) / w),
+                           ("cy", 2.0 * (self._cy + half) / h - 1.0)):
+            if not _float32_finite(term):
+                raise ValueError(f"{name} is too large for a {w}x{h} image: its projection term "
+                                 f"{term:.3g} is not finite in float32")
 
     @property
     def fx(self) -> float:

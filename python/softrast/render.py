@@ -1,12 +1,13 @@
 """Renderer and Frame: the public face of the C++ pipeline (``softrast._core``)."""
 from __future__ import annotations
 
-import operator
-from typing import Any, Iterable, Sequence
+from collections.abc import Iterable
+from typing import Sequence
 
 import numpy as np
 
 from . import _core
+from ._checks import choice, image_side, integer, real, unit_rgb
 from .camera import Camera
 from .limits import check_budget
 from .scene import Scene
@@ -54,26 +55,22 @@ Frame.__doc__ = (Frame.__doc__ or "").replace("{outputs}", "\n".join(
     f"    {row['name']:<11} : {row['doc']}" for row in _core.OUTPUT_TABLE))
 
 
-def _image_side(value: Any, name: str) -> int:
-    if isinstance(value, bool):
-        raise TypeError(f"{name} must be an int, got bool")
-    try:
-        side = operator.index(value)
-    except TypeError:
-        raise TypeError(f"{name} must be an int, got {type(value).__name__}") from None
-    if not 1 <= side <= _core.MAX_IMAGE_SIDE:
-        raise ValueError(f"{name} must be in [1, {_core.MAX_IMAGE_SIDE}], got {side}")
-    return side
-
-
 def _output_names(outputs: str | Iterable[str]) -> list[str]:
-    names = [outputs] if isinstance(outputs, str) else list(outputs)
+    """The distinct output names of ``outputs`` (one name or an iterable of names), in order."""
+    if isinstance(outputs, str):
+        names = [outputs]
+    elif isinstance(outputs, bytes) or not isinstance(outputs, Iterable):
+        raise TypeError(f"outputs must be an output name or a sequence of them, got {type(outputs).__name__}")
+    else:
+        names = list(outputs)
     if not names:
         raise ValueError("outputs must name at least one output")
     for name in names:
+        if not isinstance(name, str):
+            raise TypeError(f"outputs must hold output names (str), got {type(name).__name__} {name!r:.80}")
         if name not in _core.OUTPUTS:
             raise ValueError(f"outputs: unknown output {name!r}; choose from {', '.join(_core.OUTPUTS)}")
-    return names
+    return list(dict.fromkeys(names))  # a name given twice is one output (and counted once)
 
 
 def _out_arrays(out: Frame | dict[str, np.ndarray] | None, names: list[str]) -> dict[str, np.ndarray] | None:
@@ -114,9 +111,10 @@ class Renderer:
     """
 
     def __init__(self, width: int, height: int, threads: int = 0, simd: bool = True) -> None:
-        w = _image_side(width, "width")
-        h = _image_side(height, "height")
-        if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 0:
+        w = image_side(width, "width")
+        h = image_side(height, "height")
+        threads = integer(threads, "threads")  # bool and float are TypeErrors
+        if threads < 0:
             raise ValueError(f"threads must be an int >= 0, got {threads!r}")
         if threads > _core.MAX_THREADS:
             raise ValueError(f"threads must be in [0, {_core.MAX_THREADS}] (0 = one per core), got {threads}")
@@ -189,17 +187,12 @@ class Renderer:
             if size is not None and size != ours:
                 raise ValueError(f"camera {name} {size} differs from the renderer's {ours}")
         names = _output_names(outputs)
-        if cull not in _CULL:
-            raise ValueError(f"cull must be one of {_CULL}, got {cull!r}")
-        if shading not in _SHADING:
-            raise ValueError(f"shading must be one of {_SHADING}, got {shading!r}")
-        if shading_path not in _SHADING_PATHS:
-            raise ValueError(f"shading_path must be one of {_SHADING_PATHS}, got {shading_path!r}")
-        bg = tuple(map(float, background))
-        if len(bg) != 3 or not (0.0 <= bg[0] <= 1.0 and 0.0 <= bg[1] <= 1.0 and 0.0 <= bg[2] <= 1.0):
-            raise ValueError(f"background must be 3 floats in [0, 1], got {background!r}")
-        ambient_f = float(ambient)
-        if not 0.0 <= ambient_f <= 1.0:
+        choice(cull, "cull", _CULL)
+        choice(shading, "shading", _SHADING)
+        choice(shading_path, "shading_path", _SHADING_PATHS)
+        bg = unit_rgb(background, "background")
+        ambient_f = real(ambient, "ambient")
+        if not 0.0 <= ambient_f <= 1.0:  # NaN fails too
             raise ValueError(f"ambient must be in [0, 1], got {ambient!r}")
 
         out_arrays = _out_arrays(out, names)

@@ -1,14 +1,13 @@
 """Scenes: a flat list of mesh instances, each with a model-to-world pose, an id and a colour."""
 from __future__ import annotations
 
-import operator
 from dataclasses import dataclass
 from typing import Any, Iterator, Sequence
 
 import numpy as np
 import numpy.typing as npt
 
-from ._checks import affine_pose
+from ._checks import affine_pose, integer
 from .mesh import Mesh, _rgba
 
 __all__ = ["Instance", "Scene"]
@@ -55,15 +54,7 @@ class Scene:
             raise TypeError(f"mesh must be a softrast.Mesh, got {type(mesh).__name__} "
                             "(use softrast.Mesh.from_trimesh or softrast.load_mesh)")
         model = _check_model_pose(pose)
-        if instance_id is None:
-            iid = len(self._instances)
-        else:
-            if isinstance(instance_id, bool):
-                raise TypeError("instance_id must be an int, got bool")
-            try:
-                iid = operator.index(instance_id)
-            except TypeError as exc:
-                raise TypeError(f"instance_id must be an int, got {type(instance_id).__name__}") from exc
+        iid = len(self._instances) if instance_id is None else integer(instance_id, "instance_id")
         if not 0 <= iid < _ID_LIMIT:
             raise ValueError(f"instance_id must be in [0, 2**31), got {iid}")
         rgba = mesh.color if color is None else _rgba(color, "color")
