@@ -183,26 +183,32 @@ uint32_t parse_outputs(const std::vector<std::string>& names) {
   return bits;
 }
 
-Cull parse_cull(const std::string& s) {
-  if (s == "none") return Cull::None;
-  if (s == "back") return Cull::Back;
-  if (s == "front") return Cull::Front;
-  throw py::value_error("cull must be 'none', 'back' or 'front', got '" + s + "'");
+// Option names, the one place each is spelled; exported to Python (CULL_MODES, SHADING_MODELS,
+// SHADING_PATHS), which checks a render's options against them before calling the core.
+constexpr std::pair<const char*, Cull> kCullNames[] = {
+    {"none", Cull::None}, {"back", Cull::Back}, {"front", Cull::Front}};
+constexpr std::pair<const char*, ShadingPath> kShadingPathNames[] = {
+    {"auto", ShadingPath::Auto}, {"forward", ShadingPath::Forward},
+    {"deferred", ShadingPath::Deferred}};
+
+template <typename E, std::size_t N>
+E parse_name(const std::string& s, const std::pair<const char*, E> (&names)[N], const char* what) {
+  for (const auto& [name, value] : names)
+    if (s == name) return value;
+  throw py::value_error(std::string(what) + ": unknown value '" + s + "'");
 }
 
 Shading parse_shading(const std::string& s) {
-  if (s == "lambert") return Shading::Lambert;
-  if (s == "unlit") return Shading::Unlit;
-  if (s == "normal") return Shading::Normal;
-  if (s == "uv") return Shading::Uv;
-  throw py::value_error("shading must be 'lambert', 'unlit', 'normal' or 'uv', got '" + s + "'");
+  for (const ModelName& m : kShadingModelNames)
+    if (s == m.name) return m.id;
+  throw py::value_error("shading: unknown model '" + s + "'");
 }
 
-ShadingPath parse_shading_path(const std::string& s) {
-  if (s == "auto") return ShadingPath::Auto;
-  if (s == "forward") return ShadingPath::Forward;
-  if (s == "deferred") return ShadingPath::Deferred;
-  throw py::value_error("shading_path must be 'auto', 'forward' or 'deferred', got '" + s + "'");
+template <typename T, std::size_t N>
+py::tuple names_of(const T (&items)[N]) {
+  py::tuple t(N);
+  for (std::size_t i = 0; i < N; ++i) t[i] = items[i].first;
+  return t;
 }
 
 py::dtype output_dtype(const OutputLayout& layout) {
@@ -251,11 +257,12 @@ std::byte* external_buffer(const py::handle& obj, const OutputLayout& layout, in
   return static_cast<std::byte*>(arr.mutable_data());
 }
 
-py::dict render(Renderer& self, const py::sequence& draws_in, const py::handle& view,
-                const py::handle& proj, bool orthographic, double near, double far,
-                const std::vector<std::string>& outputs, const std::string& cull,
-                const std::string& shading, const std::array<float, 3>& background,
-                float ambient, const py::object& out, const std::string& shading_path) {
+// One render, as one spec from render.py, which has checked every option by name: only what
+// Python cannot check (array memory, overlaps) or the core needs for safety is checked here
+// and in Renderer::render. Keys: view, proj (4x4 float64), orthographic, near, far, outputs
+// (names), cull, shading, shading_path (names), background (3 floats), ambient, out (dict of
+// arrays or None).
+py::dict render(Renderer& self, const py::sequence& draws_in, const py::dict& spec) {
   std::vector<Draw> draws;
   for (std::size_t d = 0; d < py::len(draws_in); ++d) {
     const std::string where = "draws[" + std::to_string(d) + "]";
@@ -269,23 +276,25 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::handle& 
     draw.color = vec4(rgba[0], rgba[1], rgba[2], rgba[3]);
     draws.push_back(std::move(draw));
   }
+  const auto get = [&](const char* key) -> py::object {
+    if (!spec.contains(key)) throw py::key_error(std::string("render spec has no '") + key + "'");
+    return spec[key];
+  };
   CameraParams camera;
-  camera.view = matrix_from_array(view, "view");
-  camera.proj = matrix_from_array(proj, "proj");
-  camera.orthographic = orthographic;
-  camera.near = near;
-  camera.far = far;
+  camera.view = matrix_from_array(get("view"), "view");
+  camera.proj = matrix_from_array(get("proj"), "proj");
+  camera.orthographic = get("orthographic").cast<bool>();
+  camera.near = get("near").cast<double>();
+  camera.far = get("far").cast<double>();
   RenderOptions options;
-  options.outputs = parse_outputs(outputs);
-  options.cull = parse_cull(cull);
-  options.shading = parse_shading(shading);
-  options.shading_path = parse_shading_path(shading_path);
-  for (int c = 0; c < 3; ++c) {
-    if (!(background[c] >= 0.0f && background[c] <= 1.0f))
-      throw py::value_error("background components must be in [0, 1]");
-    options.background[c] = background[c];
-  }
-  options.ambient = ambient;
+  options.outputs = parse_outputs(get("outputs").cast<std::vector<std::string>>());
+  options.cull = parse_name(get("cull").cast<std::string>(), kCullNames, "cull");
+  options.shading = parse_shading(get("shading").cast<std::string>());
+  options.shading_path = parse_name(get("shading_path").cast<std::string>(), kShadingPathNames, "shading_path");
+  const auto background = get("background").cast<std::array<float, 3>>();
+  for (int c = 0; c < 3; ++c) options.background[c] = background[c];  // range: Renderer::render
+  options.ambient = get("ambient").cast<float>();
+  const py::object out = get("out");
 
   // Caller-supplied arrays (out=) are written in place; `out` keeps them alive meanwhile.
   std::byte* external[kNumOutputs] = {};
@@ -360,6 +369,11 @@ PYBIND11_MODULE(_core, m) {
   }
   m.attr("OUTPUTS") = names;
   m.attr("OUTPUT_TABLE") = table;
+  py::tuple models(kShadingModelNames.size());
+  for (std::size_t i = 0; i < kShadingModelNames.size(); ++i) models[i] = kShadingModelNames[i].name;
+  m.attr("SHADING_MODELS") = models;
+  m.attr("CULL_MODES") = names_of(kCullNames);
+  m.attr("SHADING_PATHS") = names_of(kShadingPathNames);
 
   py::class_<MeshData, std::shared_ptr<MeshData>>(m, "MeshData")
       .def(py::init(&make_mesh), "positions"_a, "faces"_a, "normals"_a = py::none(),
@@ -385,8 +399,5 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("height", &Renderer::height)
       .def_property_readonly("threads", &Renderer::threads)
       .def_property_readonly("isa", [](const Renderer& r) { return isa_name(r.isa()); })
-      .def("render", &render, "draws"_a, "view"_a, "proj"_a, "orthographic"_a, "near"_a, "far"_a,
-           "outputs"_a, "cull"_a = "back", "shading"_a = "lambert",
-           "background"_a = std::array<float, 3>{0.0f, 0.0f, 0.0f}, "ambient"_a = 0.25f,
-           "out"_a = py::none(), "shading_path"_a = "auto");
+      .def("render", &render, "draws"_a, "spec"_a);
 }

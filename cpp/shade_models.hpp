@@ -3,7 +3,7 @@
 // model's choices are made at compile time and what it does not read is never interpolated.
 //
 // A model is a struct with:
-//   kId            its Shading value (the enum is the model's public name: bindings.cpp)
+//   kId, kName     its Shading value and its public name (render(shading=kName))
 //   kReadsNormal   colour depends on the surface normal: normals are prepared and interpolated
 //   kReadsColor    colour depends on the base colour (vertex colours or the material colour)
 //   kReadsPosition colour depends on the world-space position (point lights, ...)
@@ -18,14 +18,16 @@
 //                  Fragment f (what the flags ask for) in, shaded colour out
 //   shade_uniform(c, s, b0, b1, b2) (kUniformLit only) packed 8-bit colour from the
 //                  unnormalised perspective weights b_k
-// Register it in ShadingModels below (the dispatch covers every listed model) and give it a
-// name in bindings.cpp and render.py (ARCHITECTURE.md, "Add a shading model").
+// Give it a Shading value (pipeline.hpp) and list it in ShadingModels below: the dispatch
+// compiles kernels for every listed model, and bindings.cpp exports the names to Python
+// (softrast's render(shading=) and the CLI) from the list (ARCHITECTURE.md, "Add a shading model").
 #pragma once
 
 #include "pipeline.hpp"
 #include "simd.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 
@@ -88,6 +90,7 @@ struct Fragment {
 // "unlit": the base colour.
 struct UnlitModel {
   static constexpr Shading kId = Shading::Unlit;
+  static constexpr const char* kName = "unlit";  // render(shading=...)
   static constexpr bool kReadsNormal = false, kReadsColor = true, kUniformLit = false;
   static constexpr bool kReadsPosition = false;
   static constexpr int kAttributes = 0;
@@ -111,6 +114,7 @@ struct UnlitModel {
 // "lambert": base colour * (ambient + (1 - ambient) * max(0, n . l)), l the headlight, two-sided.
 struct LambertModel {
   static constexpr Shading kId = Shading::Lambert;
+  static constexpr const char* kName = "lambert";  // render(shading=...)
   static constexpr bool kReadsNormal = true, kReadsColor = true, kUniformLit = true;
   static constexpr bool kReadsPosition = false;
   static constexpr int kAttributes = 0;
@@ -172,6 +176,7 @@ struct LambertModel {
 // normals give mid-grey). Base colours are not read.
 struct NormalModel {
   static constexpr Shading kId = Shading::Normal;
+  static constexpr const char* kName = "normal";  // render(shading=...)
   static constexpr bool kReadsNormal = true, kReadsColor = false, kUniformLit = false;
   static constexpr bool kReadsPosition = false;
   static constexpr int kAttributes = 0;
@@ -200,6 +205,7 @@ struct NormalModel {
 // uvs is black). Reads one two-float vertex attribute, interpolated perspective-correctly.
 struct UvModel {
   static constexpr Shading kId = Shading::Uv;
+  static constexpr const char* kName = "uv";  // render(shading=...)
   static constexpr bool kReadsNormal = false, kReadsColor = false, kUniformLit = false;
   static constexpr bool kReadsPosition = false;
   static constexpr int kAttributes = 2;
@@ -233,6 +239,16 @@ using ShadingModels = ModelList<UnlitModel, LambertModel, NormalModel, UvModel>;
 template <typename... M>
 constexpr int count_models(ModelList<M...>) { return int(sizeof...(M)); }
 constexpr int kNumShadingModels = count_models(ShadingModels{});
+// Every model's (Shading, name), in list order.
+struct ModelName {
+  Shading id;
+  const char* name;
+};
+template <typename... M>
+constexpr std::array<ModelName, sizeof...(M)> model_names(ModelList<M...>) {
+  return {ModelName{M::kId, M::kName}...};
+}
+inline constexpr auto kShadingModelNames = model_names(ShadingModels{});
 
 // True if `shading`'s colour reads normals (then a colour render prepares world normals).
 template <typename... M>

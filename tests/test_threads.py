@@ -12,6 +12,7 @@ import trimesh
 
 import softrast as sr
 from softrast import _core
+from softrast.render import _spec
 
 OUTPUTS = ("color", "depth", "normal", "triangle_id", "coverage")
 
@@ -81,8 +82,8 @@ def test_gil_is_released_while_rendering():
     renderer = sr.Renderer(512, 512, threads=1)
     # The core's call directly: the Python wrapper around it could release the GIL itself.
     draws = [(inst.mesh._core_data(), inst.pose, inst.instance_id, inst.color) for inst in scene]
-    args = (cam.view_matrix(), cam.projection_matrix(512, 512), False, cam.near, cam.far,
-            ["color", "depth", "normal"])
+    spec = _spec(cam.view_matrix(), cam.projection_matrix(512, 512), False, cam.near, cam.far,
+                 ["color", "depth", "normal"])
     count = 0
     counting, stop = threading.Event(), threading.Event()
 
@@ -102,7 +103,7 @@ def test_gil_is_released_while_rendering():
         progressed = 0
         for _ in range(50):
             before = count
-            renderer._core.render(draws, *args)
+            renderer._core.render(draws, spec)
             progressed += count > before
             if progressed >= 3:
                 break
@@ -160,8 +161,9 @@ def test_core_mesh_dropped_by_python_while_a_render_reads_it():
 
     cam = sr.PerspectiveCamera(fov_y=45.0).look_at(eye=(0.0, 0.0, 3.0), target=(0.0, 0.0, 0.0))
     renderer = _core.Renderer(512, 512, 1)
-    args = (cam.view_matrix(), cam.projection_matrix(512, 512), False, cam.near, cam.far, ["color", "depth"])
-    expected = renderer.render(draws(), *args)
+    spec = _spec(cam.view_matrix(), cam.projection_matrix(512, 512), False, cam.near, cam.far,
+                 ["color", "depth"])
+    expected = renderer.render(draws(), spec)
     for attempt in range(20):
         pending = draws()
         probe = weakref.ref(pending[0][0])
@@ -170,7 +172,7 @@ def test_core_mesh_dropped_by_python_while_a_render_reads_it():
 
         def work() -> None:
             started.set()
-            out.update(renderer.render(pending, *args))
+            out.update(renderer.render(pending, spec))
             out["end"] = time.perf_counter()
 
         thread = threading.Thread(target=work)

@@ -25,6 +25,9 @@ OUTPUTS: tuple[str, ...]  # every output name render() accepts, in the output ta
 # channels (1 => (h, w), else (h, w, channels)), bytes_per_pixel, background (value where
 # nothing is drawn; colour uses the render's background), pass ("resolve" | "shade"), doc.
 OUTPUT_TABLE: tuple[dict[str, Any], ...]
+SHADING_MODELS: tuple[str, ...]  # render(shading=) names, from cpp/shade_models.hpp's model list
+CULL_MODES: tuple[str, ...]  # "none", "back", "front"
+SHADING_PATHS: tuple[str, ...]  # "auto", "forward", "deferred"
 
 class MeshData:
     """Geometry uploaded once and validated.
@@ -75,36 +78,20 @@ class Renderer:
     def render(
         self,
         draws: Sequence[tuple[MeshData, npt.NDArray[np.float64], int, Sequence[float]]],
-        view: npt.NDArray[np.float64],
-        proj: npt.NDArray[np.float64],
-        orthographic: bool,
-        near: float,
-        far: float,
-        outputs: Sequence[str],
-        cull: str = "back",
-        shading: str = "lambert",
-        background: Sequence[float] = (0.0, 0.0, 0.0),
-        ambient: float = 0.25,
-        out: dict[str, np.ndarray] | None = None,
-        shading_path: str = "auto",
+        spec: dict[str, Any],
     ) -> dict[str, np.ndarray]:
         """Render ``draws`` = [(mesh, model (4, 4) float64 model-to-world, instance_id, rgba)].
 
-        view : (4, 4) float64 world-to-view; proj : (4, 4) float64 view-to-clip.
-        outputs: any of OUTPUTS; only these buffers are allocated and written:
-          "color"       (h, w, 3) uint8
-          "depth"       (h, w) float32, -z_view, 0 = background
-          "mask"        (h, w) bool
-          "normal"      (h, w, 3) float32 world-space unit normal, 0 = background
-          "triangle_id" (h, w) int32 face index within its mesh, -1 = background
-          "instance_id" (h, w) int32, -1 = background
-          "coverage"    (h, w) uint32 number of rasterized triangles covering each pixel
-                        centre before the depth test (for watertightness checks)
-        Each array views C++ memory owned by its ``base`` (no copy), except outputs named in
-        ``out``, which are written into the given arrays (exact dtype and shape, C-contiguous,
-        writeable) and returned as they are. The GIL is released.
-        cull: "none" | "back" | "front" (front = counter-clockwise in NDC, OpenGL's default).
-        shading: "lambert" (headlight: directional light along the view axis) | "unlit" | "normal"
-            ((n + 1) / 2 of the world-space unit normal) | "uv" ((u, v, 0) clamped).
-        shading_path: "auto" | "forward" | "deferred" (same bits; see Renderer.render).
+        ``spec`` holds every option, checked by softrast.Renderer.render beforehand (the core
+        re-checks only memory and what it needs for safety):
+          view, proj : (4, 4) float64 world-to-view and view-to-clip
+          orthographic : bool; near, far : float
+          outputs : names from OUTPUTS (OUTPUT_TABLE gives each one's dtype and shape); only
+                    these buffers are allocated and written
+          cull : one of CULL_MODES; shading : one of SHADING_MODELS;
+          shading_path : one of SHADING_PATHS
+          background : 3 floats in [0, 1]; ambient : float in [0, 1]
+          out : dict of arrays to write into (exact dtype and shape, C-contiguous, writeable),
+                returned as they are, or None
+        Each other array views C++ memory owned by its ``base`` (no copy). The GIL is released.
         """

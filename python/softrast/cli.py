@@ -17,6 +17,8 @@ from typing import Sequence
 
 import numpy as np
 
+from . import _core
+
 __all__ = ["main"]
 
 _FRAME_MARGIN = 1.1  # the bounding sphere fills ~90% of the narrower field of view
@@ -92,7 +94,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--near", type=_positive_float, help="near plane distance (default: from the mesh size)")
     r.add_argument("--far", type=_positive_float, help="far plane distance (default: from the mesh size)")
     r.add_argument("--cull", choices=("back", "none", "front"), default="back", help="face culling (default back)")
-    r.add_argument("--shading", choices=("lambert", "unlit", "normal", "uv"), default="lambert", help="shading (default lambert)")
+    r.add_argument("--shading", choices=_core.SHADING_MODELS, default="lambert", help="shading (default lambert)")
     r.add_argument("--threads", type=_threads, default=0, help="worker threads, 0 = one per core (default)")
     return parser
 

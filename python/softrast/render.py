@@ -14,9 +14,9 @@ from .scene import Scene
 
 __all__ = ["Frame", "Renderer"]
 
-_CULL = ("none", "back", "front")
-_SHADING = ("lambert", "unlit", "normal", "uv")
-_SHADING_PATHS = ("auto", "forward", "deferred")
+_CULL = _core.CULL_MODES
+_SHADING = _core.SHADING_MODELS  # the core's model list (cpp/shade_models.hpp)
+_SHADING_PATHS = _core.SHADING_PATHS
 # Bytes per pixel of each output (see Frame): what a render allocates for it. From the core's
 # output table, as every list of outputs here is.
 _OUTPUT_BYTES = {row["name"]: row["bytes_per_pixel"] for row in _core.OUTPUT_TABLE}
@@ -53,6 +53,16 @@ class Frame:
 
 Frame.__doc__ = (Frame.__doc__ or "").replace("{outputs}", "\n".join(
     f"    {row['name']:<11} : {row['doc']}" for row in _core.OUTPUT_TABLE))
+
+
+def _spec(view: Any, proj: Any, orthographic: bool, near: float, far: float, outputs: list[str],
+          cull: str = "back", shading: str = "lambert",
+          background: Sequence[float] = (0.0, 0.0, 0.0), ambient: float = 0.25,
+          out: dict[str, np.ndarray] | None = None, shading_path: str = "auto") -> dict[str, Any]:
+    """The core's render spec (_core.pyi, Renderer.render): the options, already checked."""
+    return {"view": view, "proj": proj, "orthographic": orthographic, "near": near, "far": far,
+            "outputs": outputs, "cull": cull, "shading": shading, "shading_path": shading_path,
+            "background": background, "ambient": ambient, "out": out}
 
 
 def _output_names(outputs: str | Iterable[str]) -> list[str]:
@@ -203,8 +213,10 @@ class Renderer:
         draws = [(inst.mesh._core_data(), inst.pose, inst.instance_id, inst.color)
                  for inst in scene._instances]
         view, proj = camera._render_matrices(w, h)
-        buffers = self._core.render(draws, view, proj, camera.orthographic, camera.near, camera.far,
-                                    names, cull, shading, bg, ambient_f, out_arrays, shading_path)
+        # Every option is checked above, once; the core gets them as one spec.
+        buffers = self._core.render(draws, _spec(view, proj, camera.orthographic, camera.near,
+                                                 camera.far, names, cull, shading, bg, ambient_f,
+                                                 out_arrays, shading_path))
         return Frame(buffers)
 
     def __repr__(self) -> str:
