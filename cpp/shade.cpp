@@ -1,9 +1,10 @@
-// Shade stage: perspective-correct barycentrics, attribute interpolation, and the shading
-// models (shade_models.hpp) over a tile's visible triangles, deferred or forward.
+// Shade stage: the shading models (shade_models.hpp) over a tile's visible triangles, deferred
+// (each triangle that owns pixels, once) or forward (the raster kernels' hook); interpolation
+// is in interpolate.hpp.
 #include "shade.hpp"
 
 #include "dispatch.hpp"
-#include "normals.hpp"
+#include "interpolate.hpp"
 #include "outputs.hpp"
 
 #include <algorithm>
@@ -14,165 +15,11 @@ namespace sr {
 
 namespace {
 
-// What every model's classify() starts from: whether the three normals are one, and its unit
-// vector; then the model picks the triangle's colour kind.
-template <typename Model>
-SR_INLINE void classify(const ShadeInputs& in, bool uniform_color, ShadeTriangle<Model>& s) {
-  s.one_normal = s.normal[0] == s.normal[1] && s.normal[0] == s.normal[2];
-  if (s.one_normal) {
-    const vec3 n = s.normal[0];
-    const float len2 = glm::dot(n, n);
-    s.unit_normal = len2 > 0.0f ? n * (1.0f / std::sqrt(len2)) : vec3(0.0f);
-  }
-  Model::classify(in, uniform_color, s);
-}
-
-
-// The triangle's flat normal in world space: the counter-clockwise face normal of corners
-// c0, c1, c2, in double (a float cross product or a scaled normal can overflow: a triangle 1e20
-// units wide, a pose scaling by 0.1).
-inline vec3 flat_normal(const ShadeDraw& d, int32_t c0, int32_t c1, int32_t c2) {
-  const vec3* positions = d.mesh->positions.data();
-  const dvec3 p0(positions[c0]);
-  return unit(d.normal_to_world *
-              glm::cross(dvec3(positions[c1]) - p0, dvec3(positions[c2]) - p0));
-}
-
-// A mesh vertex in world space (models that read positions).
-inline vec3 world_position(const ShadeDraw& d, int32_t vertex) {
-  return vec3(d.model_to_world * dvec4(dvec3(d.mesh->positions[vertex]), 1.0));
-}
-
-// The first N floats of a vertex's attributes: its uvs, the one attribute array so far (zero
-// where the mesh has none).
-template <int N>
-inline void vertex_attributes(const MeshData& mesh, int32_t vertex, float* out) {
-  static_assert(N == 2, "uvs are the only vertex attribute array so far");
-  const vec2 uv = mesh.uvs.empty() ? vec2(0.0f) : mesh.uvs[vertex];
-  out[0] = uv.x;
-  out[1] = uv.y;
-}
-
-// Prepares one visible triangle into `s`: its perspective weights and its attributes at its own
-// three vertices. An unclipped record names its mesh vertices; a clipped triangle's vertices
-// carry weights of the source face's corners, and attributes, linear in those weights, are
-// mapped here once. Normals only if the model reads them or they are an output (kNormals):
-// else one zero normal.
-// (Written in place: returned by value, the copy cost as much as the rest.)
-template <typename Model, bool kNormals>
-SR_INLINE void prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTriangle<Model>& s) {
-  const TriangleSetup& t = *vt.tri;
-  const TriangleShading& a = vt.chunk->shading[std::size_t(vt.tri - vt.chunk->records.data())];
-  const ShadeDraw& d = p.draws[t.draw];
-  const MeshData& mesh = *d.mesh;
-  bool uniform_color;
-  for (int k = 0; k < 3; ++k) s.persp[k] = a.persp[k];
-  if (a.clip_ref == kNoClip) {
-    const int32_t* v = a.vertex;
-    if (!kNormals) {
-      s.normal[0] = s.normal[1] = s.normal[2] = vec3(0.0f);
-    } else if (d.world_normals) {
-      for (int k = 0; k < 3; ++k) s.normal[k] = d.world_normals[v[k]];
-    } else {  // no vertex normals => flat; the record's order is the face's, 1 and 2 swapped or not
-      s.normal[0] = a.swapped ? flat_normal(d, v[0], v[2], v[1]) : flat_normal(d, v[0], v[1], v[2]);
-      s.normal[1] = s.normal[2] = s.normal[0];
-    }
-    if (mesh.colors.empty()) {
-      s.color[0] = vec3(d.color);
-      uniform_color = true;
-    } else {
-      for (int k = 0; k < 3; ++k) s.color[k] = mesh.colors[v[k]];
-      uniform_color = s.color[0] == s.color[1] && s.color[0] == s.color[2];
-    }
-    if constexpr (Model::kReadsPosition)
-      for (int k = 0; k < 3; ++k) s.position[k] = world_position(d, v[k]);
-    if constexpr (Model::kAttributes > 0)
-      for (int k = 0; k < 3; ++k) vertex_attributes<Model::kAttributes>(mesh, v[k], s.attr[k]);
-  } else {
-    const ivec3 f = mesh.faces[t.prim];
-    vec3 normal_src[3] = {}, color_src[3];
-    if (kNormals) {
-      if (d.world_normals) {
-        for (int c = 0; c < 3; ++c) normal_src[c] = d.world_normals[f[c]];
-      } else {
-        normal_src[0] = normal_src[1] = normal_src[2] = flat_normal(d, f.x, f.y, f.z);
-      }
-    }
-    for (int c = 0; c < 3; ++c)
-      color_src[c] = mesh.colors.empty() ? vec3(d.color) : vec3(mesh.colors[f[c]]);
-    const vec3* weights = &vt.chunk->clip_bary[3 * std::size_t(a.clip_ref)];
-    for (int k = 0; k < 3; ++k) {
-      const vec3 w = weights[k];
-      s.normal[k] = w.x * normal_src[0] + w.y * normal_src[1] + w.z * normal_src[2];
-      s.color[k] = w.x * color_src[0] + w.y * color_src[1] + w.z * color_src[2];
-    }
-    if constexpr (Model::kReadsPosition) {
-      vec3 src[3];
-      for (int c = 0; c < 3; ++c) src[c] = world_position(d, f[c]);
-      for (int k = 0; k < 3; ++k) {
-        const vec3 w = weights[k];
-        s.position[k] = w.x * src[0] + w.y * src[1] + w.z * src[2];
-      }
-    }
-    if constexpr (Model::kAttributes > 0) {
-      float src[3][Model::kAttributes];
-      for (int c = 0; c < 3; ++c) vertex_attributes<Model::kAttributes>(mesh, f[c], src[c]);
-      for (int k = 0; k < 3; ++k)
-        for (int j = 0; j < Model::kAttributes; ++j)
-          s.attr[k][j] = weights[k].x * src[0][j] + weights[k].y * src[1][j] + weights[k].z * src[2][j];
-    }
-    uniform_color = s.color[0] == s.color[1] && s.color[0] == s.color[2];
-  }
-  if (kNormals && a.back_facing)  // two-sided: the side the camera sees
-    for (vec3& n : s.normal) n = -n;
-  classify(p.in, uniform_color, s);
-}
-
 using namespace simd;
-
-// Eight lanes of float edge values E_k for pixels (x .. x + 7, y) of one triangle, stepped along
-// its rows; each lane holds float(E_k), rounded once from the exact value, as a scalar
-// float(int64) would. Small triangles (is_small) use the rasterizer's SmallEdges.
-// Any triangle: exact values in double (|E| < 2^51 < 2^53), two halves of four lanes.
-struct LargeEdges {
-  d4 lo[3], hi[3];
-  double step_x8[3], step_y[3];
-  SR_INLINE explicit LargeEdges(const EdgeEquations& eq) {
-    const d4 lane{0.0, 1.0, 2.0, 3.0};
-    for (int k = 0; k < 3; ++k) {
-      lo[k] = double(eq.origin[k]) + lane * double(eq.step_x[k]);
-      hi[k] = double(eq.origin[k]) + (lane + 4.0) * double(eq.step_x[k]);
-      step_x8[k] = double(eq.step_x[k] * kLanes);
-      step_y[k] = double(eq.step_y[k]);
-    }
-  }
-  struct Cursor {
-    d4 lo[3], hi[3];
-    SR_INLINE f8 edge(int k) const { return to_float(lo[k], hi[k]); }
-    SR_INLINE void next(const LargeEdges& s) {
-      for (int k = 0; k < 3; ++k) {
-        lo[k] += s.step_x8[k];
-        hi[k] += s.step_x8[k];
-      }
-    }
-  };
-  SR_INLINE Cursor cursor() const { return {{lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]}}; }
-  SR_INLINE void next_row() {
-    for (int k = 0; k < 3; ++k) {
-      lo[k] += step_y[k];
-      hi[k] += step_y[k];
-    }
-  }
-};
-
-// b0 v[0] + b1 v[1] + b2 v[2] per component, eight pixels at a time.
-struct Lanes3 {
-  f8 x, y, z;
-};
-SR_INLINE Lanes3 weighted(const vec3 (&v)[3], f8 b0, f8 b1, f8 b2) {
-  return {b0 * v[0].x + b1 * v[1].x + b2 * v[2].x, b0 * v[0].y + b1 * v[1].y + b2 * v[2].y,
-          b0 * v[0].z + b1 * v[1].z + b2 * v[2].z};
-}
+using interp::LargeEdges;
+using interp::Lanes3;
+using interp::prepare;
+using interp::weighted;
 
 // Per-triangle constants of shade_group: the perspective weights and the model's own.
 template <typename Model>
