@@ -254,9 +254,8 @@ SR_INLINE void rasterize_pairs(const TriangleSetup& t, int x0, int x1, int y0, i
 // only: a quarter of the tile pass). So the record this many places ahead is fetched early.
 // Forward shading reads the record's TriangleShading too, where the triangle wins a pixel, and
 // then its vertices' attributes, which are as scattered as the mesh's vertex order: the hook
-// fetches those kPrefetchAttributes places ahead, from the TriangleShading fetched earlier.
-// (ico8 at 1024x1024, colour + depth, 2 threads: tile pass 11.2 -> 10.7 ms in trimesh's vertex
-// order, 20 -> 13 ms with the vertices shuffled.)
+// fetches those kPrefetchAttributes places ahead, from the TriangleShading fetched earlier
+// (benchmarks/RESULTS.md, eighth session).
 constexpr uint32_t kPrefetchRecords = 16, kPrefetchAttributes = 8;
 template <bool kShades>
 SR_INLINE void prefetch_record(const SetupChunk& chunk, uint32_t r) {

@@ -72,7 +72,8 @@ bool all_finite(const M& m) {
 }
 
 // Validation reads a whole mesh when it is uploaded, which from Python happens in the first frame
-// that draws it (ico8: 31 MB; 7-9 ms as loops that tested and branched per value, 3-4 ms now).
+// that draws it (31 MB for a 1.3M-face mesh): branch-free scans run about twice as fast as loops
+// that test and branch per value (benchmarks/RESULTS.md).
 // The scans below are branch-free within a block, so they vectorise; a block that holds a bad
 // value is scanned again for the first one, to report it.
 constexpr std::size_t kScanBlock = 4096;

@@ -216,9 +216,8 @@ SR_INLINE void setup_eight(const SetupParams& params, std::size_t f, SetupChunk&
 // Faces reach their vertices through indices, and the order of a mesh's vertices is its
 // author's: in a large mesh each gather from the projected vertices may be a cache miss that no
 // hardware prefetcher foresees. So the vertices of the faces this many places ahead are fetched
-// early. Setup for ico8 at 1024x1024, depth only, 2 threads: 8.5 -> 8.0 ms with vertices in
-// order of first use, 10.1 -> 8.1 ms in trimesh's icosphere order, 20 -> 12 ms shuffled; the
-// same for a mesh that fits in cache.
+// early (measured in benchmarks/RESULTS.md, eighth session: up to 1.7x faster setup
+// for a shuffled 1.3M-face mesh; no change for a mesh that fits in cache).
 constexpr std::size_t kPrefetchFaces = 64;
 
 SR_INLINE void setup_range(const SetupParams& params, std::size_t begin, std::size_t end,
