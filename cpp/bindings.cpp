@@ -257,6 +257,23 @@ std::byte* external_buffer(const py::handle& obj, const OutputLayout& layout, in
   return static_cast<std::byte*>(arr.mutable_data());
 }
 
+// The render spec's keys, interned once (a dict lookup by a C string would build and hash a new
+// Python string per key per render: about 1 us of a 6 us call).
+enum SpecKey { k_view, k_proj, k_orthographic, k_near, k_far, k_outputs, k_cull, k_shading,
+               k_shading_path, k_background, k_ambient, k_out, kNumSpecKeys };
+constexpr const char* kSpecKeys[kNumSpecKeys] = {
+    "view", "proj", "orthographic", "near", "far", "outputs", "cull", "shading",
+    "shading_path", "background", "ambient", "out"};
+PyObject* spec_key(SpecKey key) {
+  // Made on first use with the GIL held and never freed (they live as long as the interpreter).
+  static PyObject* const* const keys = [] {
+    static PyObject* made[kNumSpecKeys];
+    for (int i = 0; i < kNumSpecKeys; ++i) made[i] = PyUnicode_InternFromString(kSpecKeys[i]);
+    return made;
+  }();
+  return keys[key];
+}
+
 // One render, as one spec from render.py, which has checked every option by name: only what
 // Python cannot check (array memory, overlaps) or the core needs for safety is checked here
 // and in Renderer::render. Keys: view, proj (4x4 float64), orthographic, near, far, outputs
@@ -276,25 +293,26 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::dict& sp
     draw.color = vec4(rgba[0], rgba[1], rgba[2], rgba[3]);
     draws.push_back(std::move(draw));
   }
-  const auto get = [&](const char* key) -> py::object {
-    if (!spec.contains(key)) throw py::key_error(std::string("render spec has no '") + key + "'");
-    return spec[key];
+  const auto get = [&](SpecKey key) -> py::object {
+    PyObject* value = PyDict_GetItem(spec.ptr(), spec_key(key));  // borrowed; no error set
+    if (!value) throw py::key_error(std::string("render spec has no '") + kSpecKeys[key] + "'");
+    return py::reinterpret_borrow<py::object>(value);
   };
   CameraParams camera;
-  camera.view = matrix_from_array(get("view"), "view");
-  camera.proj = matrix_from_array(get("proj"), "proj");
-  camera.orthographic = get("orthographic").cast<bool>();
-  camera.near = get("near").cast<double>();
-  camera.far = get("far").cast<double>();
+  camera.view = matrix_from_array(get(k_view), "view");
+  camera.proj = matrix_from_array(get(k_proj), "proj");
+  camera.orthographic = get(k_orthographic).cast<bool>();
+  camera.near = get(k_near).cast<double>();
+  camera.far = get(k_far).cast<double>();
   RenderOptions options;
-  options.outputs = parse_outputs(get("outputs").cast<std::vector<std::string>>());
-  options.cull = parse_name(get("cull").cast<std::string>(), kCullNames, "cull");
-  options.shading = parse_shading(get("shading").cast<std::string>());
-  options.shading_path = parse_name(get("shading_path").cast<std::string>(), kShadingPathNames, "shading_path");
-  const auto background = get("background").cast<std::array<float, 3>>();
+  options.outputs = parse_outputs(get(k_outputs).cast<std::vector<std::string>>());
+  options.cull = parse_name(get(k_cull).cast<std::string>(), kCullNames, "cull");
+  options.shading = parse_shading(get(k_shading).cast<std::string>());
+  options.shading_path = parse_name(get(k_shading_path).cast<std::string>(), kShadingPathNames, "shading_path");
+  const auto background = get(k_background).cast<std::array<float, 3>>();
   for (int c = 0; c < 3; ++c) options.background[c] = background[c];  // range: Renderer::render
-  options.ambient = get("ambient").cast<float>();
-  const py::object out = get("out");
+  options.ambient = get(k_ambient).cast<float>();
+  const py::object out = get(k_out);
 
   // Caller-supplied arrays (out=) are written in place; `out` keeps them alive meanwhile.
   std::byte* external[kNumOutputs] = {};

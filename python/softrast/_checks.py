@@ -28,6 +28,8 @@ def _type_name(value: Any) -> str:
 
 def real(value: Any, name: str) -> float:
     """A real number as a Python float (may be NaN or inf: see finite_real / positive_real)."""
+    if type(value) is float:  # the common case first: a render checks several per call
+        return value
     if isinstance(value, (bool, np.bool_)):
         raise TypeError(f"{name} must be a number, got bool {value!r}")
     if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
@@ -109,6 +111,12 @@ def real_array(value: Any, name: str) -> npt.NDArray[np.float64]:
 
 def unit_rgb(value: Any, name: str) -> tuple[float, float, float]:
     """3 real numbers in [0, 1] (an RGB colour) as a tuple of Python floats."""
+    if type(value) is tuple and len(value) == 3:  # fast path: plain floats and ints, not bools
+        t0, t1, t2 = type(value[0]), type(value[1]), type(value[2])
+        if (t0 is float or t0 is int) and (t1 is float or t1 is int) and (t2 is float or t2 is int):
+            r, g, b = float(value[0]), float(value[1]), float(value[2])
+            if 0.0 <= r <= 1.0 and 0.0 <= g <= 1.0 and 0.0 <= b <= 1.0:
+                return r, g, b
     arr = real_array(value, name)
     if arr.shape != (3,):
         raise ValueError(f"{name} must be 3 numbers in [0, 1] (RGB), got shape {arr.shape}")
