@@ -141,3 +141,20 @@ def test_python_dash_m(tmp_path):
     bad = subprocess.run([sys.executable, "-m", "softrast", "render", str(SPOT_PATH), "-o", "x.png",
                           "--size", "x"], capture_output=True, text=True, timeout=120, cwd=tmp_path)
     assert bad.returncode == 2 and bad.stderr.startswith("softrast: error:") and bad.stderr.count("\n") == 1
+
+
+def test_refused_worker_thread_is_a_clean_error(tmp_path, capsys):
+    # The system refusing a worker thread (here injected: the first one asked for) is reported
+    # like any other error, naming `threads`, with no traceback.
+    from softrast import _core
+
+    _core._fail_thread_start(1)
+    try:
+        status = main(["render", str(SPOT_PATH), "-o", str(tmp_path / "x.png"), "--threads", "2",
+                       "--size", "32x24"])
+    finally:
+        _core._fail_thread_start(0)
+    err = capsys.readouterr().err
+    assert status == 2
+    assert err.startswith("softrast: error:") and "threads" in err and "Traceback" not in err
+    assert not (tmp_path / "x.png").exists()

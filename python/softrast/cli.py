@@ -171,7 +171,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         if args.command == "render":
             _render(args)
-    except (CliError, OSError, ValueError, TypeError) as exc:
+    except (CliError, OSError, ValueError, TypeError, RuntimeError) as exc:
+        # RuntimeError: the system refused a worker thread (Renderer names `threads`).
         print(f"softrast: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:  # files are written atomically => nothing partial is left behind
