@@ -698,3 +698,16 @@ def test_precision_warning_for_coordinates_too_small_for_float32():
         Mesh(np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.3, 1.0, 0.0]]) * 1.234567e-43, [[0, 1, 2]])
     with pytest.warns(sr.PrecisionWarning, match=r"too small"):  # 1e-300 rounds to 0: collapses
         Mesh(np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]) * 1e-300, [[0, 1, 2]])
+
+
+def test_precision_warning_from_load_mesh_names_the_file(tmp_path):
+    # A mesh file in world coordinates (a 1-unit triangle fan 1e7 units out): the warning says
+    # which file, since it is raised from inside the package.
+    path = tmp_path / "far.obj"
+    path.write_text("v 1e7 1e7 0\nv 10000001.3 1e7 0\nv 1e7 10000001.7 0\nv 10000001.1 10000001.9 0.5\n"
+                    "f 1 2 3\nf 2 4 3\n")
+    with pytest.warns(sr.PrecisionWarning, match=r"far\.obj: positions"):
+        sr.load_mesh(path)
+    with pytest.warns(sr.PrecisionWarning) as caught:  # a Mesh made directly names no file
+        sr.Mesh(np.array([[1e7, 1e7, 0], [1e7 + 1.3, 1e7, 0], [1e7, 1e7 + 1.7, 0]]), [[0, 1, 2]])
+    assert "far.obj" not in str(caught[0].message)

@@ -7,6 +7,7 @@ given (or as the file lists it), so ``triangle_id`` outputs index ``Mesh.faces``
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import ctypes
 import errno
 import math
@@ -37,6 +38,10 @@ _FLOAT32_MAX = float(np.finfo(np.float32).max)  # 3.4028235e38
 # PrecisionWarning threshold: a vertex moved by float32 rounding by more than this fraction of the
 # mesh's bounding-box diagonal (see Mesh).
 PRECISION_WARNING_FRACTION = 1e-4
+
+
+# The file load_mesh is reading, for its warnings (a context variable: threads load their own).
+_LOADING_FILE: contextvars.ContextVar[str | None] = contextvars.ContextVar("_LOADING_FILE", default=None)
 
 
 class PrecisionWarning(UserWarning):
@@ -233,7 +238,9 @@ def _warn_if_imprecise(given: np.ndarray, stored: np.ndarray) -> None:
         else:  # tiny: float32 subnormals (below 1.2e-38) or zero
             advice = (f"its coordinates (up to {largest:.3g}) are too small for float32. Scale "
                       "the mesh up and put the inverse scale in the pose instead")
+        source = _LOADING_FILE.get()
         warnings.warn(
+            (f"{source}: " if source else "") +
             f"positions: storing them as float32 moved vertex {worst} by {moved:.3g}, "
             f"{moved / diagonal:.2g} of the mesh's bounding-box diagonal ({diagonal:.3g}): {advice}",
             PrecisionWarning, stacklevel=3)
@@ -517,6 +524,7 @@ def load_mesh(path: str | os.PathLike[str], smooth: bool = True, color: Sequence
     except Exception as exc:
         what = str(exc) if isinstance(exc, _FileProblem) else f"{type(exc).__name__}: {exc}"
         raise ValueError(f"could not load mesh {path_str!r}: {what}") from exc
+    token = _LOADING_FILE.set(path_str)  # a PrecisionWarning then names the file
     try:
         return Mesh.from_trimesh(loaded, smooth=smooth, color=color)
     except TypeError:
@@ -524,3 +532,5 @@ def load_mesh(path: str | os.PathLike[str], smooth: bool = True, color: Sequence
     except Exception as exc:  # NaN vertices and the like: say which file they came from
         what = str(exc) if type(exc) is ValueError else f"{type(exc).__name__}: {exc}"
         raise ValueError(f"could not load mesh {path_str!r}: {what}") from exc
+    finally:
+        _LOADING_FILE.reset(token)
