@@ -1,0 +1,20 @@
+// The shading kernels compiled for the avx2 instruction set (shade_kernels.hpp).
+#include "shade_kernels.hpp"
+
+namespace sr {
+namespace shading {
+
+template <>
+TileKernels::Deferred select_deferred<Isa::Avx2>(const SamplePattern& pattern, Shading shading,
+                                                  bool color, bool normal) {
+  return make_select_deferred<Isa::Avx2>(pattern, shading, color, normal);
+}
+
+template <>
+TileKernels::Forward select_forward<Isa::Avx2>(const SamplePattern& pattern, Shading shading,
+                                                bool color, bool normal, bool coverage) {
+  return make_select_forward<Isa::Avx2>(pattern, shading, color, normal, coverage);
+}
+
+}  // namespace shading
+}  // namespace sr

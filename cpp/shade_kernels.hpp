@@ -1,0 +1,296 @@
+// Shading kernels: the deferred walk and the forward hook over a tile, templated on the sample
+// pattern, the shading model and which outputs are written. Included by one file per
+// instruction set (shade_avx2.cpp, shade_generic.cpp), which instantiates them for it: the two
+// compile in parallel (under the sanitizers each takes minutes).
+#pragma once
+
+#include "dispatch.hpp"
+#include "interpolate.hpp"
+#include "shade.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace sr {
+namespace shading {
+
+using namespace simd;
+using interp::LargeEdges;
+using interp::Lanes3;
+using interp::prepare;
+using interp::weighted;
+
+// Per-triangle constants of shade_group: the perspective weights and the model's own.
+template <typename Model>
+struct ShadeConstants {
+  f8 persp[3];
+  typename Model::Constants model;
+  ShadeConstants() = default;
+  SR_INLINE ShadeConstants(const ShadeParams& p, const ShadeTriangle<Model>& s) : model(p.in, s) {
+    for (int k = 0; k < 3; ++k) persp[k] = splat(s.persp[k]);
+  }
+};
+
+// Shades eight pixels of one triangle from their exact edge values e0..e2, writing the lanes in
+// `mine` to the scratch buffers at i: eight pixels of a row, or with kPairs four pixels of row i
+// and four of the row below.
+template <typename Model, bool kColor, bool kNormal, bool kPairs>
+SR_INLINE void shade_group(const ShadeTriangle<Model>& s, const ShadeConstants<Model>& c, f8 e0,
+                           f8 e1, f8 e2, i8 mine, int i, ShadeScratch& out) {
+  const auto merge = [&](auto* p, auto v) {
+    raster::store_lanes<kPairs>(p, mine ? v : raster::load_lanes<kPairs, decltype(v)>(p));
+  };
+  const bool varying_color = kColor && s.color_kind == ShadeTriangleBase::kVaryingColor;
+  const bool varying_normal = kNormal && !s.one_normal;
+  if (varying_color || varying_normal) {
+    // Perspective-correct barycentrics from the exact edge values.
+    f8 b0 = e0 * c.persp[0], b1 = e1 * c.persp[1], b2 = e2 * c.persp[2];
+    const f8 inv_sum = 1.0f / (b0 + b1 + b2);
+    b0 *= inv_sum; b1 *= inv_sum; b2 *= inv_sum;
+    Fragment<Model> frag;
+    f8& nx = frag.normal[0];
+    f8& ny = frag.normal[1];
+    f8& nz = frag.normal[2];
+    nx = ny = nz = f8{};
+    if (varying_normal || (Model::kReadsNormal && varying_color)) {
+      const Lanes3 n = weighted(s.normal, b0, b1, b2);
+      nx = n.x; ny = n.y; nz = n.z;
+      const f8 len2 = nx * nx + ny * ny + nz * nz;
+      const f8 r = 1.0f / simd::sqrt(len2);
+      const i8 nonzero = len2 > 0.0f;
+      nx = nonzero ? nx * r : f8{};
+      ny = nonzero ? ny * r : f8{};
+      nz = nonzero ? nz * r : f8{};
+    }
+    if (varying_normal) {
+      merge(out.normal[0] + i, nx);
+      merge(out.normal[1] + i, ny);
+      merge(out.normal[2] + i, nz);
+    }
+    if (varying_color) {
+      f8 r{}, g{}, b{};
+      if constexpr (Model::kReadsColor) {
+        const Lanes3 rgb = weighted(s.color, b0, b1, b2);
+        r = rgb.x; g = rgb.y; b = rgb.z;
+      }
+      if constexpr (Model::kReadsPosition) {
+        const Lanes3 pos = weighted(s.position, b0, b1, b2);
+        frag.position[0] = pos.x; frag.position[1] = pos.y; frag.position[2] = pos.z;
+      }
+      for (int j = 0; j < Model::kAttributes; ++j)
+        frag.attr[j] = b0 * s.attr[0][j] + b1 * s.attr[1][j] + b2 * s.attr[2][j];
+      Model::shade(c.model, frag, r, g, b);
+      merge(out.rgb + i, to_unorm8(r) | (to_unorm8(g) << 8) | (to_unorm8(b) << 16));
+    }
+  }
+  if constexpr (kNormal) {
+    if (!varying_normal)
+      for (int k = 0; k < 3; ++k) merge(out.normal[k] + i, splat(s.unit_normal[k]));
+  }
+  if constexpr (kColor) {
+    if (s.color_kind == ShadeTriangleBase::kConstantColor) {
+      merge(out.rgb + i, splat(int32_t(s.rgb)));
+    } else if constexpr (Model::kUniformLit) {
+      if (s.color_kind == ShadeTriangleBase::kUniformLit) {
+        // Unnormalised perspective weights: the normal's length and dot(n, L) share their scale.
+        const f8 b0 = e0 * c.persp[0], b1 = e1 * c.persp[1], b2 = e2 * c.persp[2];
+        merge(out.rgb + i, Model::shade_uniform(c.model, s, b0, b1, b2));
+      }
+    }
+  }
+}
+
+// Shades the pixels of rows [y0, y1], columns [x0, x1] of the tile that visible triangle `index`
+// owns, into the scratch buffers.
+template <typename Model, bool kColor, bool kNormal, typename Edges>
+SR_INLINE void shade_pixels(const ShadeParams& p, const ShadeTriangle<Model>& s, Edges edges,
+                            int x0, int x1, int y0, int y1, const TileRect& rect,
+                            const TileScratch& raster, uint32_t index, ShadeScratch& out) {
+  const ShadeConstants<Model> c(p, s);
+  const i8 lane = lane_index(), index_v = splat(int32_t(index));
+  const int width = x1 - x0 + 1;
+  for (int y = y0; y <= y1; ++y, edges.next_row()) {
+    int i = (y - rect.y0) * kTileSizePx + (x0 - rect.x0);
+    typename Edges::Cursor cursor = edges.cursor();
+    for (int dx = 0; dx < width; dx += kLanes, i += kLanes, cursor.next(edges)) {
+      const i8 mine = (load<i8>(raster.visible + i) == index_v) & (lane < width - dx);
+      if (any(mine))
+        shade_group<Model, kColor, kNormal, false>(s, c, cursor.edge(0), cursor.edge(1),
+                                                   cursor.edge(2), mine, i, out);
+    }
+  }
+}
+
+// The same for a small triangle whose box is at most four pixels wide, two rows at a time.
+template <typename Model, bool kColor, bool kNormal>
+SR_INLINE void shade_pairs(const ShadeParams& p, const ShadeTriangle<Model>& s,
+                           SmallEdgePairs edges, int x0, int x1, int y0, int y1,
+                           const TileRect& rect, const TileScratch& raster, uint32_t index,
+                           ShadeScratch& out) {
+  const ShadeConstants<Model> c(p, s);
+  const i8 lane = lane_index(), index_v = splat(int32_t(index));
+  const i8 in_box_x = (lane & 3) < x1 - x0 + 1, row = lane >> 2;
+  for (int y = y0; y <= y1; y += 2, edges.next_rows()) {
+    const int i = (y - rect.y0) * kTileSizePx + (x0 - rect.x0);
+    const i8 mine = (raster::load_lanes<true, i8>(raster.visible + i) == index_v) & in_box_x &
+                    (row < y1 - y + 1);
+    if (any(mine))
+      shade_group<Model, kColor, kNormal, true>(s, c, edges.edge(0), edges.edge(1),
+                                                edges.edge(2), mine, i, out);
+  }
+}
+
+template <typename Pattern, typename Model, bool kColor, bool kNormal>
+SR_INLINE void shade_triangle(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
+                              uint32_t index, ShadeScratch& out) {
+  const VisibleTriangle& vt = raster.triangles[index];
+  const TriangleSetup& t = *vt.tri;
+  const int x0 = std::max(int(t.x0), rect.x0), x1 = std::min(int(t.x1), rect.x1 - 1);
+  const int y0 = std::max(int(t.y0), rect.y0), y1 = std::min(int(t.y1), rect.y1 - 1);
+  ShadeTriangle<Model> s;
+  prepare<Model, Model::kReadsNormal || kNormal>(p, vt, s);
+  const EdgeEquations eq = edge_equations<Pattern>(t, x0, y0);
+  if (is_small(t) && x1 - x0 < 4 && y1 > y0)
+    shade_pairs<Model, kColor, kNormal>(p, s, SmallEdgePairs(eq), x0, x1, y0, y1, rect, raster,
+                                        index, out);
+  else if (is_small(t))
+    shade_pixels<Model, kColor, kNormal>(p, s, SmallEdges(eq), x0, x1, y0, y1, rect, raster,
+                                         index, out);
+  else
+    shade_pixels<Model, kColor, kNormal>(p, s, LargeEdges(eq), x0, x1, y0, y1, rect, raster,
+                                         index, out);
+}
+
+// Deferred shading: each triangle that owns a pixel of the tile, once, over the pixels it owns.
+template <typename Pattern, typename Model, bool kColor, bool kNormal>
+struct ShadeVisible {
+  SR_INLINE static void run(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
+                            ShadeScratch& scratch) {
+    scratch.used.assign(raster.triangles.size(), 0);
+    for (int y = rect.y0; y < rect.y1; ++y) {
+      const uint32_t* visible = raster.visible + (y - rect.y0) * kTileSizePx;
+      for (int x = 0; x < rect.x1 - rect.x0; ++x)
+        if (visible[x] != kNoTriangle) scratch.used[visible[x]] = 1;
+    }
+    for (uint32_t v = 0; v < scratch.used.size(); ++v)
+      if (scratch.used[v]) shade_triangle<Pattern, Model, kColor, kNormal>(p, rect, raster, v, scratch);
+  }
+};
+
+// Forward shading: the raster kernels' hook (rasterize.hpp) that shades the lanes a triangle wins
+// as it wins them, preparing the triangle on its first win. Triangles on the int64 raster path
+// are noted and shaded afterwards, from the visibility buffer, as in deferred shading. A pixel
+// overwritten later was shaded in vain (overdraw); its final value is the same either way, since
+// a pixel's shade depends only on the triangle and the pixel.
+template <typename Model, bool kColor, bool kNormal>
+struct ForwardShading {
+  static constexpr bool kShades = true;
+  const ShadeParams& p;
+  ShadeScratch& out;
+  const VisibleTriangle* current = nullptr;  // valid until the next triangle()
+  bool ready = false;
+  ShadeTriangle<Model> s{};
+  ShadeConstants<Model> c{};
+
+  SR_INLINE void triangle(const VisibleTriangle& vt) {
+    current = &vt;
+    ready = false;
+  }
+  template <bool kPairs>
+  SR_INLINE void shade(i8 win, int i, f8 e0, f8 e1, f8 e2) {
+    if (!ready) {
+      prepare<Model, Model::kReadsNormal || kNormal>(p, *current, s);
+      c = ShadeConstants<Model>(p, s);
+      ready = true;
+    }
+    shade_group<Model, kColor, kNormal, kPairs>(s, c, e0, e1, e2, win, i, out);
+  }
+  SR_INLINE void large_won(uint32_t index) { out.large.push_back(index); }
+  // What prepare() will read of record i's vertices (raster::rasterize_all).
+  SR_INLINE void prefetch_attributes(const SetupChunk& chunk, uint32_t i) {
+    const TriangleShading& a = chunk.shading[i];
+    if (a.clip_ref != kNoClip) return;
+    const ShadeDraw& d = p.draws[chunk.records[i].draw];
+    if constexpr (Model::kReadsNormal || kNormal)
+      if (d.world_normals)
+        for (int k = 0; k < 3; ++k) __builtin_prefetch(d.world_normals + a.vertex[k]);
+    if constexpr (kColor && Model::kReadsColor)
+      if (!d.mesh->colors.empty())
+        for (int k = 0; k < 3; ++k) __builtin_prefetch(d.mesh->colors.data() + a.vertex[k]);
+  }
+};
+
+template <typename Pattern, typename Model, bool kColor, bool kNormal, bool kCoverage>
+struct ForwardTile {
+  SR_INLINE static void run(const ShadeParams& p, const TileRect& rect, int tile,
+                            const std::vector<SetupChunk>& chunks, std::size_t num_chunks,
+                            TileScratch& raster, ShadeScratch& scratch) {
+    scratch.large.clear();
+    ForwardShading<Model, kColor, kNormal> hook{p, scratch};
+    raster::rasterize_all<Pattern, kCoverage>(rect, tile, chunks, num_chunks, raster, hook);
+    for (const uint32_t index : scratch.large)
+      shade_triangle<Pattern, Model, kColor, kNormal>(p, rect, raster, index, scratch);
+  }
+};
+
+// The kernels of instruction set I for one render's choices (shade_avx2.cpp, shade_generic.cpp).
+// Without colour the model is moot (normals only: the unlit instantiation); with neither colour
+// nor normals there is nothing to shade (null).
+template <Isa I>
+TileKernels::Deferred select_deferred(const SamplePattern& pattern, Shading shading, bool color,
+                                      bool normal);
+template <Isa I>
+TileKernels::Forward select_forward(const SamplePattern& pattern, Shading shading, bool color,
+                                    bool normal, bool coverage);
+
+// Each is defined in its instruction set's file.
+template <>
+TileKernels::Deferred select_deferred<Isa::Avx2>(const SamplePattern&, Shading, bool, bool);
+template <>
+TileKernels::Deferred select_deferred<Isa::Generic>(const SamplePattern&, Shading, bool, bool);
+template <>
+TileKernels::Forward select_forward<Isa::Avx2>(const SamplePattern&, Shading, bool, bool, bool);
+template <>
+TileKernels::Forward select_forward<Isa::Generic>(const SamplePattern&, Shading, bool, bool, bool);
+
+// The definitions of both, for the file of instruction set I.
+template <Isa I>
+TileKernels::Deferred make_select_deferred(const SamplePattern& pattern, Shading shading,
+                                           bool color, bool normal) {
+  using Fn = TileKernels::Deferred;
+  if (!color) shading = Shading::Unlit;
+  return dispatch::select<Fn>(
+      [](auto sp, auto m, auto c, auto n) -> Fn {
+        if constexpr (!decltype(c)::value && !decltype(n)::value) {
+          return nullptr;
+        } else {
+          using K = ShadeVisible<typename decltype(sp)::type, typename decltype(m)::type,
+                                 decltype(c)::value, decltype(n)::value>;
+          if constexpr (I == Isa::Avx2) return dispatch::IsaKernel<K, Fn>::avx2;
+          else return dispatch::IsaKernel<K, Fn>::generic;
+        }
+      },
+      pattern, shading, color, normal);
+}
+
+template <Isa I>
+TileKernels::Forward make_select_forward(const SamplePattern& pattern, Shading shading,
+                                         bool color, bool normal, bool coverage) {
+  using Fn = TileKernels::Forward;
+  if (!color) shading = Shading::Unlit;
+  return dispatch::select<Fn>(
+      [](auto sp, auto m, auto c, auto n, auto cov) -> Fn {
+        if constexpr (!decltype(c)::value && !decltype(n)::value) {
+          return nullptr;
+        } else {
+          using K = ForwardTile<typename decltype(sp)::type, typename decltype(m)::type,
+                                decltype(c)::value, decltype(n)::value, decltype(cov)::value>;
+          if constexpr (I == Isa::Avx2) return dispatch::IsaKernel<K, Fn>::avx2;
+          else return dispatch::IsaKernel<K, Fn>::generic;
+        }
+      },
+      pattern, shading, color, normal, coverage);
+}
+
+}  // namespace shading
+}  // namespace sr
