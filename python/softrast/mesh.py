@@ -259,6 +259,9 @@ class Mesh:
     colors : (n, 3) or (n, 4) uint8 (0-255) or float in [0, 1], or None;
         stored as (n, 4) float32 RGBA in [0, 1] (alpha 1 when absent).
     color : 3 or 4 floats in [0, 1], the base colour used when ``colors`` is None.
+    material : a ``softrast.Material`` or None. With a material, ``color`` is its base colour
+        (a ``color`` given as well must agree). None: lambert shading of the base colour,
+        two-sided, no specular term (``Scene.add(..., material=)`` overrides it per instance).
 
     All stored arrays are immutable copies, so later edits to the inputs never reach the mesh.
     ``copy.copy`` and ``copy.deepcopy`` return the mesh itself (it cannot change); pickling
@@ -281,7 +284,7 @@ class Mesh:
     below 2**24, are stored exactly and never warn.
     """
 
-    __slots__ = ("_positions", "_faces", "_normals", "_uvs", "_colors", "_color", "_core")
+    __slots__ = ("_positions", "_faces", "_normals", "_uvs", "_colors", "_color", "_material", "_core")
 
     def __init__(
         self,
@@ -290,7 +293,8 @@ class Mesh:
         normals: npt.ArrayLike | None = None,
         uvs: npt.ArrayLike | None = None,
         colors: npt.ArrayLike | None = None,
-        color: Sequence[float] = DEFAULT_COLOR,
+        color: Sequence[float] | None = None,
+        material: Any = None,
     ) -> None:
         # 1. Shapes and dtypes only: nothing proportional to the input is allocated before the
         # budget check (np.asarray is no copy for arrays, broadcast views and memory maps).
@@ -316,7 +320,17 @@ class Mesh:
             _check_shape(arr, "colors", "(n, 3) or (n, 4)", (3, 4))
             _check_rows(arr, "colors", n)
             _colors_kind(arr)
-        rgba = _rgba(color, "color")
+        if material is not None:
+            from .material import Material
+
+            if not isinstance(material, Material):
+                raise TypeError(f"material must be a softrast.Material or None, got {type(material).__name__}")
+            if color is not None and _rgba(color, "color") != material.base_color:
+                raise ValueError(f"color {tuple(color)} differs from material.base_color "
+                                 f"{material.base_color}: give one of them")
+            rgba = material.base_color
+        else:
+            rgba = _rgba(DEFAULT_COLOR if color is None else color, "color")
 
         # 2. The budget: the bytes of the float32 / int32 arrays stored below, which the core views
         # in place. Validation and conversion add only per-chunk temporaries (about 2 MiB).
@@ -331,6 +345,7 @@ class Mesh:
         self._uvs = _float32_rows(attributes["uvs"], "uvs") if "uvs" in attributes else None
         self._colors = _rgba_rows(attributes["colors"]) if "colors" in attributes else None
         self._color = rgba
+        self._material = material
         self._core: Any = None
         _warn_if_imprecise(pos, self._positions)
 
@@ -366,6 +381,11 @@ class Mesh:
         return self._color
 
     @property
+    def material(self) -> Any:
+        """The mesh's ``softrast.Material``, or None (lambert, two-sided, no specular)."""
+        return self._material
+
+    @property
     def num_vertices(self) -> int:
         return int(self._positions.shape[0])
 
@@ -391,7 +411,7 @@ class Mesh:
 
     def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
         return (type(self), (self._positions, self._faces, self._normals, self._uvs, self._colors,
-                             self._color))
+                             None if self._material is not None else self._color, self._material))
 
     def __repr__(self) -> str:
         attrs = [a for a in ("normals", "uvs", "colors") if getattr(self, "_" + a) is not None]

@@ -1,4 +1,5 @@
-"""Scenes: a flat list of mesh instances, each with a model-to-world pose, an id and a colour."""
+"""Scenes: a flat list of mesh instances (each with a model-to-world pose, an id, a colour and a
+material), the lights, and the ambient light."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -8,9 +9,11 @@ import numpy as np
 import numpy.typing as npt
 
 from ._checks import affine_pose, integer
+from .light import Light
+from .material import Material
 from .mesh import Mesh, _rgba
 
-__all__ = ["Instance", "Scene"]
+__all__ = ["Instance", "LightInstance", "Scene"]
 
 _ID_LIMIT = 2**31  # instance_id output is int32 (ids < 2**31); -1 is reserved for background
 
@@ -23,12 +26,25 @@ class Instance:
     pose : (4, 4) float64 model-to-world transform, read-only; may scale, last row [0, 0, 0, 1].
     instance_id : int in [0, 2**31), written to the "instance_id" output.
     color : RGBA floats in [0, 1]: the ``color`` given to ``Scene.add``, else ``mesh.color``.
+    material : the ``material`` given to ``Scene.add``, else ``mesh.material`` (may be None). A
+        ``color`` given to ``Scene.add`` replaces its base colour.
     """
 
     mesh: Mesh
     pose: npt.NDArray[np.float64]
     instance_id: int
     color: tuple[float, float, float, float]
+    material: Material | None = None
+
+
+@dataclass(frozen=True)
+class LightInstance:
+    """One light placed in a scene: ``pose`` is light-to-world, or light-to-camera when
+    ``camera_space`` (the light moves with the camera)."""
+
+    light: Light
+    pose: npt.NDArray[np.float64]
+    camera_space: bool = False
 
 
 def _check_model_pose(pose: Any) -> npt.NDArray[np.float64]:
@@ -36,20 +52,65 @@ def _check_model_pose(pose: Any) -> npt.NDArray[np.float64]:
 
 
 class Scene:
-    """An ordered collection of mesh instances (no cameras or lights: those are render arguments)."""
+    """An ordered collection of mesh instances and lights (the camera is a render argument).
 
-    def __init__(self) -> None:
+    ambient_light : RGB >= 0 (linear), the ambient light ``Ia`` every lit model multiplies by
+        ``ka``; None (default) => the render's ``ambient`` in a scene without lights (the
+        headlight's ambient term) and 0 in a scene with lights.
+    """
+
+    def __init__(self, ambient_light: Sequence[float] | None = None) -> None:
         self._instances: list[Instance] = []
+        self._lights: list[LightInstance] = []
+        self.ambient_light = ambient_light  # checked by the property
 
-    def add(self, mesh: Mesh, pose: npt.ArrayLike | None = None, instance_id: int | None = None,
-            color: Sequence[float] | None = None) -> int:
-        """Add ``mesh`` placed by ``pose`` and return its instance id.
+    @property
+    def ambient_light(self) -> tuple[float, float, float] | None:
+        """RGB ambient light (linear, >= 0), or None (see Scene)."""
+        return self._ambient_light
 
-        pose : (4, 4) model-to-world transform (finite, last row [0, 0, 0, 1]); None => identity.
+    @ambient_light.setter
+    def ambient_light(self, value: Sequence[float] | None) -> None:
+        if value is None:
+            self._ambient_light = None
+            return
+        from ._checks import real_array
+
+        arr = real_array(value, "ambient_light")
+        if arr.shape != (3,):
+            raise ValueError(f"ambient_light must be 3 numbers (RGB), got shape {arr.shape}")
+        if not (np.isfinite(arr).all() and (arr >= 0.0).all()):
+            raise ValueError(f"ambient_light must be finite and >= 0, got {arr.tolist()}")
+        self._ambient_light = (float(arr[0]), float(arr[1]), float(arr[2]))
+
+    def add(self, item: Mesh | Light, pose: npt.ArrayLike | None = None,
+            instance_id: int | None = None, color: Sequence[float] | None = None,
+            material: Material | None = None, camera_space: bool = False) -> int:
+        """Add a mesh or a light placed by ``pose``; returns the mesh's instance id (for a light,
+        its index among the scene's lights).
+
+        pose : (4, 4) model-to-world (light-to-world) transform (finite, last row [0, 0, 0, 1]);
+            None => identity.
         instance_id : int in [0, 2**31); None => the number of instances already in the scene.
-            Ids need not be unique (several parts can share one object id).
-        color : 3 or 4 floats in [0, 1] overriding ``mesh.color``; None => ``mesh.color``.
+            Ids need not be unique (several parts can share one object id). Meshes only.
+        color : 3 or 4 floats in [0, 1] overriding ``mesh.color`` (and the material's base
+            colour); None => ``mesh.color``. Meshes only.
+        material : a ``softrast.Material`` for this instance, overriding ``mesh.material``.
+        camera_space : lights only: ``pose`` is light-to-camera, so the light moves with the
+            camera (a headlight, a flash).
         """
+        if isinstance(item, Light):
+            if instance_id is not None or color is not None or material is not None:
+                raise ValueError("instance_id, color and material are for meshes, not lights")
+            if not isinstance(camera_space, (bool, np.bool_)):
+                raise TypeError(f"camera_space must be True or False, got {camera_space!r:.80}")
+            self._lights.append(LightInstance(item, _check_model_pose(pose), bool(camera_space)))
+            return len(self._lights) - 1
+        if camera_space:
+            raise ValueError("camera_space is for lights, not meshes")
+        mesh = item
+        if material is not None and not isinstance(material, Material):
+            raise TypeError(f"material must be a softrast.Material or None, got {type(material).__name__}")
         if not isinstance(mesh, Mesh):
             raise TypeError(f"mesh must be a softrast.Mesh, got {type(mesh).__name__} "
                             "(use softrast.Mesh.from_trimesh or softrast.load_mesh)")
@@ -57,9 +118,20 @@ class Scene:
         iid = len(self._instances) if instance_id is None else integer(instance_id, "instance_id")
         if not 0 <= iid < _ID_LIMIT:
             raise ValueError(f"instance_id must be in [0, 2**31), got {iid}")
-        rgba = mesh.color if color is None else _rgba(color, "color")
-        self._instances.append(Instance(mesh, model, int(iid), rgba))
+        mat = mesh.material if material is None else material
+        if color is None:
+            rgba = mesh.color if mat is None else mat.base_color
+        else:
+            rgba = _rgba(color, "color")
+            if mat is not None:
+                mat = mat.replace(base_color=rgba)
+        self._instances.append(Instance(mesh, model, int(iid), rgba, mat))
         return int(iid)
+
+    @property
+    def lights(self) -> list[LightInstance]:
+        """The lights in the order they were added (a copy of the list)."""
+        return list(self._lights)
 
     @property
     def instances(self) -> list[Instance]:
@@ -73,8 +145,9 @@ class Scene:
         return iter(list(self._instances))
 
     def clear(self) -> None:
-        """Remove every instance."""
+        """Remove every instance and light."""
         self._instances.clear()
+        self._lights.clear()
 
     @property
     def bounds(self) -> npt.NDArray[np.float64]:
@@ -90,4 +163,4 @@ class Scene:
         return np.stack([lo, hi])
 
     def __repr__(self) -> str:
-        return f"Scene({len(self._instances)} instances)"
+        return f"Scene({len(self._instances)} instances, {len(self._lights)} lights)"

@@ -1,0 +1,151 @@
+"""Lights, placed like pyrender's: ``scene.add(light, pose=)`` with a 4x4 light-to-world pose.
+
+A light shines along its local -z axis; a point or spot light sits at the pose's translation.
+``scene.add(light, pose=, camera_space=True)`` fixes a light to the camera instead (the pose is
+then light-to-camera, in the camera's OpenGL axes: x right, y up, looking down -z). The radiance
+a light sends is ``color * intensity``, times ``1 / r**2`` for point and spot lights with
+``falloff="inverse_square"`` (the default; ``"none"`` drops it, as classic Phong and PyTorch3D
+do), times glTF's smooth cone factor for spot lights (KHR_lights_punctual):
+
+    t = clamp((cos(angle to the axis) - cos(outer_cone)) / (cos(inner_cone) - cos(outer_cone)), 0, 1)
+    factor = t * t
+
+A scene without lights is lit by a headlight: a white directional light along the camera's
+viewing axis of intensity ``1 - ambient`` (render's ``ambient``) plus an ambient light of
+``ambient``, which is exactly today's Lambert shading.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any, Sequence
+
+import numpy as np
+
+from ._checks import choice, real, real_array
+
+__all__ = ["DirectionalLight", "Light", "PointLight", "SpotLight"]
+
+FALLOFFS = ("inverse_square", "none")
+# Kinds as the core numbers them (cpp/lighting.hpp, LightKind).
+_DIRECTIONAL, _POINT, _SPOT = 0, 1, 2
+
+
+def _rgb(value: Any, name: str) -> tuple[float, float, float]:
+    arr = real_array(value, name)
+    if arr.shape != (3,):
+        raise ValueError(f"{name} must be 3 numbers (RGB) in [0, 1], got shape {arr.shape}")
+    if not (np.isfinite(arr).all() and (arr >= 0.0).all() and (arr <= 1.0).all()):
+        raise ValueError(f"{name} must be finite and in [0, 1], got {arr.tolist()}")
+    return float(arr[0]), float(arr[1]), float(arr[2])
+
+
+def _intensity(value: Any) -> float:
+    v = real(value, "intensity")
+    if not (math.isfinite(v) and v >= 0.0):
+        raise ValueError(f"intensity must be finite and >= 0, got {value!r}")
+    return v
+
+
+class Light:
+    """Base class of the light types (not made directly)."""
+
+    __slots__ = ("color", "intensity")
+    _kind = -1
+
+    def __init__(self, color: Sequence[float] = (1.0, 1.0, 1.0), intensity: float = 1.0) -> None:
+        object.__setattr__(self, "color", _rgb(color, "color"))
+        object.__setattr__(self, "intensity", _intensity(intensity))
+
+    def __setattr__(self, key: str, value: Any) -> None:
+        raise AttributeError(f"{type(self).__name__} is immutable: make a new one")
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (type(self), tuple(getattr(self, k) for k in self._fields()))
+
+    @classmethod
+    def _fields(cls) -> tuple[str, ...]:
+        return tuple(s for c in reversed(cls.__mro__) for s in getattr(c, "__slots__", ()))
+
+    def __eq__(self, other: object) -> bool:
+        return type(self) is type(other) and all(
+            getattr(self, k) == getattr(other, k) for k in self._fields())
+
+    def __hash__(self) -> int:
+        return hash((type(self),) + tuple(getattr(self, k) for k in self._fields()))
+
+    def __repr__(self) -> str:
+        fields = ", ".join(f"{k}={getattr(self, k)!r}" for k in self._fields())
+        return f"{type(self).__name__}({fields})"
+
+    def _core(self, pose_world: np.ndarray) -> tuple[Any, ...]:
+        """The core's light record: (kind, radiance rgb, position, direction of travel,
+        inverse_square, cone scale, cone offset), in world space."""
+        pos = pose_world[:3, 3]
+        d = -pose_world[:3, 2]
+        norm = float(np.linalg.norm(d))
+        if not (math.isfinite(norm) and norm > 0.0):
+            raise ValueError(f"{type(self).__name__} pose: its z axis has zero length, so it has "
+                             "no direction")
+        d = d / norm
+        rgb = tuple(c * self.intensity for c in self.color)
+        inverse_square = getattr(self, "falloff", "none") == "inverse_square"
+        scale, offset = self._cone()
+        return (self._kind, rgb, tuple(float(x) for x in pos), tuple(float(x) for x in d),
+                inverse_square, scale, offset)
+
+    def _cone(self) -> tuple[float, float]:
+        return 0.0, 1.0  # factor = clamp(cd * 0 + 1) ** 2 = 1: no cone
+
+
+class DirectionalLight(Light):
+    """Light from infinitely far away along the pose's -z axis (the sun). pyrender's name."""
+
+    __slots__ = ()
+    _kind = _DIRECTIONAL
+
+
+class PointLight(Light):
+    """Light from the pose's translation in every direction.
+
+    falloff : "inverse_square" (default: radiance / r**2, physical and pyrender's) or "none".
+    """
+
+    __slots__ = ("falloff",)
+    _kind = _POINT
+
+    def __init__(self, color: Sequence[float] = (1.0, 1.0, 1.0), intensity: float = 1.0,
+                 falloff: str = "inverse_square") -> None:
+        super().__init__(color, intensity)
+        object.__setattr__(self, "falloff", choice(falloff, "falloff", FALLOFFS))
+
+
+class SpotLight(Light):
+    """A point light restricted to a cone around the pose's -z axis.
+
+    inner_cone, outer_cone : half-angles in radians, 0 <= inner_cone < outer_cone <= pi / 2 (as
+        glTF's KHR_lights_punctual and pyrender; defaults 0 and pi / 4). Full intensity inside
+        the inner cone, none outside the outer one, glTF's smooth falloff between.
+    """
+
+    __slots__ = ("inner_cone", "outer_cone", "falloff")
+    _kind = _SPOT
+
+    def __init__(self, color: Sequence[float] = (1.0, 1.0, 1.0), intensity: float = 1.0,
+                 inner_cone: float = 0.0, outer_cone: float = math.pi / 4,
+                 falloff: str = "inverse_square") -> None:
+        super().__init__(color, intensity)
+        inner = real(inner_cone, "inner_cone")
+        outer = real(outer_cone, "outer_cone")
+        if not 0.0 < outer <= math.pi / 2:
+            raise ValueError(f"outer_cone must be in (0, pi/2] radians, got {outer_cone!r}")
+        if not 0.0 <= inner < outer:
+            raise ValueError(f"inner_cone must be in [0, outer_cone) radians, got {inner_cone!r} "
+                             f"with outer_cone {outer!r}")
+        object.__setattr__(self, "inner_cone", inner)
+        object.__setattr__(self, "outer_cone", outer)
+        object.__setattr__(self, "falloff", choice(falloff, "falloff", FALLOFFS))
+
+    def _cone(self) -> tuple[float, float]:
+        # glTF: scale = 1 / max(0.001, cos(inner) - cos(outer)), offset = -cos(outer) * scale.
+        scale = 1.0 / max(0.001, math.cos(self.inner_cone) - math.cos(self.outer_cone))
+        return scale, -math.cos(self.outer_cone) * scale

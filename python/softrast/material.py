@@ -1,0 +1,139 @@
+"""Materials: how a surface reflects light, for every shading model (see ``softrast.render``).
+
+Colours are linear RGB in [0, 1] (not sRGB-encoded). One ``Material`` carries the parameters of
+every model, so the same mesh can be rendered with any ``shading=``:
+
+============== ===========================================================================
+model          radiance (summed over lights; ``I`` = light colour x intensity x attenuation)
+============== ===========================================================================
+unlit          base colour
+lambert        ka*Ia + sum kd*I*max(0, n.l) + emissive
+phong          lambert + sum [n.l > 0] ks*I*max(0, r.v)^shininess, r = 2(n.l)n - l
+blinn_phong    lambert + sum [n.l > 0] ks*I*max(0, n.h)^shininess, h = (l + v)/|l + v|
+pbr            glTF 2.0 metallic-roughness as pyrender's mesh.frag computes it (shading.py)
+normal         (n + 1) / 2, the visible side's world-space unit normal
+============== ===========================================================================
+
+``kd`` is the base colour unless given (the per-vertex colours of a mesh that has them, else
+``base_color``); ``ka`` is ``kd`` unless given; ``Ia`` is the scene's ambient light.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any, Sequence
+
+import numpy as np
+
+from ._checks import real, real_array
+
+__all__ = ["Material", "MODELS"]
+
+# Shading models a material may ask for (render(shading="auto") uses each material's own).
+MODELS = ("unlit", "lambert", "phong", "blinn_phong", "pbr", "normal")
+
+
+def _color(value: Any, name: str, n: int) -> tuple[float, ...]:
+    """``n`` finite numbers in [0, 1] (RGB; RGBA when n == 4, where 3 get alpha 1)."""
+    arr = real_array(value, name)
+    if arr.shape not in ((n,),) + (((3,),) if n == 4 else ()):
+        what = "3 or 4 numbers (RGB or RGBA)" if n == 4 else f"{n} numbers (RGB)"
+        raise ValueError(f"{name} must be {what} in [0, 1], got shape {arr.shape}")
+    if not (np.isfinite(arr).all() and (arr >= 0.0).all() and (arr <= 1.0).all()):
+        raise ValueError(f"{name} must be finite and in [0, 1], got {arr.tolist()}")
+    if arr.shape[0] == 3 and n == 4:
+        arr = np.append(arr, 1.0)
+    return tuple(float(c) for c in arr)
+
+
+def _unit_real(value: Any, name: str) -> float:
+    v = real(value, name)
+    if not 0.0 <= v <= 1.0:  # NaN fails too
+        raise ValueError(f"{name} must be in [0, 1], got {value!r}")
+    return v
+
+
+class Material:
+    """A surface's reflectance for every shading model; immutable (make a new one to change it).
+
+    Parameters
+    ----------
+    base_color : RGBA (or RGB) in [0, 1], linear. The colour of ``unlit``, the albedo of ``pbr``
+        and the default ``kd``. A mesh's per-vertex colours replace it where present.
+    ka, kd, ks : RGB in [0, 1] or None: ambient, diffuse and specular reflectance of the
+        lambert / phong / blinn_phong models. ``kd=None`` => the base colour; ``ka=None`` =>
+        ``kd``; ``ks`` defaults to 0.5 grey (a mesh without any material has ks = 0).
+    shininess : the specular exponent p >= 0 (``Ns`` in MTL files). Default 32.
+    metallic, roughness : glTF metallic-roughness factors in [0, 1] (``pbr``). Defaults 0 and
+        0.5 (glTF files default to 1 and 1 when they give none; the loaders apply that).
+    emissive : RGB in [0, 1], added to the radiance of every lit model.
+    double_sided : light back faces with the flipped normal (as glTF's doubleSided). False: a
+        back face (visible only with ``cull="none"`` or ``"front"``) is lit with its own normal,
+        which faces away from the camera, so it gets only the ambient and emissive terms, as
+        OpenGL renders a single-sided material. Meshes without a material are double-sided.
+    model : the shading model ``render(shading="auto")`` uses for this material, one of
+        ``softrast.material.MODELS``, or None: "blinn_phong" (the loaders set "pbr" for glTF
+        materials and "blinn_phong" for MTL ones).
+    name : a label (the file's material name), not used for rendering.
+    """
+
+    __slots__ = ("base_color", "ka", "kd", "ks", "shininess", "metallic", "roughness", "emissive",
+                 "double_sided", "model", "name")
+
+    def __init__(self, base_color: Sequence[float] = (0.8, 0.8, 0.8, 1.0),
+                 ka: Sequence[float] | None = None, kd: Sequence[float] | None = None,
+                 ks: Sequence[float] | None = (0.5, 0.5, 0.5), shininess: float = 32.0,
+                 metallic: float = 0.0, roughness: float = 0.5,
+                 emissive: Sequence[float] = (0.0, 0.0, 0.0), double_sided: bool = False,
+                 model: str | None = None, name: str | None = None) -> None:
+        s = object.__setattr__
+        s(self, "base_color", _color(base_color, "base_color", 4))
+        s(self, "ka", None if ka is None else _color(ka, "ka", 3))
+        s(self, "kd", None if kd is None else _color(kd, "kd", 3))
+        s(self, "ks", (0.0, 0.0, 0.0) if ks is None else _color(ks, "ks", 3))
+        p = real(shininess, "shininess")
+        if not (math.isfinite(p) and p >= 0.0):
+            raise ValueError(f"shininess must be finite and >= 0, got {shininess!r}")
+        s(self, "shininess", p)
+        s(self, "metallic", _unit_real(metallic, "metallic"))
+        s(self, "roughness", _unit_real(roughness, "roughness"))
+        s(self, "emissive", _color(emissive, "emissive", 3))
+        if not isinstance(double_sided, (bool, np.bool_)):
+            raise TypeError(f"double_sided must be True or False, got {double_sided!r:.80}")
+        s(self, "double_sided", bool(double_sided))
+        if model is not None:
+            if not isinstance(model, str):
+                raise TypeError(f"model must be one of {MODELS} or None, got {type(model).__name__}")
+            if model not in MODELS:
+                raise ValueError(f"model must be one of {MODELS} or None, got {model!r:.80}")
+        s(self, "model", model)
+        if name is not None and not isinstance(name, str):
+            raise TypeError(f"name must be a str or None, got {type(name).__name__}")
+        s(self, "name", name)
+
+    def __setattr__(self, key: str, value: Any) -> None:
+        raise AttributeError("Material is immutable: make a new one (softrast.Material(...))")
+
+    def replace(self, **changes: Any) -> "Material":
+        """A copy with some parameters changed (checked like the constructor's)."""
+        args = {k: getattr(self, k) for k in self.__slots__}
+        args.update(changes)
+        return Material(**args)
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (_rebuild, ({k: getattr(self, k) for k in self.__slots__},))
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Material) and all(
+            getattr(self, k) == getattr(other, k) for k in self.__slots__)
+
+    def __hash__(self) -> int:
+        return hash(tuple(getattr(self, k) for k in self.__slots__))
+
+    def __repr__(self) -> str:
+        fields = ", ".join(f"{k}={getattr(self, k)!r}" for k in self.__slots__
+                           if getattr(self, k) is not None)
+        return f"Material({fields})"
+
+
+def _rebuild(args: dict[str, Any]) -> Material:
+    return Material(**args)
