@@ -7,7 +7,9 @@ distance along the camera's viewing axis in scene units, 0 where nothing was hit
 from ._core import MAX_IMAGE_SIDE, MAX_THREADS, OUTPUT_TABLE, OUTPUTS, SUBPIXEL_BITS, TILE_SIZE_PX
 from .camera import Camera, IntrinsicsCamera, OrthographicCamera, PerspectiveCamera
 from .io import imread, imwrite
+from .light import DirectionalLight, Light, PointLight, SpotLight
 from .limits import get_memory_budget, set_memory_budget
+from .material import Material
 from .mesh import Mesh, PrecisionWarning, load_mesh
 from .render import Frame, Renderer
 from .scene import Scene
@@ -16,19 +18,24 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Camera",
+    "DirectionalLight",
     "Frame",
     "IntrinsicsCamera",
+    "Light",
     "MAX_IMAGE_SIDE",
     "MAX_THREADS",
+    "Material",
     "Mesh",
     "OUTPUTS",
     "OUTPUT_TABLE",
     "OrthographicCamera",
     "PerspectiveCamera",
+    "PointLight",
     "PrecisionWarning",
     "Renderer",
     "SUBPIXEL_BITS",
     "Scene",
+    "SpotLight",
     "TILE_SIZE_PX",
     "get_memory_budget",
     "imread",
