@@ -191,6 +191,11 @@ constexpr std::pair<const char*, ShadingPath> kShadingPathNames[] = {
     {"auto", ShadingPath::Auto}, {"forward", ShadingPath::Forward},
     {"deferred", ShadingPath::Deferred}};
 
+// Reflectance models in Brdf's order (a material's record carries the index) and frequencies.
+constexpr const char* kBrdfNames[] = {"unlit", "lambert", "phong", "blinn_phong", "pbr", "normal"};
+constexpr std::pair<const char*, Frequency> kFrequencyNames[] = {
+    {"pixel", Frequency::Pixel}, {"vertex", Frequency::Vertex}, {"face", Frequency::Face}};
+
 template <typename E, std::size_t N>
 E parse_name(const std::string& s, const std::pair<const char*, E> (&names)[N], const char* what) {
   for (const auto& [name, value] : names)
@@ -257,13 +262,61 @@ std::byte* external_buffer(const py::handle& obj, const OutputLayout& layout, in
   return static_cast<std::byte*>(arr.mutable_data());
 }
 
+vec3 vec3_from(const py::handle& h) {
+  const auto v = h.cast<std::array<float, 3>>();
+  return vec3(v[0], v[1], v[2]);
+}
+
+// A material record from render.py: (brdf index, kd_is_base, ka_is_kd, double_sided, ka, kd,
+// ks, shininess, metallic, roughness, emissive); ranges are checked by Renderer::render.
+Material material_from(const py::handle& h, const std::string& where) {
+  auto t = py::reinterpret_borrow<py::tuple>(h);
+  if (py::len(t) != 11) throw py::value_error(where + " material must have 11 fields");
+  Material m;
+  const int brdf = t[0].cast<int>();
+  if (brdf < 0 || brdf >= int(std::size(kBrdfNames)))
+    throw py::value_error(where + " material: unknown reflectance model");
+  m.brdf = Brdf(brdf);
+  m.kd_is_base = t[1].cast<bool>();
+  m.ka_is_kd = t[2].cast<bool>();
+  m.double_sided = t[3].cast<bool>();
+  m.ka = vec3_from(t[4]);
+  m.kd = vec3_from(t[5]);
+  m.ks = vec3_from(t[6]);
+  m.shininess = t[7].cast<float>();
+  m.metallic = t[8].cast<float>();
+  m.roughness = t[9].cast<float>();
+  m.emissive = vec3_from(t[10]);
+  return m;
+}
+
+// A light record (python/softrast/light.py, Light._core): (kind, radiance, position, direction,
+// inverse_square, cone scale, cone offset), world space.
+Light light_from(const py::handle& h) {
+  auto t = py::reinterpret_borrow<py::tuple>(h);
+  if (py::len(t) != 7) throw py::value_error("lights: a light record must have 7 fields");
+  Light light;
+  const int kind = t[0].cast<int>();
+  if (kind < 0 || kind > int(LightKind::Spot)) throw py::value_error("lights: unknown light kind");
+  light.kind = LightKind(kind);
+  light.radiance = vec3_from(t[1]);
+  light.position = vec3_from(t[2]);
+  light.direction = vec3_from(t[3]);
+  light.inverse_square = t[4].cast<bool>();
+  light.cone_scale = t[5].cast<float>();
+  light.cone_offset = t[6].cast<float>();
+  return light;
+}
+
 // The render spec's keys, interned once (a dict lookup by a C string would build and hash a new
 // Python string per key per render: about 1 us of a 6 us call).
 enum SpecKey { k_view, k_proj, k_orthographic, k_near, k_far, k_outputs, k_cull, k_shading,
-               k_shading_path, k_background, k_ambient, k_out, kNumSpecKeys };
+               k_shading_path, k_background, k_ambient, k_out, k_lights, k_ambient_light,
+               k_frequency, k_srgb, kNumSpecKeys };
 constexpr const char* kSpecKeys[kNumSpecKeys] = {
     "view", "proj", "orthographic", "near", "far", "outputs", "cull", "shading",
-    "shading_path", "background", "ambient", "out"};
+    "shading_path", "background", "ambient", "out", "lights", "ambient_light", "frequency",
+    "srgb"};
 PyObject* spec_key(SpecKey key) {
   // Made on first use with the GIL held and never freed (they live as long as the interpreter).
   static PyObject* const* const keys = [] {
@@ -284,13 +337,15 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::dict& sp
   for (std::size_t d = 0; d < py::len(draws_in); ++d) {
     const std::string where = "draws[" + std::to_string(d) + "]";
     auto item = py::reinterpret_borrow<py::tuple>(draws_in[d]);
-    if (py::len(item) != 4) throw py::value_error(where + " must be (mesh, model, instance_id, rgba)");
+    if (py::len(item) != 5)
+      throw py::value_error(where + " must be (mesh, model, instance_id, rgba, material)");
     Draw draw;
     draw.mesh = item[0].cast<std::shared_ptr<MeshData>>();
     draw.model = matrix_from_array(item[1], where + " pose");
     draw.instance_id = item[2].cast<int32_t>();
     const auto rgba = item[3].cast<std::array<float, 4>>();
     draw.color = vec4(rgba[0], rgba[1], rgba[2], rgba[3]);
+    draw.material = material_from(item[4], where);
     draws.push_back(std::move(draw));
   }
   const auto get = [&](SpecKey key) -> py::object {
@@ -312,6 +367,10 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::dict& sp
   const auto background = get(k_background).cast<std::array<float, 3>>();
   for (int c = 0; c < 3; ++c) options.background[c] = background[c];  // range: Renderer::render
   options.ambient = get(k_ambient).cast<float>();
+  for (const py::handle light : get(k_lights)) options.lights.push_back(light_from(light));
+  options.ambient_light = vec3_from(get(k_ambient_light));
+  options.frequency = parse_name(get(k_frequency).cast<std::string>(), kFrequencyNames, "frequency");
+  options.srgb = get(k_srgb).cast<bool>();
   const py::object out = get(k_out);
 
   // Caller-supplied arrays (out=) are written in place; `out` keeps them alive meanwhile.
@@ -392,6 +451,10 @@ PYBIND11_MODULE(_core, m) {
   m.attr("SHADING_MODELS") = models;
   m.attr("CULL_MODES") = names_of(kCullNames);
   m.attr("SHADING_PATHS") = names_of(kShadingPathNames);
+  m.attr("FREQUENCIES") = names_of(kFrequencyNames);
+  py::tuple brdfs(std::size(kBrdfNames));
+  for (std::size_t i = 0; i < std::size(kBrdfNames); ++i) brdfs[i] = kBrdfNames[i];
+  m.attr("REFLECTANCE_MODELS") = brdfs;
 
   py::class_<MeshData, std::shared_ptr<MeshData>>(m, "MeshData")
       .def(py::init(&make_mesh), "positions"_a, "faces"_a, "normals"_a = py::none(),

@@ -37,7 +37,8 @@ struct OutputLayout {
 inline constexpr OutputLayout kOutputLayouts[kNumOutputs] = {
     {kOutColor, "color", DType::U8, 3, 1, 0.0, OutputPass::Shade,
      "(h, w, 3) uint8: shaded colour, row 0 = top of the image; the background colour where "
-     "nothing is hit"},
+     "nothing is hit. The radiance clamped to [0, 1] and sRGB-encoded (render(srgb=False): "
+     "linear), rounded to nearest"},
     {kOutDepth, "depth", DType::F32, 1, 4, 0.0, OutputPass::Resolve,
      "(h, w) float32: distance along the camera's viewing axis (-z_view) in scene units, 0 where "
      "nothing was hit (orthographic cameras included)"},
@@ -52,6 +53,9 @@ inline constexpr OutputLayout kOutputLayouts[kNumOutputs] = {
     {kOutCoverage, "coverage", DType::U32, 1, 4, 0.0, OutputPass::Resolve,
      "(h, w) uint32: number of rasterized triangles covering the pixel centre before the depth "
      "test (a closed convex mesh with back-face culling gives exactly 1)"},
+    {kOutRadiance, "radiance", DType::F32, 3, 4, 0.0, OutputPass::Shade,
+     "(h, w, 3) float32: shaded linear RGB radiance, unclamped, 0 = background (the colour "
+     "output is this, clamped and encoded)"},
 };
 
 constexpr bool output_table_is_consistent() {

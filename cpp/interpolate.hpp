@@ -77,7 +77,7 @@ SR_INLINE void prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTri
       s.normal[1] = s.normal[2] = s.normal[0];
     }
     if (mesh.colors.empty()) {
-      s.color[0] = vec3(d.color);
+      s.color[0] = s.color[1] = s.color[2] = vec3(d.color);
       uniform_color = true;
     } else {
       for (int k = 0; k < 3; ++k) s.color[k] = mesh.colors[v[k]];
@@ -124,6 +124,19 @@ SR_INLINE void prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTri
   }
   if (kNormals && a.back_facing)  // two-sided: the side the camera sees
     for (vec3& n : s.normal) n = -n;
+  s.back_facing = a.back_facing;
+  s.material = &d.material;
+  s.reads = (Model::kReadsNormal ? ShadeTriangleBase::kReadNormal : 0) |
+            (Model::kReadsPosition ? ShadeTriangleBase::kReadPosition : 0);
+  if constexpr (Model::kFaceNormal) {
+    if (p.in.frequency == Frequency::Face) {
+      const vec3 n = a.clip_ref != kNoClip ? flat_normal(d, mesh.faces[t.prim].x, mesh.faces[t.prim].y,
+                                                         mesh.faces[t.prim].z)
+                     : a.swapped ? flat_normal(d, a.vertex[0], a.vertex[2], a.vertex[1])
+                                 : flat_normal(d, a.vertex[0], a.vertex[1], a.vertex[2]);
+      s.face_normal = a.back_facing ? -n : n;
+    }
+  }
   classify(p.in, uniform_color, s);
 }
 

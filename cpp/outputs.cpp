@@ -1,14 +1,135 @@
 // Outputs: resolve (depth from keys, ids from the visibility buffer) and write a tile's rows.
 #include "outputs.hpp"
 
+#include <cmath>
 #include <cstring>
 #include <immintrin.h>
+#include <stdexcept>
 
 namespace sr {
 
 namespace {
 
 using namespace simd;
+
+// sRGB encoding (IEC 61966-2-1), exactly: the 8-bit code of linear x is round-to-nearest of
+// 255 * encode(x), encode(x) = 12.92 x (x <= 0.0031308), 1.055 x^(1/2.4) - 0.055, as evaluated
+// in double. Code c starts at the smallest float T_c whose code is c. Floats in [2^-13, 1) are
+// split into buckets of 2^15 consecutive bit patterns (256 per octave); a bucket holds at most
+// one T_c (the densest codes, near 1, are 1/512 of an octave apart in x; near 2^-13 one code
+// spans several buckets), so an entry stores the code at its start and where in it the next
+// code starts: code = lo + (low 15 bits >= start). Below 2^-13 (< T_1 = 1.52e-4) the code is 0.
+constexpr int kSrgbFirstExp = 127 - 13;  // biased exponent of 2^-13
+constexpr int kSrgbBuckets = 13 * 256;
+constexpr uint32_t kSrgbNoStart = 0x8000;  // above every 15-bit value
+
+double srgb_encode(double x) {
+  return x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1.0 / 2.4) - 0.055;
+}
+uint32_t float_bits(float x) { uint32_t b; std::memcpy(&b, &x, 4); return b; }
+float bits_float(uint32_t b) { float x; std::memcpy(&x, &b, 4); return x; }
+int srgb_code_exact(float x) { return int(std::floor(srgb_encode(double(x)) * 255.0 + 0.5)); }
+
+struct SrgbTable {
+  uint32_t entry[kSrgbBuckets];  // code at the bucket's start | (start of the next code) << 8
+  SrgbTable() {
+    for (int b = 0; b < kSrgbBuckets; ++b) {
+      const uint32_t first = (uint32_t(kSrgbFirstExp) << 23) + (uint32_t(b) << 15);
+      const int lo = srgb_code_exact(bits_float(first));
+      const int hi = srgb_code_exact(bits_float(first + 0x7fff));
+      uint32_t start = kSrgbNoStart;
+      if (hi == lo + 1) {  // the first pattern of the bucket with the higher code (codes rise)
+        uint32_t a = 0, z = 0x7fff;
+        while (a < z) {
+          const uint32_t m = (a + z) / 2;
+          if (srgb_code_exact(bits_float(first + m)) > lo) z = m; else a = m + 1;
+        }
+        start = a;
+      } else if (hi != lo) {
+        throw std::logic_error("sRGB table: two codes start in one bucket");
+      }
+      entry[b] = uint32_t(lo) | start << 8;
+    }
+  }
+};
+const SrgbTable& srgb_table() {
+  static const SrgbTable table;
+  return table;
+}
+constexpr uint32_t kSrgbLowest = uint32_t(kSrgbFirstExp) << 23;  // 2^-13
+constexpr uint32_t kSrgbHighest = 0x3f7fffffu;                   // the float below 1
+
+// The code of one value (NaN and x < 2^-13: 0; x >= 1: 255).
+inline uint32_t srgb_code(const uint32_t* table, float x) {
+  const float lo = bits_float(kSrgbLowest), hi = bits_float(kSrgbHighest);
+  x = x > lo ? x : lo;
+  x = x < hi ? x : hi;
+  const uint32_t bits = float_bits(x);
+  const uint32_t e = table[(bits >> 15) - (kSrgbLowest >> 15)];
+  return (e & 0xff) + ((bits & 0x7fff) >= (e >> 8) ? 1u : 0u);
+}
+
+// Packs a row of linear radiance planes to r | g << 8 | b << 16, sRGB-encoded or linear.
+void encode_row_generic(const float* r, const float* g, const float* b, const uint32_t*, int n,
+                        bool srgb, uint32_t* out) {
+  if (srgb) {
+    const uint32_t* table = srgb_table().entry;
+    for (int x = 0; x < n; ++x)
+      out[x] = srgb_code(table, r[x]) | srgb_code(table, g[x]) << 8 | srgb_code(table, b[x]) << 16;
+    return;
+  }
+  int x = 0;
+  for (; x + kLanes <= n; x += kLanes)
+    store(out + x, to_unorm8(load<f8>(r + x)) | (to_unorm8(load<f8>(g + x)) << 8) |
+                       (to_unorm8(load<f8>(b + x)) << 16));
+  for (; x < n; ++x) out[x] = to_unorm8(r[x]) | to_unorm8(g[x]) << 8 | to_unorm8(b[x]) << 16;
+}
+SR_TARGET_AVX2 SR_INLINE __m256i srgb_code8(const int* table, __m256 x) {
+  x = _mm256_max_ps(x, _mm256_castsi256_ps(_mm256_set1_epi32(int(kSrgbLowest))));  // NaN -> lo
+  x = _mm256_min_ps(x, _mm256_castsi256_ps(_mm256_set1_epi32(int(kSrgbHighest))));
+  const __m256i bits = _mm256_castps_si256(x);
+  const __m256i index = _mm256_sub_epi32(_mm256_srli_epi32(bits, 15), _mm256_set1_epi32(int(kSrgbLowest >> 15)));
+  const __m256i e = _mm256_i32gather_epi32(table, index, 4);
+  const __m256i low = _mm256_and_si256(bits, _mm256_set1_epi32(0x7fff));
+  const __m256i below = _mm256_cmpgt_epi32(_mm256_srli_epi32(e, 8), low);  // start > low: no step
+  return _mm256_add_epi32(_mm256_and_si256(e, _mm256_set1_epi32(0xff)),
+                          _mm256_add_epi32(_mm256_set1_epi32(1), below));
+}
+// (Eight pixels of which none is visible are left unwritten: write_rgb writes the background.)
+SR_TARGET_AVX2 void encode_row_avx2(const float* r, const float* g, const float* b,
+                                    const uint32_t* visible, int n, bool srgb, uint32_t* out) {
+  int x = 0;
+  if (srgb) {
+    const int* table = reinterpret_cast<const int*>(srgb_table().entry);
+    const __m256i none = _mm256_set1_epi32(int32_t(kNoTriangle));
+    for (; x + kLanes <= n; x += kLanes) {
+      const __m256i vis = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(visible + x));
+      if (_mm256_movemask_epi8(_mm256_cmpeq_epi32(vis, none)) == -1) continue;
+      const __m256i cr = srgb_code8(table, _mm256_loadu_ps(r + x));
+      const __m256i cg = srgb_code8(table, _mm256_loadu_ps(g + x));
+      const __m256i cb = srgb_code8(table, _mm256_loadu_ps(b + x));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(out + x),
+                          _mm256_or_si256(cr, _mm256_or_si256(_mm256_slli_epi32(cg, 8),
+                                                              _mm256_slli_epi32(cb, 16))));
+    }
+  } else {
+    for (; x + kLanes <= n; x += kLanes)
+      store(out + x, to_unorm8(load<f8>(r + x)) | (to_unorm8(load<f8>(g + x)) << 8) |
+                         (to_unorm8(load<f8>(b + x)) << 16));
+  }
+  encode_row_generic(r + x, g + x, b + x, visible + x, n - x, srgb, out + x);
+}
+
+// A row of radiance planes interleaved to RGB floats, 0 where nothing is visible.
+void write_radiance_row(const float* r, const float* g, const float* b, const uint32_t* visible,
+                        int n, float* out) {
+  for (int x = 0; x < n; ++x) {
+    const bool bg = visible[x] == kNoTriangle;
+    out[3 * x] = bg ? 0.0f : r[x];
+    out[3 * x + 1] = bg ? 0.0f : g[x];
+    out[3 * x + 2] = bg ? 0.0f : b[x];
+  }
+}
 
 // Depth of the visible pixels of one row, eight at a time.
 SR_INLINE void resolve_depth_row(const float* key, const uint32_t* visible, int n,
@@ -125,6 +246,9 @@ void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& r
   int32_t* const instance_id = fb.get<int32_t>(kOutInstanceId);
   float* const normal = fb.get<float>(kOutNormal);
   uint8_t* const color = fb.get<uint8_t>(kOutColor);
+  float* const radiance = fb.get<float>(kOutRadiance);
+  const auto encode_row = isa == Isa::Avx2 ? encode_row_avx2 : encode_row_generic;
+  uint32_t packed[kTileSizePx] = {};  // (encode_row skips groups with nothing visible)
   for (int y = rect.y0; y < rect.y1; ++y) {
     const int row = (y - rect.y0) * kTileSizePx;
     const std::size_t o = std::size_t(y) * width + std::size_t(rect.x0);
@@ -146,10 +270,13 @@ void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& r
         for (int c = 0; c < 3; ++c) out[3 * x + c] = bg ? 0.0f : shaded.normal[c][row + x];
       }
     }
+    const float* rgb[3] = {shaded.rgb[0] + row, shaded.rgb[1] + row, shaded.rgb[2] + row};
     if (color) {
       const uint32_t background = p.background[0] | p.background[1] << 8 | p.background[2] << 16;
-      write_rgb(shaded.rgb + row, visible, n, background, color + 3 * o);
+      encode_row(rgb[0], rgb[1], rgb[2], visible, n, p.srgb, packed);
+      write_rgb(packed, visible, n, background, color + 3 * o);
     }
+    if (radiance) write_radiance_row(rgb[0], rgb[1], rgb[2], visible, n, radiance + 3 * o);
   }
   if (stream) _mm_sfence();  // order the non-temporal stores before the tile is done
 }

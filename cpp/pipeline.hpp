@@ -1,6 +1,7 @@
 // Records passed between pipeline stages, the option enums and the numeric limits they rely on.
 #pragma once
 
+#include "lighting.hpp"
 #include "math.hpp"
 
 #include <cstddef>
@@ -36,7 +37,7 @@ constexpr int kTriangleChunk = 8192;
 
 enum class Cull : uint8_t { None, Back, Front };
 // Shading models (shade_models.hpp): one policy struct each.
-enum class Shading : uint8_t { Unlit, Lambert, Normal, Uv };
+enum class Shading : uint8_t { Unlit, Lambert, Normal, Uv, Lit };
 // When fragments are shaded: as they win the depth test (forward), or once per visible pixel
 // after the tile is rasterized (deferred). The same bits either way; Auto picks per tile by
 // its expected overdraw.
@@ -52,8 +53,9 @@ enum OutputBit : uint32_t {
   kOutTriangleId = 1u << 4,
   kOutInstanceId = 1u << 5,
   kOutCoverage = 1u << 6,
+  kOutRadiance = 1u << 7,
 };
-constexpr int kNumOutputs = 7;
+constexpr int kNumOutputs = 8;
 
 // Read-only view of `size` contiguous T's that something else owns (C++20's std::span<const T>,
 // as much of it as the stages use).
@@ -121,6 +123,7 @@ struct Draw {
   dmat4 model{1.0};      // model -> world
   int32_t instance_id = 0;
   vec4 color{0.8f, 0.8f, 0.8f, 1.0f};  // material colour, linear RGBA
+  Material material;     // how the lit model shades it (lighting.hpp); read only by Shading::Lit
 };
 
 struct CameraParams {
@@ -136,8 +139,13 @@ struct RenderOptions {
   Cull cull = Cull::Back;
   Shading shading = Shading::Lambert;
   ShadingPath shading_path = ShadingPath::Auto;
-  vec3 background{0.0f};  // colour of uncovered pixels, [0, 1]
+  vec3 background{0.0f};  // colour of uncovered pixels, [0, 1], linear
   float ambient = 0.25f;  // Lambert: ambient + (1 - ambient) * max(0, n . l)
+  // The lit model (Shading::Lit): world-space lights, the ambient light, the frequency.
+  std::vector<Light> lights;
+  vec3 ambient_light{0.0f};
+  Frequency frequency = Frequency::Pixel;
+  bool srgb = true;  // the colour output is sRGB-encoded (IEC 61966-2-1), else linear
 };
 
 // Per-vertex result of the transform stage (one draw).

@@ -13,6 +13,7 @@ struct ShadeDraw {
   const MeshData* mesh;
   dmat3 normal_to_world;  // inverse-transpose of the model matrix (double: see prepare())
   vec4 color;            // material colour (used when the mesh has no vertex colours)
+  Material material;     // the lit model's (Shading::Lit)
   int32_t instance_id;
   const vec3* world_normals;  // per vertex (world_normals()), or null: flat face normals
   dmat4 model_to_world;       // for models that read world positions
@@ -22,9 +23,10 @@ struct ShadeParams {
   const ShadeDraw* draws;
   Shading shading;
   ShadeInputs in;  // what the shading models read (shade_models.hpp)
-  uint8_t background[3];
+  uint8_t background[3];  // the colour output's background, as given (not encoded)
   bool orthographic;
   bool stream;  // write depth and colour with non-temporal stores (frames larger than caches)
+  bool srgb;    // the colour output is sRGB-encoded (else linear), 8 bits
   Framebuffer* framebuffer;
 };
 // Per-thread scratch for shade_tile: which binned triangles own a pixel, and the tile's shaded
@@ -34,8 +36,8 @@ struct ShadeParams {
 struct ShadeScratch {
   std::vector<uint8_t> used;  // per binned-triangle index: owns at least one pixel of the tile
   std::vector<uint32_t> large;  // forward shading: int64-path triangles left to a deferred pass
-  uint32_t rgb[kTileScratchPixels] = {};  // packed 8-bit colour, r | g << 8 | b << 16 (whole
-                                          // rows are read, background pixels' values discarded)
+  float rgb[3][kTileScratchPixels] = {};  // linear radiance, one plane per channel (whole rows
+                                          // are read, background pixels' values discarded)
   float normal[3][kTileScratchPixels];
 };
 

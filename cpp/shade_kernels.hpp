@@ -52,7 +52,8 @@ SR_INLINE void shade_group(const ShadeTriangle<Model>& s, const ShadeConstants<M
     f8& ny = frag.normal[1];
     f8& nz = frag.normal[2];
     nx = ny = nz = f8{};
-    if (varying_normal || (Model::kReadsNormal && varying_color)) {
+    if (varying_normal ||
+        (Model::kReadsNormal && varying_color && (s.reads & ShadeTriangleBase::kReadNormal))) {
       const Lanes3 n = weighted(s.normal, b0, b1, b2);
       nx = n.x; ny = n.y; nz = n.z;
       const f8 len2 = nx * nx + ny * ny + nz * nz;
@@ -74,13 +75,17 @@ SR_INLINE void shade_group(const ShadeTriangle<Model>& s, const ShadeConstants<M
         r = rgb.x; g = rgb.y; b = rgb.z;
       }
       if constexpr (Model::kReadsPosition) {
-        const Lanes3 pos = weighted(s.position, b0, b1, b2);
-        frag.position[0] = pos.x; frag.position[1] = pos.y; frag.position[2] = pos.z;
+        if (s.reads & ShadeTriangleBase::kReadPosition) {
+          const Lanes3 pos = weighted(s.position, b0, b1, b2);
+          frag.position[0] = pos.x; frag.position[1] = pos.y; frag.position[2] = pos.z;
+        }
       }
       for (int j = 0; j < Model::kAttributes; ++j)
         frag.attr[j] = b0 * s.attr[0][j] + b1 * s.attr[1][j] + b2 * s.attr[2][j];
       Model::shade(c.model, frag, r, g, b);
-      merge(out.rgb + i, to_unorm8(r) | (to_unorm8(g) << 8) | (to_unorm8(b) << 16));
+      merge(out.rgb[0] + i, r);
+      merge(out.rgb[1] + i, g);
+      merge(out.rgb[2] + i, b);
     }
   }
   if constexpr (kNormal) {
@@ -89,12 +94,13 @@ SR_INLINE void shade_group(const ShadeTriangle<Model>& s, const ShadeConstants<M
   }
   if constexpr (kColor) {
     if (s.color_kind == ShadeTriangleBase::kConstantColor) {
-      merge(out.rgb + i, splat(int32_t(s.rgb)));
+      for (int k = 0; k < 3; ++k) merge(out.rgb[k] + i, splat(s.rgb[k]));
     } else if constexpr (Model::kUniformLit) {
       if (s.color_kind == ShadeTriangleBase::kUniformLit) {
         // Unnormalised perspective weights: the normal's length and dot(n, L) share their scale.
         const f8 b0 = e0 * c.persp[0], b1 = e1 * c.persp[1], b2 = e2 * c.persp[2];
-        merge(out.rgb + i, Model::shade_uniform(c.model, s, b0, b1, b2));
+        const f8 f = Model::shade_uniform(c.model, s, b0, b1, b2);
+        for (int k = 0; k < 3; ++k) merge(out.rgb[k] + i, f * s.color[0][k]);
       }
     }
   }

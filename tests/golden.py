@@ -195,6 +195,8 @@ def render_hashes(name: str, simd: bool, threads: int, meshes: dict | None = Non
     options = dict(options)
     outputs = options.pop("outputs", ALL)
     scene, camera = build(meshes or _meshes())
+    # Colour linear, as recorded (issue 16 made sRGB the default; the recorded commit had none).
+    options.setdefault("srgb", False)
     frame = sr.Renderer(w, h, threads=threads, simd=simd).render(scene, camera, outputs=outputs, **options)
     return {k: hashlib.sha256(np.ascontiguousarray(v).tobytes()).hexdigest()
             for k, v in frame.as_dict().items()}

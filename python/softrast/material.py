@@ -77,7 +77,9 @@ class Material:
     """
 
     __slots__ = ("base_color", "ka", "kd", "ks", "shininess", "metallic", "roughness", "emissive",
-                 "double_sided", "model", "name")
+                 "double_sided", "model", "name", "_core")
+    _FIELDS = ("base_color", "ka", "kd", "ks", "shininess", "metallic", "roughness", "emissive",
+               "double_sided", "model", "name")
 
     def __init__(self, base_color: Sequence[float] = (0.8, 0.8, 0.8, 1.0),
                  ka: Sequence[float] | None = None, kd: Sequence[float] | None = None,
@@ -109,28 +111,42 @@ class Material:
         if name is not None and not isinstance(name, str):
             raise TypeError(f"name must be a str or None, got {type(name).__name__}")
         s(self, "name", name)
+        # The core's record less its first field (the reflectance model, chosen per render):
+        # kd_is_base, ka_is_kd, double_sided, ka, kd, ks, shininess, metallic, roughness, emissive.
+        kd_rgb = self.kd if self.kd is not None else (0.0, 0.0, 0.0)
+        s(self, "_core", (self.kd is None, self.ka is None, self.double_sided,
+                          self.ka if self.ka is not None else (0.0, 0.0, 0.0), kd_rgb, self.ks,
+                          p, self.metallic, self.roughness, self.emissive))
 
     def __setattr__(self, key: str, value: Any) -> None:
-        raise AttributeError("Material is immutable: make a new one (softrast.Material(...))")
+        raise AttributeError("Material is immutable: make a new one (softrast.Material(...) or "
+                             "material.replace(...))")
+
+    @property
+    def plain(self) -> bool:
+        """True if the material is lambert shading of its base colour, two-sided: what a mesh
+        without a material gets (render's fast headlight path takes it too)."""
+        return (self.ka is None and self.kd is None and self.emissive == (0.0, 0.0, 0.0)
+                and self.double_sided)
 
     def replace(self, **changes: Any) -> "Material":
         """A copy with some parameters changed (checked like the constructor's)."""
-        args = {k: getattr(self, k) for k in self.__slots__}
+        args = {k: getattr(self, k) for k in self._FIELDS}
         args.update(changes)
         return Material(**args)
 
     def __reduce__(self) -> tuple[Any, ...]:
-        return (_rebuild, ({k: getattr(self, k) for k in self.__slots__},))
+        return (_rebuild, ({k: getattr(self, k) for k in self._FIELDS},))
 
     def __eq__(self, other: object) -> bool:
         return isinstance(other, Material) and all(
-            getattr(self, k) == getattr(other, k) for k in self.__slots__)
+            getattr(self, k) == getattr(other, k) for k in self._FIELDS)
 
     def __hash__(self) -> int:
-        return hash(tuple(getattr(self, k) for k in self.__slots__))
+        return hash(tuple(getattr(self, k) for k in self._FIELDS))
 
     def __repr__(self) -> str:
-        fields = ", ".join(f"{k}={getattr(self, k)!r}" for k in self.__slots__
+        fields = ", ".join(f"{k}={getattr(self, k)!r}" for k in self._FIELDS
                            if getattr(self, k) is not None)
         return f"Material({fields})"
 

@@ -15,8 +15,17 @@ from .scene import Scene
 __all__ = ["Frame", "Renderer"]
 
 _CULL = _core.CULL_MODES
-_SHADING = _core.SHADING_MODELS  # the core's model list (cpp/shade_models.hpp)
 _SHADING_PATHS = _core.SHADING_PATHS
+_FREQUENCIES = _core.FREQUENCIES
+# render(shading=): "auto" (each material's own model), every reflectance model of a material
+# (python/softrast/material.py, MODELS) and the core's debug views ("uv").
+_REFLECTANCE = {name: i for i, name in enumerate(_core.REFLECTANCE_MODELS)}
+_SHADING = ("auto",) + _core.REFLECTANCE_MODELS + tuple(
+    m for m in _core.SHADING_MODELS if m not in _core.REFLECTANCE_MODELS and m != "lit")
+# A mesh without a material: lambert of its base colour, two-sided, no specular term.
+_PLAIN_MATERIAL = (True, True, True, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 32.0, 0.0,
+                   0.5, (0.0, 0.0, 0.0))
+_LAMBERT = _REFLECTANCE["lambert"]
 # Bytes per pixel of each output (see Frame): what a render allocates for it. From the core's
 # output table, as every list of outputs here is.
 _OUTPUT_BYTES = {row["name"]: row["bytes_per_pixel"] for row in _core.OUTPUT_TABLE}
@@ -67,11 +76,68 @@ Frame.__doc__ = (Frame.__doc__ or "").replace("{outputs}", "\n".join(
 def _spec(view: Any, proj: Any, orthographic: bool, near: float, far: float, outputs: list[str],
           cull: str = "back", shading: str = "lambert",
           background: Sequence[float] = (0.0, 0.0, 0.0), ambient: float = 0.25,
-          out: dict[str, np.ndarray] | None = None, shading_path: str = "auto") -> dict[str, Any]:
+          out: dict[str, np.ndarray] | None = None, shading_path: str = "auto",
+          lights: Sequence[tuple] = (), ambient_light: Sequence[float] = (0.0, 0.0, 0.0),
+          frequency: str = "pixel", srgb: bool = True) -> dict[str, Any]:
     """The core's render spec (_core.pyi, Renderer.render): the options, already checked."""
     return {"view": view, "proj": proj, "orthographic": orthographic, "near": near, "far": far,
             "outputs": outputs, "cull": cull, "shading": shading, "shading_path": shading_path,
-            "background": background, "ambient": ambient, "out": out}
+            "background": background, "ambient": ambient, "out": out, "lights": lights,
+            "ambient_light": ambient_light, "frequency": frequency, "srgb": srgb}
+
+
+def _lighting(scene: Scene, camera: Camera, view: Any, ambient: float) -> tuple[list[tuple], tuple]:
+    """The core's light records (world space) and ambient light for one render.
+
+    A scene without lights gets the headlight: a white directional light along the camera's
+    viewing axis of intensity 1 - ambient, and an ambient light of ``ambient``."""
+    lights = scene._lights
+    if not lights:
+        cam_to_world = np.linalg.inv(np.asarray(view, dtype=np.float64))
+        axis = -cam_to_world[:3, 2]
+        axis = axis / np.linalg.norm(axis)
+        rgb = 1.0 - ambient
+        headlight = (0, (rgb, rgb, rgb), (0.0, 0.0, 0.0), tuple(float(x) for x in axis), False,
+                     0.0, 1.0)
+        ia = scene.ambient_light if scene.ambient_light is not None else (ambient,) * 3
+        return [headlight], ia
+    records = []
+    cam_to_world = None
+    for li in lights:
+        pose = li.pose
+        if li.camera_space:
+            if cam_to_world is None:
+                cam_to_world = np.linalg.inv(np.asarray(view, dtype=np.float64))
+            pose = cam_to_world @ pose
+        records.append(li.light._core(pose))
+    ia = scene.ambient_light if scene.ambient_light is not None else (0.0, 0.0, 0.0)
+    return records, ia
+
+
+def _draws(scene: Scene, shading: str, frequency: str) -> tuple[list[tuple], str]:
+    """The core's draw records and model: "lit" with each draw's reflectance model, or one of the
+    core's fast kernels where every draw allows it (a scene of plain lambert meshes under the
+    headlight keeps the headlight kernel; unlit, normal and uv have their own)."""
+    instances = scene._instances
+    if shading in ("unlit", "normal", "uv"):
+        index = _REFLECTANCE.get(shading, _LAMBERT)
+        return [(i.mesh._core_data(), i.pose, i.instance_id, i.color,
+                 (index,) + (i.material._core if i.material is not None else _PLAIN_MATERIAL))
+                for i in instances], shading
+    draws = []
+    plain = frequency == "pixel" and not scene._lights and scene.ambient_light is None
+    for i in instances:
+        m = i.material
+        if shading == "auto":
+            model = "lambert" if m is None else (m.model or "blinn_phong")
+        else:
+            model = shading
+        index = _REFLECTANCE[model]
+        if index != _LAMBERT or (m is not None and not m.plain):
+            plain = False
+        draws.append((i.mesh._core_data(), i.pose, i.instance_id, i.color,
+                      (index,) + (m._core if m is not None else _PLAIN_MATERIAL)))
+    return draws, "lambert" if plain else "lit"
 
 
 # Checked output tuples (and single names): a batch asks for the same outputs every render.
@@ -181,11 +247,13 @@ class Renderer:
         camera: Camera,
         outputs: str | Sequence[str] = ("color", "depth"),
         cull: str = "back",
-        shading: str = "lambert",
+        shading: str = "auto",
         background: Sequence[float] = (0.0, 0.0, 0.0),
         ambient: float = 0.25,
         out: Frame | dict[str, np.ndarray] | None = None,
         shading_path: str = "auto",
+        frequency: str = "pixel",
+        srgb: bool = True,
     ) -> Frame:
         """Render ``scene`` seen by ``camera``; only ``outputs`` are allocated and written.
 
@@ -193,15 +261,28 @@ class Renderer:
                   dtypes, units and background values).
         cull : "back" (default), "front" or "none". Front faces are counter-clockwise in the
                image as OpenGL defines it; a mirroring pose flips the winding, and the test.
-        shading : "lambert" — base colour * (ambient + (1 - ambient) * max(0, n . l)) with a
-                  headlight (a directional light along the camera's viewing axis), two-sided;
-                  or "unlit" — the base colour. The base colour is the mesh's per-vertex colours
-                  if it has them, else the instance's material colour; or "normal" — the
-                  world-space unit normal of the visible side as a colour, (n + 1) / 2; or
-                  "uv" — the mesh's texture coordinates as a colour, (u, v, 0) clamped to
-                  [0, 1], perspective-correct (black without uvs).
-                  Colours are written as given (no gamma curve), rounded to 8 bits.
-        background : RGB in [0, 1] for pixels nothing covers.
+        shading : "auto" (default) — each instance's material's own model (its ``model``;
+                  "blinn_phong" for a material without one, "lambert" for a mesh without a
+                  material); or one model for everything: "unlit" (the base colour), "lambert",
+                  "phong", "blinn_phong", "pbr" (glTF metallic-roughness as pyrender computes
+                  it), "normal" (the world-space unit normal of the visible side as a colour,
+                  (n + 1) / 2) or "uv" (the mesh's texture coordinates as a colour, (u, v, 0)
+                  clamped to [0, 1], perspective-correct; black without uvs). The formulas are in
+                  ``softrast.material``; the lights are the scene's (``softrast.light``), or the
+                  headlight in a scene without lights: a directional light along the camera's
+                  viewing axis of intensity 1 - ambient plus an ambient light of ``ambient``, so
+                  lambert gives base colour * (ambient + (1 - ambient) * max(0, n . l)). The base
+                  colour is the mesh's per-vertex colours if it has them, else the instance's
+                  colour (its material's base colour).
+        frequency : where lighting is evaluated: "pixel" (default; normals interpolated per pixel,
+                  Phong shading), "vertex" (Gouraud: at the vertices, colour interpolated) or
+                  "face" (flat: once per face, with its face normal, at its centroid).
+        srgb : True (default): the ``color`` output is the radiance sRGB-encoded (the exact IEC
+               61966-2-1 curve, as pyrender's and glTF viewers' output and cameras' images are);
+               False: linear. Either way clamped to [0, 1] and rounded to 8 bits; ``radiance``
+               holds the linear, unclamped values.
+        background : RGB in [0, 1] for pixels nothing covers, written to ``color`` as given
+               (times 255, not encoded).
         out : a Frame from an earlier render, or a dict of arrays, to render into in place
               (no allocation). Each array must have exactly its output's dtype and shape, be
               C-contiguous and writeable. Requested outputs missing from ``out`` are allocated.
@@ -225,6 +306,9 @@ class Renderer:
         choice(cull, "cull", _CULL)
         choice(shading, "shading", _SHADING)
         choice(shading_path, "shading_path", _SHADING_PATHS)
+        choice(frequency, "frequency", _FREQUENCIES)
+        if not isinstance(srgb, (bool, np.bool_)):
+            raise TypeError(f"srgb must be True or False, got {srgb!r:.80}")
         bg = unit_rgb(background, "background")
         ambient_f = real(ambient, "ambient")
         if not 0.0 <= ambient_f <= 1.0:  # NaN fails too
@@ -235,13 +319,14 @@ class Renderer:
         if new:
             check_budget(w * h * sum(_OUTPUT_BYTES[n] for n in new), f"outputs {tuple(new)} at {w}x{h}")
 
-        draws = [(inst.mesh._core_data(), inst.pose, inst.instance_id, inst.color)
-                 for inst in scene._instances]
+        draws, model = _draws(scene, shading, frequency)
         view, proj = camera._render_matrices(w, h)
+        lights, ambient_light = _lighting(scene, camera, view, ambient_f)
         # Every option is checked above, once; the core gets them as one spec.
         buffers = self._core.render(draws, _spec(view, proj, camera.orthographic, camera.near,
-                                                 camera.far, names, cull, shading, bg, ambient_f,
-                                                 out_arrays, shading_path))
+                                                 camera.far, names, cull, model, bg, ambient_f,
+                                                 out_arrays, shading_path, lights, ambient_light,
+                                                 frequency, bool(srgb)))
         return Frame(buffers)
 
     def __repr__(self) -> str:

@@ -1,0 +1,220 @@
+// Lights, materials and the reflectance models of the lit shading model, eight pixels at a time.
+// The formulas (and their reasons) are python/softrast/material.py's and light.py's; `pbr` is
+// pyrender's mesh.frag (GGX distribution, its Schlick-style geometric term, Schlick Fresnel,
+// Lambert diffuse scaled by (1 - F)), stated beside the code.
+//
+// Only +, -, *, /, sqrt, comparisons and bit operations on lanes: the AVX2 and generic kernels
+// give the same bits (no libm calls, whose results could differ between instruction sets; pow
+// is exp2(p * log2(x)) with polynomials below).
+#pragma once
+
+#include "math.hpp"
+#include "simd.hpp"
+
+#include <cstdint>
+#include <cstring>
+
+namespace sr {
+
+enum class LightKind : uint8_t { Directional, Point, Spot };
+
+// One light in world space (python/softrast/light.py, Light._core).
+struct Light {
+  LightKind kind = LightKind::Directional;
+  vec3 radiance{1.0f};     // colour * intensity
+  vec3 position{0.0f};     // point and spot lights
+  vec3 direction{0.0f, 0.0f, -1.0f};  // unit, the direction the light travels
+  bool inverse_square = true;          // point and spot: radiance / r^2
+  float cone_scale = 0.0f, cone_offset = 1.0f;  // spot: clamp(cos * scale + offset, 0, 1)^2
+};
+
+// How a material reflects light (render(shading=) names; Lit's per-triangle choice).
+enum class Brdf : uint8_t { Unlit, Lambert, Phong, BlinnPhong, Pbr, Normal };
+
+// Where lighting is evaluated: per pixel (Phong shading), at the vertices with the colour
+// interpolated (Gouraud), or once per face with its face normal (flat).
+enum class Frequency : uint8_t { Pixel, Vertex, Face };
+
+// A material as the core reads it (python/softrast/material.py). ka / kd follow the base colour
+// (vertex colours, else the draw's colour) where the flags say so.
+struct Material {
+  Brdf brdf = Brdf::Lambert;
+  bool kd_is_base = true;   // kd = the base colour
+  bool ka_is_kd = true;     // ka = kd
+  bool double_sided = true;
+  vec3 ka{0.0f}, kd{0.0f}, ks{0.0f};
+  float shininess = 32.0f;
+  float metallic = 0.0f, roughness = 0.5f;
+  vec3 emissive{0.0f};
+};
+
+namespace simd {
+
+SR_INLINE f8 max0(f8 v) { return f8{} < v ? v : f8{}; }  // NaN -> 0
+SR_INLINE f8 clamp01(f8 v) {
+  const f8 one = splat(1.0f);
+  const f8 c = f8{} < v ? v : f8{};
+  return c < one ? c : one;
+}
+SR_INLINE f8 as_float(i8 v) { f8 r; std::memcpy(&r, &v, sizeof r); return r; }
+SR_INLINE i8 as_int(f8 v) { i8 r; std::memcpy(&r, &v, sizeof r); return r; }
+
+// log2(x) for x > 0 finite (x = 2^e * m, m in [sqrt(1/2), sqrt(2)): log2(m) by the atanh series
+// 2/ln2 * (t + t^3/3 + ... + t^9/9), t = (m - 1) / (m + 1), |t| <= 0.172: error < 1e-9). Denormals
+// are taken as 2^-126 (pow's results there are far below what 8 bits or a light can show).
+SR_INLINE f8 log2_pos(f8 x) {
+  const f8 tiny = splat(1.17549435e-38f);
+  x = x < tiny ? tiny : x;
+  i8 bits = as_int(x);
+  i8 e = ((bits >> 23) & 0xff) - 127;
+  f8 m = as_float((bits & 0x007fffff) | 0x3f800000);  // [1, 2)
+  const i8 big = m > splat(1.41421356f);
+  m = big ? m * 0.5f : m;
+  e = big ? e + 1 : e;
+  const f8 t = (m - 1.0f) / (m + 1.0f), t2 = t * t;
+  const f8 series = t * (2.0f + t2 * (0.666666667f + t2 * (0.4f + t2 * (0.285714286f + t2 * 0.222222222f))));
+  return to_float(e) + series * 1.44269504f;  // series = ln(m)
+}
+
+// 2^y for y <= 0 (y < -126 gives 0): 2^n * 2^f, n = round(y), f in [-0.5, 0.5], 2^f by its
+// Taylor series to f^7 (relative error < 2e-9).
+SR_INLINE f8 exp2_neg(f8 y) {
+  const i8 under = y < splat(-126.0f);
+  y = under ? splat(-126.0f) : y;
+  const f8 n = to_float(__builtin_convertvector(y - 0.5f, i8));  // y <= 0: rounds toward zero
+  // n = trunc(y - 0.5) is round-half-down for y <= 0; f = y - n lies in [-0.5, 0.5].
+  const f8 f = (y - n) * 0.693147181f;
+  const f8 p = 1.0f + f * (1.0f + f * (0.5f + f * (0.166666667f + f * (0.0416666667f + f * (
+      0.00833333333f + f * (0.00138888889f + f * 0.000198412698f))))));
+  const f8 scale = as_float((__builtin_convertvector(n, i8) + 127) << 23);
+  return under ? f8{} : p * scale;
+}
+
+// x^p for x in [0, 1] and p >= 0 (0^0 = 1, as pow).
+SR_INLINE f8 pow01(f8 x, f8 p) {
+  const f8 r = exp2_neg(p * log2_pos(x));
+  return x > f8{} ? r : (p > f8{} ? f8{} : splat(1.0f));
+}
+
+}  // namespace simd
+
+// A material's values for one triangle, splatted to eight lanes; kd and ka are per pixel when
+// they follow vertex colours.
+struct LitConstants {
+  simd::f8 ks[3], emissive[3], ka[3], kd[3];
+  simd::f8 shininess, metallic, alpha_roughness, roughness;
+  simd::f8 f0[3], c_diff[3];  // pbr with a uniform base colour
+};
+
+// Per-light constants splatted once per triangle would cost more than they save for 1-8 lights;
+// the loop splats them per group (one broadcast each).
+struct LitInputs {
+  const Light* lights;
+  int num_lights;
+  vec3 ambient_light;
+  vec3 eye;          // perspective: the camera centre; orthographic: the direction toward it
+  float eye_point;   // 1 for a perspective camera (v = eye - p), 0 for orthographic (v = eye)
+};
+
+// Radiance of eight pixels: unit normal n (toward the side being lit), world position p, base
+// colour base (kd / ka where the material says so), material m, summed over the lights.
+template <bool kPositions>
+SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, Brdf brdf,
+                            const simd::f8 (&n)[3], const simd::f8 (&p)[3],
+                            const simd::f8 (&base)[3], simd::f8 (&out)[3]) {
+  using namespace simd;
+  f8 kd[3], ka[3];
+  for (int c = 0; c < 3; ++c) {
+    kd[c] = m.kd_is_base ? base[c] : splat(m.kd[c]);
+    ka[c] = m.ka_is_kd ? kd[c] : splat(m.ka[c]);
+    out[c] = ka[c] * in.ambient_light[c] + m.emissive[c];
+  }
+  const bool specular = (brdf == Brdf::Phong || brdf == Brdf::BlinnPhong) &&
+                        (m.ks.x > 0.0f || m.ks.y > 0.0f || m.ks.z > 0.0f);
+  const bool pbr = brdf == Brdf::Pbr;
+  f8 v[3] = {};
+  if (kPositions && (specular || pbr)) {  // unit vector toward the eye
+    for (int c = 0; c < 3; ++c) v[c] = in.eye[c] - p[c] * in.eye_point;
+    const f8 r = 1.0f / simd::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    for (int c = 0; c < 3; ++c) v[c] *= r;
+  }
+  // pbr (pyrender's mesh.frag): f0 = mix(0.04, base, metallic), c_diff = base * (1 - 0.04) *
+  // (1 - metallic), alpha = roughness^2.
+  f8 f0[3], c_diff[3];
+  if (pbr)
+    for (int c = 0; c < 3; ++c) {
+      f0[c] = 0.04f + (base[c] - 0.04f) * m.metallic;
+      c_diff[c] = base[c] * (0.96f * (1.0f - m.metallic));
+    }
+  const f8 shininess = splat(m.shininess);
+  for (int k = 0; k < in.num_lights; ++k) {
+    const Light& light = in.lights[k];
+    f8 l[3], att = splat(1.0f);
+    if (light.kind == LightKind::Directional || !kPositions) {
+      for (int c = 0; c < 3; ++c) l[c] = splat(-light.direction[c]);
+    } else {
+      for (int c = 0; c < 3; ++c) l[c] = light.position[c] - p[c];
+      const f8 r2 = l[0] * l[0] + l[1] * l[1] + l[2] * l[2];
+      const f8 inv_r = 1.0f / simd::sqrt(r2);
+      for (int c = 0; c < 3; ++c) l[c] *= inv_r;
+      if (light.inverse_square) att = 1.0f / r2;
+      if (light.kind == LightKind::Spot) {
+        const f8 cd = -(light.direction[0] * l[0] + light.direction[1] * l[1] + light.direction[2] * l[2]);
+        const f8 t = clamp01(cd * light.cone_scale + light.cone_offset);
+        att *= t * t;
+      }
+    }
+    const f8 ndl = n[0] * l[0] + n[1] * l[1] + n[2] * l[2];
+    if (pbr) {
+      // pyrender: h = normalize(l + v); nl = clamp(n.l, 0.001, 1); nv = clamp(|n.v|, 0.001, 1);
+      // nh, vh clamped to [0, 1]; F = f0 + (1 - f0) (1 - vh)^5; k = (r + 1)^2 / 8 on the
+      // perceptual roughness r, G = nl nv / ((nl (1 - k) + k)(nv (1 - k) + k)); D = a^2 /
+      // (pi f^2), f = (nh a^2 - nh) nh + 1, a = r^2; radiance += nl I ((1 - F) c_diff / pi +
+      // F G D / (4 nl nv)). Lights behind the surface (n.l <= 0) add nothing.
+      f8 h[3];
+      for (int c = 0; c < 3; ++c) h[c] = l[c] + v[c];
+      const f8 hr = 1.0f / simd::sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
+      for (int c = 0; c < 3; ++c) h[c] *= hr;
+      const f8 lo = splat(0.001f), one = splat(1.0f);
+      const f8 nl = ndl < lo ? lo : (one < ndl ? one : ndl);
+      f8 nv = n[0] * v[0] + n[1] * v[1] + n[2] * v[2];
+      nv = nv < f8{} ? -nv : nv;
+      nv = nv < lo ? lo : (one < nv ? one : nv);
+      const f8 nh = clamp01(n[0] * h[0] + n[1] * h[1] + n[2] * h[2]);
+      const f8 vh = clamp01(v[0] * h[0] + v[1] * h[1] + v[2] * h[2]);
+      const f8 r = splat(m.roughness);
+      const f8 kk = (r + 1.0f) * (r + 1.0f) * 0.125f;
+      const f8 g = nl * nv / ((nl * (1.0f - kk) + kk) * (nv * (1.0f - kk) + kk));
+      const f8 a2 = r * r * (r * r);
+      const f8 f = (nh * a2 - nh) * nh + 1.0f;
+      const f8 d = a2 / (3.14159265f * f * f);
+      const f8 s = one - vh, s2 = s * s, s5 = s2 * s2 * s;
+      const f8 lit = ndl > f8{} ? nl * att : f8{};
+      const f8 spec_common = g * d / (4.0f * nl * nv);
+      for (int c = 0; c < 3; ++c) {
+        const f8 fr = f0[c] + (1.0f - f0[c]) * s5;
+        out[c] += lit * light.radiance[c] * ((1.0f - fr) * c_diff[c] * 0.318309886f + fr * spec_common);
+      }
+      continue;
+    }
+    const f8 diffuse = max0(ndl) * att;
+    for (int c = 0; c < 3; ++c) out[c] += kd[c] * (diffuse * light.radiance[c]);
+    if (specular) {
+      f8 cosine;
+      if (brdf == Brdf::Phong) {  // r = 2 (n.l) n - l, (r.v)^p
+        f8 rv = f8{};
+        for (int c = 0; c < 3; ++c) rv += (2.0f * ndl * n[c] - l[c]) * v[c];
+        cosine = rv;
+      } else {  // h = (l + v) / |l + v|, (n.h)^p
+        f8 h[3];
+        for (int c = 0; c < 3; ++c) h[c] = l[c] + v[c];
+        const f8 len2 = h[0] * h[0] + h[1] * h[1] + h[2] * h[2];
+        cosine = (n[0] * h[0] + n[1] * h[1] + n[2] * h[2]) / simd::sqrt(len2);
+      }
+      const f8 spec = ndl > f8{} ? pow01(clamp01(cosine), shininess) * att : f8{};
+      for (int c = 0; c < 3; ++c) out[c] += (spec * light.radiance[c]) * m.ks[c];
+    }
+  }
+}
+
+}  // namespace sr
