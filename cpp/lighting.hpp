@@ -98,16 +98,8 @@ SR_INLINE f8 pow01(f8 x, f8 p) {
 
 }  // namespace simd
 
-// A material's values for one triangle, splatted to eight lanes; kd and ka are per pixel when
-// they follow vertex colours.
-struct LitConstants {
-  simd::f8 ks[3], emissive[3], ka[3], kd[3];
-  simd::f8 shininess, metallic, alpha_roughness, roughness;
-  simd::f8 f0[3], c_diff[3];  // pbr with a uniform base colour
-};
-
-// Per-light constants splatted once per triangle would cost more than they save for 1-8 lights;
-// the loop splats them per group (one broadcast each).
+// What the lit model reads of a render (per-light values are splatted per group of eight: for a
+// few lights, one broadcast each costs less than keeping them per triangle).
 struct LitInputs {
   const Light* lights;
   int num_lights;
@@ -124,14 +116,15 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, Brdf brdf,
                             const simd::f8 (&base)[3], simd::f8 (&out)[3]) {
   using namespace simd;
   f8 kd[3], ka[3];
+  const bool pbr = brdf == Brdf::Pbr;
   for (int c = 0; c < 3; ++c) {
     kd[c] = m.kd_is_base ? base[c] : splat(m.kd[c]);
     ka[c] = m.ka_is_kd ? kd[c] : splat(m.ka[c]);
-    out[c] = ka[c] * in.ambient_light[c] + m.emissive[c];
+    // pbr: the base colour times the ambient light, as pyrender (ka is not read).
+    out[c] = (pbr ? base[c] : ka[c]) * in.ambient_light[c] + m.emissive[c];
   }
   const bool specular = (brdf == Brdf::Phong || brdf == Brdf::BlinnPhong) &&
                         (m.ks.x > 0.0f || m.ks.y > 0.0f || m.ks.z > 0.0f);
-  const bool pbr = brdf == Brdf::Pbr;
   f8 v[3] = {};
   if (kPositions && (specular || pbr)) {  // unit vector toward the eye
     for (int c = 0; c < 3; ++c) v[c] = in.eye[c] - p[c] * in.eye_point;
@@ -160,37 +153,38 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, Brdf brdf,
       if (light.inverse_square) att = 1.0f / r2;
       if (light.kind == LightKind::Spot) {
         const f8 cd = -(light.direction[0] * l[0] + light.direction[1] * l[1] + light.direction[2] * l[2]);
-        const f8 t = clamp01(cd * light.cone_scale + light.cone_offset);
+        const f8 t = clamp01(clamp01(cd) * light.cone_scale + light.cone_offset);
         att *= t * t;
       }
     }
     const f8 ndl = n[0] * l[0] + n[1] * l[1] + n[2] * l[2];
     if (pbr) {
-      // pyrender: h = normalize(l + v); nl = clamp(n.l, 0.001, 1); nv = clamp(|n.v|, 0.001, 1);
-      // nh, vh clamped to [0, 1]; F = f0 + (1 - f0) (1 - vh)^5; k = (r + 1)^2 / 8 on the
-      // perceptual roughness r, G = nl nv / ((nl (1 - k) + k)(nv (1 - k) + k)); D = a^2 /
-      // (pi f^2), f = (nh a^2 - nh) nh + 1, a = r^2; radiance += nl I ((1 - F) c_diff / pi +
-      // F G D / (4 nl nv)). Lights behind the surface (n.l <= 0) add nothing.
+      // pyrender 0.1.45's mesh.frag (PBR_NOTES in the tests' reference): r = clamp(roughness,
+      // 0.04, 1), a = r^2; h = normalize(l + v); nl = clamp(n.l, 0.001, 1) (a light behind the
+      // surface still adds a little, as pyrender's does); nv = clamp(|n.v|, 0.001, 1); nh, vh
+      // clamped to [0, 1]; F = f0 + (1 - f0) (1 - vh)^5; k = (r + 1)^2 / 8, G = nl nv /
+      // ((nl (1 - k) + k)(nv (1 - k) + k)); D = a^2 / (pi (nh^2 (a^2 - 1) + 1)^2);
+      // radiance += nl I ((1 - F) c_diff / pi + F G D / (4 nl nv + 0.001)).
       f8 h[3];
       for (int c = 0; c < 3; ++c) h[c] = l[c] + v[c];
       const f8 hr = 1.0f / simd::sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
-      for (int c = 0; c < 3; ++c) h[c] *= hr;
+      for (int c = 0; c < 3; ++c) h[c] *= hr;  // l = -v: NaN, and nh = vh = 0 below
       const f8 lo = splat(0.001f), one = splat(1.0f);
-      const f8 nl = ndl < lo ? lo : (one < ndl ? one : ndl);
+      const f8 nl = ndl > lo ? (one < ndl ? one : ndl) : lo;  // NaN -> 0.001
       f8 nv = n[0] * v[0] + n[1] * v[1] + n[2] * v[2];
       nv = nv < f8{} ? -nv : nv;
-      nv = nv < lo ? lo : (one < nv ? one : nv);
+      nv = nv > lo ? (one < nv ? one : nv) : lo;
       const f8 nh = clamp01(n[0] * h[0] + n[1] * h[1] + n[2] * h[2]);
       const f8 vh = clamp01(v[0] * h[0] + v[1] * h[1] + v[2] * h[2]);
-      const f8 r = splat(m.roughness);
-      const f8 kk = (r + 1.0f) * (r + 1.0f) * 0.125f;
+      const float rough = m.roughness > 0.04f ? m.roughness : 0.04f;
+      const float kk = (rough + 1.0f) * (rough + 1.0f) * 0.125f;
+      const float a2 = rough * rough * (rough * rough);
       const f8 g = nl * nv / ((nl * (1.0f - kk) + kk) * (nv * (1.0f - kk) + kk));
-      const f8 a2 = r * r * (r * r);
-      const f8 f = (nh * a2 - nh) * nh + 1.0f;
+      const f8 f = nh * nh * (a2 - 1.0f) + 1.0f;
       const f8 d = a2 / (3.14159265f * f * f);
       const f8 s = one - vh, s2 = s * s, s5 = s2 * s2 * s;
-      const f8 lit = ndl > f8{} ? nl * att : f8{};
-      const f8 spec_common = g * d / (4.0f * nl * nv);
+      const f8 lit = nl * att;
+      const f8 spec_common = g * d / (4.0f * nl * nv + 0.001f);
       for (int c = 0; c < 3; ++c) {
         const f8 fr = f0[c] + (1.0f - f0[c]) * s5;
         out[c] += lit * light.radiance[c] * ((1.0f - fr) * c_diff[c] * 0.318309886f + fr * spec_common);

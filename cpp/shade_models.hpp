@@ -306,15 +306,27 @@ struct LitModel {
     s.model.passthrough = false;
     s.model.side = s.back_facing && !m.double_sided ? -1.0f : 1.0f;
     s.reads = 0;
-    if (brdf == Brdf::Unlit || brdf == Brdf::Normal) {
-      const bool constant = brdf == Brdf::Unlit ? uniform_color : s.one_normal;
-      if (constant) {
+    if (brdf == Brdf::Unlit) {
+      if (uniform_color) {
         s.color_kind = ShadeTriangleBase::kConstantColor;
-        s.rgb = brdf == Brdf::Unlit ? s.color[0] : s.unit_normal * 0.5f + 0.5f;
+        s.rgb = s.color[0];
       } else {
         s.color_kind = ShadeTriangleBase::kVaryingColor;
-        s.model.passthrough = brdf == Brdf::Unlit;
-        if (brdf == Brdf::Normal) s.reads = ShadeTriangleBase::kReadNormal;
+        s.model.passthrough = true;
+      }
+      return;
+    }
+    if (brdf == Brdf::Normal) {  // (n + 1) / 2 at the render's frequency
+      if (in.frequency == Frequency::Face || s.one_normal) {
+        s.color_kind = ShadeTriangleBase::kConstantColor;
+        s.rgb = (in.frequency == Frequency::Face ? s.face_normal : s.unit_normal) * 0.5f + 0.5f;
+      } else if (in.frequency == Frequency::Vertex) {
+        s.color_kind = ShadeTriangleBase::kVaryingColor;
+        for (int k = 0; k < 3; ++k) s.color[k] = unit_or_zero(s.normal[k]) * 0.5f + 0.5f;
+        s.model.passthrough = true;
+      } else {
+        s.color_kind = ShadeTriangleBase::kVaryingColor;
+        s.reads = ShadeTriangleBase::kReadNormal;
       }
       return;
     }

@@ -23,7 +23,7 @@ SPOT_PATH = pathlib.Path(__file__).resolve().parents[1] / "assets" / "meshes" / 
     (["render", str(SPOT_PATH), "-o", "x.png", "--eye", "1,2"], "--eye"),
     (["render", str(SPOT_PATH), "-o", "x.png", "--up", "0,nan,1"], "--up"),
     (["render", str(SPOT_PATH), "-o", "x.png", "--cull", "sideways"], "--cull"),
-    (["render", str(SPOT_PATH), "-o", "x.png", "--shading", "phong"], "--shading"),
+    (["render", str(SPOT_PATH), "-o", "x.png", "--shading", "toon"], "--shading"),  # phong is valid (issue 16)
     (["render", str(SPOT_PATH), "-o", "x.png", "--threads", "-1"], "--threads"),
     (["render", str(SPOT_PATH), "-o", "x.png", "--near", "0"], "--near"),
     (["render", str(SPOT_PATH), "-o", "x.png", "--fov", "180"], "--fov"),

@@ -19,7 +19,9 @@ def test_vertex_colours_are_perspective_correct():
     scene.add(sr.Mesh(positions, faces, colors=colors))
     cam = sr.PerspectiveCamera(fov_y=60.0, near=0.1, far=50.0)
     cam.pose = np.eye(4)
-    frame = sr.Renderer(W, H).render(scene, cam, outputs=("color", "mask", "depth"), shading="unlit")
+    # srgb=False: the colours are checked against the linear values (x * 255, rounded).
+    frame = sr.Renderer(W, H).render(scene, cam, outputs=("color", "mask", "depth"), shading="unlit",
+                                     srgb=False)
 
     i, j = np.nonzero(frame.mask)
     t = np.tan(np.radians(30.0))
@@ -45,7 +47,9 @@ def test_interpolation_through_clipped_triangles():
     scene.add(sr.Mesh(positions, faces, colors=colors))
     cam = sr.PerspectiveCamera(fov_y=60.0, near=0.1, far=50.0)
     cam.pose = np.eye(4)
-    frame = sr.Renderer(W, H).render(scene, cam, outputs=("color", "mask"), shading="unlit")
+    # srgb=False: the colours are checked against the linear values (x * 255, rounded).
+    frame = sr.Renderer(W, H).render(scene, cam, outputs=("color", "mask"), shading="unlit",
+                                     srgb=False)
     i, j = np.nonzero(frame.mask)
     t = np.tan(np.radians(30.0))
     ray_x = ((j + 0.5) / W * 2 - 1) * t * W / H

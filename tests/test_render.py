@@ -28,7 +28,7 @@ from conftest import (
 
 _DTYPES = {"color": (np.uint8, 3), "depth": (np.float32, 0), "mask": (np.bool_, 0),
            "normal": (np.float32, 3), "triangle_id": (np.int32, 0), "instance_id": (np.int32, 0),
-           "coverage": (np.uint32, 0)}
+           "coverage": (np.uint32, 0), "radiance": (np.float32, 3)}
 
 
 def _plane_through_window_points(xy_window, plane_n, plane_d, w, h, fov):
@@ -352,7 +352,7 @@ def test_bad_image_size_types():
     ({"outputs": ("color", "albedo")}, "output"),
     ({"cull": "sideways"}, "cull"),
     ({"cull": "BACK "}, "cull"),
-    ({"shading": "phong"}, "shading"),
+    ({"shading": "toon"}, "shading"),  # "phong" is a shading model since issue 16
 ])
 def test_bad_render_options(kwargs, name):
     with pytest.raises(ValueError, match=name):
@@ -585,7 +585,9 @@ def test_unlit_flat_colour_and_background():
     pose = np.eye(4)
     pose[:3, 3] = [0.0, 0.0, -3.0]
     scene.add(icosphere(3), pose=pose, color=color)
-    frame = render(scene, _origin_cam(), 48, 40, shading="unlit", background=(0.2, 0.6, 0.8))
+    # srgb=False: the expected colour is the linear x * 255, rounded (the background is never encoded).
+    frame = render(scene, _origin_cam(), 48, 40, shading="unlit", background=(0.2, 0.6, 0.8),
+                   srgb=False)
     assert 0 < frame.mask.sum() < frame.mask.size
     assert (frame.color[frame.mask] == [51, 115, 237]).all()
     assert (frame.color[~frame.mask] == [51, 153, 204]).all()
@@ -607,7 +609,8 @@ def test_lambert_headlight_follows_cosine(tilt_deg):
         pose[:3, 3] = [0.0, 0.0, -30.0]  # the 15-unit quad stays within near/far at any tilt
         scene = sr.Scene()
         scene.add(_facing_quad(15.0), pose=pose, color=tuple(base))
-        frame = render(scene, cam, w, h, shading="lambert", cull="none")
+        # srgb=False: the cosine law is checked on the linear colour (x * 255, rounded).
+        frame = render(scene, cam, w, h, shading="lambert", cull="none", srgb=False)
         assert frame.mask.all()
         np.testing.assert_allclose(frame.normal, np.broadcast_to(rot[:, 2], (h, w, 3)), atol=1e-6)
         results[angle] = frame.color.astype(np.float64)
@@ -635,7 +638,9 @@ def test_smooth_lambert_matches_the_interpolated_normal(camera):
     else:
         cam = sr.OrthographicCamera(xmag=1.4, ymag=1.2, near=0.5, far=100.0)
         cam.pose = np.eye(4)
-    frame = render(scene, cam, 96, 80, outputs=("color", "normal", "mask"), ambient=ambient)
+    # srgb=False: the Lambert term is checked on the linear colour (x * 255, rounded).
+    frame = render(scene, cam, 96, 80, outputs=("color", "normal", "mask"), ambient=ambient,
+                   srgb=False)
     assert frame.mask.sum() > 1000
     n = frame.normal[frame.mask].astype(np.float64)
     np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-5)
@@ -717,7 +722,8 @@ def test_pose_flattening_a_sphere_gives_the_discs_normal(diag, smooth):
     base = np.array([0.8, 0.6, 0.4])
     scene = sr.Scene()
     scene.add(_sphere_mesh(smooth), pose=pose, color=tuple(base))
-    frame = render(scene, cam, 64, 48, cull="none")
+    # srgb=False: the full base colour is checked linearly (x * 255, rounded).
+    frame = render(scene, cam, 64, 48, cull="none", srgb=False)
     m = frame.mask
     assert m.sum() > 500
     n = frame.normal[m].astype(np.float64)

@@ -18,6 +18,9 @@ def _unorm8(v: np.ndarray) -> np.ndarray:
 
 
 def _render(mesh: sr.Mesh, simd: bool = True, path: str = "auto", **kw) -> sr.Frame:
+    # srgb=False: the colour is (n + 1) / 2 itself, linearly encoded (the default sRGB encoding
+    # would apply its curve to it), as _unorm8 computes.
+    kw.setdefault("srgb", False)
     scene = sr.Scene()
     scene.add(mesh, pose=np.diag([1.0, 1.0, 1.0, 1.0]))
     cam = sr.PerspectiveCamera(fov_y=40.0, near=0.1, far=10.0)
@@ -73,8 +76,9 @@ def test_normal_model_ignores_the_base_colour():
 
 
 def test_unknown_shading_names_the_argument():
-    with pytest.raises(ValueError, match="shading"):
-        sr.Renderer(8, 8).render(sr.Scene(), sr.PerspectiveCamera(), shading="phong")
+    # "phong" is a shading model now (issue 16): an unknown name is needed. _checks.choice's message.
+    with pytest.raises(ValueError, match=r"^shading must be one of \(.*'normal'.*\), got 'toon'$"):
+        sr.Renderer(8, 8).render(sr.Scene(), sr.PerspectiveCamera(), shading="toon")
 
 
 def _quad_frame(near: float, eye=(0.3, -1.6, 0.9), target=(0.0, 0.2, 0.0), simd=True, path="auto"):
@@ -87,8 +91,9 @@ def _quad_frame(near: float, eye=(0.3, -1.6, 0.9), target=(0.0, 0.2, 0.0), simd=
     cam = sr.PerspectiveCamera(fov_y=60.0, near=near, far=10.0)
     cam.look_at(eye, target, up=(0, 0, 1))
     w, h = 160, 120
+    # srgb=False: the colour is the uv itself, linearly encoded (x * 255, rounded).
     frame = sr.Renderer(w, h, simd=simd).render(scene, cam, outputs=("color", "mask"), shading="uv",
-                                                cull="none", shading_path=path)
+                                                cull="none", shading_path=path, srgb=False)
     # Exact uv at each pixel centre: the ray through it meets z = 0 at (x, y).
     f = 1.0 / np.tan(np.radians(60.0) / 2)
     j, i = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)

@@ -25,7 +25,10 @@ OUTPUTS: tuple[str, ...]  # every output name render() accepts, in the output ta
 # channels (1 => (h, w), else (h, w, channels)), bytes_per_pixel, background (value where
 # nothing is drawn; colour uses the render's background), pass ("resolve" | "shade"), doc.
 OUTPUT_TABLE: tuple[dict[str, Any], ...]
-SHADING_MODELS: tuple[str, ...]  # render(shading=) names, from cpp/shade_models.hpp's model list
+SHADING_MODELS: tuple[str, ...]  # the core's models, from cpp/shade_models.hpp's model list ("lit":
+                                 # render.py maps lambert/phong/blinn_phong/pbr/auto to it)
+REFLECTANCE_MODELS: tuple[str, ...]  # a material record's model index names (cpp/lighting.hpp, Brdf)
+FREQUENCIES: tuple[str, ...]  # "pixel", "vertex", "face"
 CULL_MODES: tuple[str, ...]  # "none", "back", "front"
 SHADING_PATHS: tuple[str, ...]  # "auto", "forward", "deferred"
 
@@ -77,10 +80,12 @@ class Renderer:
     def isa(self) -> str: ...
     def render(
         self,
-        draws: Sequence[tuple[MeshData, npt.NDArray[np.float64], int, Sequence[float]]],
+        draws: Sequence[tuple[MeshData, npt.NDArray[np.float64], int, Sequence[float], tuple[Any, ...]]],
         spec: dict[str, Any],
     ) -> dict[str, np.ndarray]:
-        """Render ``draws`` = [(mesh, model (4, 4) float64 model-to-world, instance_id, rgba)].
+        """Render ``draws`` = [(mesh, model (4, 4) float64 model-to-world, instance_id, rgba,
+        material)], material = (REFLECTANCE_MODELS index, kd_is_base, ka_is_kd, double_sided, ka,
+        kd, ks, shininess, metallic, roughness, emissive) (softrast.Material._core).
 
         ``spec`` holds every option, checked by softrast.Renderer.render beforehand (the core
         re-checks only memory and what it needs for safety):
@@ -91,6 +96,10 @@ class Renderer:
           cull : one of CULL_MODES; shading : one of SHADING_MODELS;
           shading_path : one of SHADING_PATHS
           background : 3 floats in [0, 1]; ambient : float in [0, 1]
+          lights : [(kind 0/1/2 = directional/point/spot, radiance rgb, position, direction of
+                   travel (unit), inverse_square, cone scale, cone offset)], world space
+                   (softrast.Light._core); read by the "lit" model
+          ambient_light : 3 floats; frequency : one of FREQUENCIES; srgb : bool
           out : dict of arrays to write into (exact dtype and shape, C-contiguous, writeable),
                 returned as they are, or None
         Each other array views C++ memory owned by its ``base`` (no copy). The GIL is released.

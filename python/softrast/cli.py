@@ -2,8 +2,9 @@
 
     softrast render MESH -o out.png [--size 640x480] [--depth out.exr] [--mask out.png]
                     [--normal out.exr] [--eye x,y,z] [--target x,y,z] [--up x,y,z] [--fov 45]
-                    [--near N] [--far F] [--cull back|none|front] [--shading lambert|unlit|normal|uv]
-                    [--threads N]
+                    [--near N] [--far F] [--cull back|none|front]
+                    [--shading auto|unlit|lambert|phong|blinn_phong|pbr|normal|uv]
+                    [--frequency pixel|vertex|face] [--linear] [--threads N]
 
 Without --eye the camera frames the whole mesh from the front (+z) and slightly above (+y).
 Errors print one line to stderr and exit with status 2; Ctrl-C prints one line and exits 130.
@@ -94,7 +95,14 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--near", type=_positive_float, help="near plane distance (default: from the mesh size)")
     r.add_argument("--far", type=_positive_float, help="far plane distance (default: from the mesh size)")
     r.add_argument("--cull", choices=("back", "none", "front"), default="back", help="face culling (default back)")
-    r.add_argument("--shading", choices=_core.SHADING_MODELS, default="lambert", help="shading (default lambert)")
+    from .render import _SHADING
+
+    r.add_argument("--shading", choices=_SHADING, default="auto",
+                   help="shading model (default auto: each material's own, lambert without one)")
+    r.add_argument("--frequency", choices=_core.FREQUENCIES, default="pixel",
+                   help="where lighting is evaluated (default pixel)")
+    r.add_argument("--linear", action="store_true",
+                   help="write linear colour values (default: sRGB-encoded, as viewers expect)")
     r.add_argument("--threads", type=_threads, default=0, help="worker threads, 0 = one per core (default)")
     return parser
 
@@ -153,7 +161,8 @@ def _render(args: argparse.Namespace) -> None:
     files = {"color": args.output, "depth": args.depth, "mask": args.mask, "normal": args.normal}
     outputs = tuple(name for name, path in files.items() if path is not None)
     renderer = sr.Renderer(width, height, threads=args.threads)
-    frame = renderer.render(scene, camera, outputs=outputs, cull=args.cull, shading=args.shading)
+    frame = renderer.render(scene, camera, outputs=outputs, cull=args.cull, shading=args.shading,
+                            frequency=args.frequency, srgb=not args.linear)
     for name in outputs:
         imwrite(files[name], getattr(frame, name))
 

@@ -119,7 +119,7 @@ def _draws(scene: Scene, shading: str, frequency: str) -> tuple[list[tuple], str
     core's fast kernels where every draw allows it (a scene of plain lambert meshes under the
     headlight keeps the headlight kernel; unlit, normal and uv have their own)."""
     instances = scene._instances
-    if shading in ("unlit", "normal", "uv"):
+    if shading in ("unlit", "uv") or (shading == "normal" and frequency == "pixel"):
         index = _REFLECTANCE.get(shading, _LAMBERT)
         return [(i.mesh._core_data(), i.pose, i.instance_id, i.color,
                  (index,) + (i.material._core if i.material is not None else _PLAIN_MATERIAL))

@@ -1,0 +1,158 @@
+"""The lit model's kernels (every reflectance model, frequency and light kind, forward and
+deferred, sRGB and linear colour) give the same bits for AVX2 and generic x86-64 and for any
+thread count, as every other kernel does (cpp/simd.hpp, cpp/lighting.hpp)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import trimesh
+
+import softrast as sr
+from conftest import ALL_OUTPUTS
+
+MODELS = ("lambert", "phong", "blinn_phong", "pbr", "unlit", "normal")
+
+
+def _pose(t, look=(0.0, 0.0, 0.0)):
+    """A light pose at t whose -z axis points at `look`."""
+    t = np.asarray(t, float)
+    z = t - np.asarray(look, float)
+    z /= np.linalg.norm(z)
+    x = np.cross([0.0, 1.0, 0.0], z)
+    if np.linalg.norm(x) < 1e-9:
+        x = np.array([1.0, 0.0, 0.0])
+    x /= np.linalg.norm(x)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = x, np.cross(z, x), z, t
+    return m
+
+
+def _lit_scene(model_auto: bool = True) -> sr.Scene:
+    rng = np.random.default_rng(7)
+    scene = sr.Scene(ambient_light=(0.05, 0.04, 0.03))
+    mats = [sr.Material(base_color=tuple(rng.uniform(0.2, 1.0, 3)), ks=tuple(rng.uniform(0, 1, 3)),
+                        shininess=float(rng.uniform(1, 200)), metallic=float(rng.uniform()),
+                        roughness=float(rng.uniform(0.05, 1)), emissive=(0.02, 0.0, 0.01),
+                        double_sided=bool(k % 2), model=MODELS[k % len(MODELS)])
+            for k in range(6)]
+    for k, m in enumerate(mats):
+        tm = trimesh.creation.icosphere(subdivisions=2 + k % 3, radius=0.35)
+        mesh = sr.Mesh(tm.vertices, tm.faces, normals=tm.vertex_normals, material=m)
+        pose = np.eye(4)
+        pose[:3, 3] = ((k % 3) - 1.0, (k // 3) - 0.5, 0.0)
+        scene.add(mesh, pose=pose)
+    # A vertex-coloured mesh without a material, and a flat-shaded one (no normals).
+    tm = trimesh.creation.icosphere(subdivisions=3, radius=0.3)
+    colors = (np.abs(tm.vertices) / 0.3).clip(0, 1)
+    pose = np.eye(4); pose[:3, 3] = (0.0, 0.0, 0.6)
+    scene.add(sr.Mesh(tm.vertices, tm.faces, normals=tm.vertex_normals, colors=colors), pose=pose)
+    flat = sr.Mesh(tm.vertices, tm.faces, material=sr.Material(model="blinn_phong"))
+    pose = np.eye(4); pose[:3, 3] = (0.6, 0.6, 0.3)
+    scene.add(flat, pose=pose)
+    scene.add(sr.DirectionalLight(color=(1.0, 0.9, 0.8), intensity=1.5), pose=_pose((1, 2, 3)))
+    scene.add(sr.PointLight(intensity=4.0), pose=_pose((-1.5, 1.0, 2.0)))
+    scene.add(sr.PointLight(color=(0.3, 0.5, 1.0), intensity=0.7, falloff="none"),
+              pose=_pose((1.0, -1.0, 1.5)))
+    scene.add(sr.SpotLight(intensity=6.0, inner_cone=0.2, outer_cone=0.5), pose=_pose((0, 0, 2.5)))
+    scene.add(sr.SpotLight(intensity=1.0, inner_cone=0.1, outer_cone=0.3, falloff="none"),
+              pose=_pose((0.2, 0.3, 0.5), look=(0.2, 0.3, -1.0)), camera_space=True)
+    return scene
+
+
+def _camera(orthographic: bool) -> sr.Camera:
+    cam = sr.OrthographicCamera(xmag=1.6, ymag=1.2) if orthographic else sr.PerspectiveCamera(fov_y=50.0)
+    cam.look_at((0.3, 0.4, 3.0), (0.0, 0.0, 0.0))
+    return cam
+
+
+OUTPUTS = tuple(ALL_OUTPUTS) + (("radiance",) if "radiance" not in ALL_OUTPUTS else ())
+
+
+@pytest.mark.parametrize("shading", ("auto",) + MODELS)
+@pytest.mark.parametrize("frequency", ["pixel", "vertex", "face"])
+def test_lit_models_same_bits_for_both_isas_and_threads(shading, frequency):
+    scene = _lit_scene()
+    cam = _camera(orthographic=False)
+    frames = [sr.Renderer(160, 120, threads=t, simd=simd).render(
+                  scene, cam, outputs=OUTPUTS, shading=shading, frequency=frequency, cull="none")
+              for simd in (True, False) for t in (1, 2, 3)]
+    ref = frames[0]
+    assert ref.mask.mean() > 0.2 and np.isfinite(ref.radiance).all()
+    for f in frames[1:]:
+        for name in OUTPUTS:
+            assert getattr(f, name).tobytes() == getattr(ref, name).tobytes(), name
+
+
+@pytest.mark.parametrize("path", ["forward", "deferred"])
+@pytest.mark.parametrize("orthographic", [False, True])
+@pytest.mark.parametrize("srgb", [True, False])
+def test_lit_paths_cameras_and_encodings_same_bits(path, orthographic, srgb):
+    scene = _lit_scene()
+    cam = _camera(orthographic)
+    a, b = (sr.Renderer(211, 97, threads=2, simd=simd).render(
+                scene, cam, outputs=OUTPUTS, shading_path=path, srgb=srgb) for simd in (True, False))
+    auto = sr.Renderer(211, 97, threads=2).render(scene, cam, outputs=OUTPUTS, srgb=srgb)
+    for name in OUTPUTS:
+        assert getattr(a, name).tobytes() == getattr(b, name).tobytes(), name
+        assert getattr(a, name).tobytes() == getattr(auto, name).tobytes(), name
+
+
+def test_output_subsets_do_not_change_colour_or_radiance():
+    scene = _lit_scene()
+    cam = _camera(False)
+    r = sr.Renderer(128, 96, threads=2)
+    full = r.render(scene, cam, outputs=OUTPUTS)
+    for outputs in (("color",), ("radiance",), ("color", "normal"), ("radiance", "depth")):
+        part = r.render(scene, cam, outputs=outputs)
+        for name in outputs:
+            assert getattr(part, name).tobytes() == getattr(full, name).tobytes(), (outputs, name)
+
+
+def test_srgb_colour_is_the_exact_curve_of_the_radiance():
+    """Every float32 at the code boundaries encodes as round(255 * encode(x)) does in float64."""
+    scene = _lit_scene()
+    cam = _camera(False)
+    for simd in (True, False):
+        f = sr.Renderer(160, 120, threads=2, simd=simd).render(
+            scene, cam, outputs=("color", "radiance", "mask"))
+        x = np.clip(f.radiance.astype(np.float64), 0.0, 1.0)
+        enc = np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055)
+        want = np.floor(enc * 255.0 + 0.5).astype(np.uint8)
+        np.testing.assert_array_equal(f.color[f.mask], want[f.mask])
+        assert (f.color[~f.mask] == 0).all() and (f.radiance[~f.mask] == 0).all()
+    # And at the thresholds themselves: an unlit mesh of vertex colours just below / above each
+    # code's threshold (float32 neighbours), one pixel per colour.
+    codes = np.arange(1, 256)
+    t = (codes - 0.5) / 255.0
+    lin = np.where(t <= 0.04045, t / 12.92, ((t + 0.055) / 1.055) ** 2.4).astype(np.float32)
+    vals = np.concatenate([np.nextafter(lin, np.float32(0)), lin, np.nextafter(lin, np.float32(1)),
+                           np.float32([0.0, 1.0, 2.0, 1e-30, 1.1e-4, 0.5, 0.99999994])])
+    n = len(vals)
+    w = 32
+    h = math.ceil(n / w)
+    positions, faces, colors = [], [], []
+    for k, v in enumerate(vals):
+        i, j = divmod(k, w)
+        base = len(positions)
+        positions += [(j, -i, 0.0), (j + 1, -i, 0.0), (j + 1, -i - 1, 0.0), (j, -i - 1, 0.0)]
+        faces += [(base, base + 3, base + 2), (base, base + 2, base + 1)]
+        colors += [(min(float(v), 1.0),) * 3 + (1.0,)] * 4
+    pos = np.array(positions, float)
+    f_ = np.array(faces)
+    # counter-clockwise seen from +z
+    a, b, c = pos[f_[:, 0]], pos[f_[:, 1]], pos[f_[:, 2]]
+    flip = np.cross(b - a, c - a)[:, 2] < 0
+    f_[flip] = f_[flip][:, [0, 2, 1]]
+    mesh = sr.Mesh(pos, f_, colors=np.array(colors, np.float32))
+    cam = sr.OrthographicCamera(xmag=w / 2, ymag=h / 2)
+    m = np.eye(4); m[:3, 3] = (w / 2, -h / 2, 5.0)
+    cam.pose = m
+    sc = sr.Scene(); sc.add(mesh)
+    for simd in (True, False):
+        f = sr.Renderer(w, h, threads=1, simd=simd).render(sc, cam, outputs=("color",), shading="unlit")
+        got = f.color[..., 0].reshape(-1)[:n].astype(float)
+        clipped = np.minimum(vals, 1.0).astype(np.float64)
+        enc = np.where(clipped <= 0.0031308, 12.92 * clipped, 1.055 * clipped ** (1 / 2.4) - 0.055)
+        np.testing.assert_array_equal(got, np.floor(enc * 255.0 + 0.5))
