@@ -29,10 +29,11 @@ the file, the material and what was dropped: never silently.
 """
 from __future__ import annotations
 
+import json
 import math
 import os
 import struct
-import json
+import sys
 import warnings
 from dataclasses import dataclass, field
 from typing import Any, Sequence
@@ -101,7 +102,19 @@ class _FileInfo:
         if key in self.warned:
             return
         self.warned.add(key)
-        warnings.warn((f"{self.source}: " if self.source else "") + text, UserWarning, stacklevel=4)
+        warnings.warn((f"{self.source}: " if self.source else "") + text, UserWarning,
+                      stacklevel=_caller_level())
+
+
+_PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__))
+
+
+def _caller_level() -> int:
+    """The stacklevel of the first frame outside softrast (the user's load_mesh call)."""
+    frame, level = sys._getframe(1), 1
+    while frame is not None and os.path.dirname(os.path.abspath(frame.f_code.co_filename)) == _PACKAGE_DIR:
+        frame, level = frame.f_back, level + 1
+    return level
 
 
 def _file_info(path_str: str) -> _FileInfo:
@@ -446,7 +459,10 @@ def _part(tm: Any, smooth: bool, info: _FileInfo) -> _Part:
             uvs = np.asarray(visual.uv)[:, :2]
         material, dropped, key = _trimesh_material(visual.material, info)
         if dropped and key is not None:
-            where = f"material {material.name!r}" if material is not None and material.name else "material"
+            if material is not None and material.name:
+                where = f"material {material.name!r}"
+            else:
+                where = f"material {key[1]}" if key[0] == "gltf" else "material"
             info.warn(key, f"{where}: " + "; ".join(dropped))
         raw = getattr(visual, "vertex_attributes", {}).get("color")  # glTF COLOR_0 with a material
         if raw is not None and len(raw) == len(positions):
