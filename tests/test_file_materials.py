@@ -390,3 +390,25 @@ def test_load_scene_of_a_single_mesh_file_and_errors(tmp_path, no_warnings):
     bad.write_bytes(b"glTF" + b"\x00" * 10)
     with pytest.raises(ValueError, match="bad.glb"):
         sr.load_scene(bad)
+
+
+def test_gltf_color_0_is_linear_and_multiplied_by_the_base_color_factor(tmp_path, no_warnings):
+    box = trimesh.creation.box()
+    rgba = np.random.default_rng(4).integers(0, 256, (8, 4), dtype=np.uint8)
+    box.visual.vertex_colors = rgba
+    doc, rest = _glb_parts(box.export(file_type="glb"))
+    (prim,) = doc["meshes"][0]["primitives"]
+    assert "COLOR_0" in prim["attributes"] and doc["accessors"][prim["attributes"]["COLOR_0"]]["componentType"] == 5121
+    plain = tmp_path / "plain.glb"
+    plain.write_bytes(_glb(doc, rest))
+    mesh = sr.load_mesh(plain)  # no material: COLOR_0 as is (normalized bytes, linear: no decoding)
+    assert mesh.material is None
+    np.testing.assert_allclose(mesh.colors, rgba / 255.0, rtol=1e-6)
+    prim["material"] = 0
+    doc["materials"] = [{"name": "tint", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 1.0, 0.25, 1.0]}}]
+    tinted = tmp_path / "tinted.glb"
+    tinted.write_bytes(_glb(doc, rest))
+    mesh = sr.load_mesh(tinted)
+    assert mesh.material == sr.Material(base_color=(0.5, 1.0, 0.25, 1.0), metallic=1.0, roughness=1.0,
+                                        model="pbr", name="tint")
+    np.testing.assert_allclose(mesh.colors, rgba / 255.0 * [0.5, 1.0, 0.25, 1.0], rtol=1e-6)

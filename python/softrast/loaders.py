@@ -532,19 +532,49 @@ def _to_mesh(part: _Part, color: Sequence[float] | None) -> Any:
                 color=DEFAULT_COLOR if color is None else color)
 
 
+def _transformed(part: _Part, matrix: Any) -> _Part:
+    """``part`` moved by the (4, 4) ``matrix`` as trimesh's apply_transform moves a mesh: normals
+    by the adjugate, and a mirroring matrix reverses each face's corners (keeping faces in order)
+    so front faces stay counter-clockwise."""
+    m = np.asarray(matrix, dtype=np.float64)
+    if np.array_equal(m, np.eye(4)):
+        return part
+    linear = m[:3, :3]
+    positions = part.positions @ linear.T + m[:3, 3]
+    faces, normals = part.faces, part.normals
+    flip = np.linalg.det(linear) < 0
+    if normals is not None:
+        adjugate = np.cross(linear.T[[1, 2, 0]], linear.T[[2, 0, 1]])
+        normals = normals @ (-adjugate if flip else adjugate)
+        length = np.linalg.norm(normals, axis=1, keepdims=True)
+        normals = np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
+    if flip:
+        faces = np.ascontiguousarray(faces[:, ::-1])
+    return _Part(positions, faces, normals, part.uvs, part.colors, part.material)
+
+
 def mesh_from_trimesh(tm: Any, smooth: bool, color: Sequence[float] | None, info: _FileInfo) -> Any:
     """Mesh.from_trimesh's work (a Trimesh, or a Scene merged with its transforms)."""
     import trimesh
 
     if isinstance(tm, trimesh.Scene):
-        geoms = [g for g in tm.dump() if isinstance(g, trimesh.Trimesh) and len(g.faces)]
-        if not geoms:
+        # Each placement of each geometry, in trimesh's graph order (as Scene.dump() lists them);
+        # not dump() itself: its copies lose vertex attributes such as glTF COLOR_0.
+        parts, converted = [], {}
+        for node in tm.graph.nodes_geometry:
+            transform, name = tm.graph[node]
+            geom = tm.geometry.get(name)
+            if isinstance(geom, trimesh.Trimesh) and len(geom.faces):
+                if name not in converted:  # geometry placed by several nodes: converted once
+                    converted[name] = _part(geom, smooth, info)
+                parts.append(_transformed(converted[name], transform))
+        if not parts:
             raise ValueError("tm is a trimesh.Scene without any triangle geometry")
     elif isinstance(tm, trimesh.Trimesh):
-        geoms = [tm]
+        parts = [_part(tm, smooth, info)]
     else:
         raise TypeError(f"tm must be a trimesh.Trimesh or trimesh.Scene, got {type(tm).__name__}")
-    return _to_mesh(_merge([_part(g, smooth, info) for g in geoms], info), color)
+    return _to_mesh(_merge(parts, info), color)
 
 
 def load_scene(path: str | os.PathLike[str], smooth: bool = True) -> Any:
