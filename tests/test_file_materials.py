@@ -169,7 +169,7 @@ def test_obj_mtl_materials_are_exact_in_load_scene(tmp_path):
     assert by_name["red_plastic"].material == RED  # exact: not trimesh's 8-bit copies
     assert by_name["blue_glass"].material == BLUE
     assert by_name["red_plastic"].mesh.num_faces == 2 and by_name["blue_glass"].mesh.num_faces == 1
-    assert by_name["red_plastic"].mesh.material is RED or by_name["red_plastic"].mesh.material == RED
+    assert by_name["red_plastic"].mesh.material == RED
     for inst in scene:
         np.testing.assert_array_equal(inst.pose, np.eye(4))
         assert inst.color == inst.material.base_color

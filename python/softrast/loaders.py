@@ -49,8 +49,6 @@ _GLTF_MATERIAL_TEXTURES = ("normalTexture", "occlusionTexture", "emissiveTexture
 # MTL statements naming texture maps (lower case), all dropped with a warning.
 _MTL_MAPS = ("map_ka", "map_kd", "map_ks", "map_ns", "map_d", "map_ke", "map_bump", "bump",
              "disp", "decal", "refl", "norm", "map_pr", "map_pm", "map_ps", "map_rma", "map_orm")
-_MTL_QUIET = ("illum", "ni", "tf", "tr", "sharpness", "pr", "pm", "ps", "pc", "pcr", "aniso",
-              "anisor")
 
 
 def srgb_to_linear(c: Any) -> np.ndarray:
@@ -269,8 +267,7 @@ def _parse_mtl(text: str, mtl_name: str, info: _FileInfo) -> dict[str, tuple[Mat
                 current["d"] = min(max(v, 0.0), 1.0)
         elif key in _MTL_MAPS:
             current["dropped"].append(f"{words[0]} {words[-1]!r} is not drawn yet (textures: issue 17)")
-        elif key not in _MTL_QUIET:
-            pass  # unknown statements: nothing softrast would draw differently
+        # other statements (illum, Ni, Tf, ...) are not read
     finish()
     return found
 
@@ -613,6 +610,8 @@ def load_scene(path: str | os.PathLike[str], smooth: bool = True) -> Any:
         if not len(scene):
             raise _FileProblem("the file contains no triangles")
         return scene
+    except UserWarning:
+        raise  # a warning made an error (-W error): it names the file already
     except Exception as exc:
         what = str(exc) if type(exc) in (ValueError, _FileProblem) else f"{type(exc).__name__}: {exc}"
         raise ValueError(f"could not load mesh {path_str!r}: {what}") from exc

@@ -494,6 +494,8 @@ def _keep_ctrl_c() -> Iterator[None]:
 def _load_trimesh(path_str: str) -> tuple[Any, Any]:
     """(trimesh.Trimesh or trimesh.Scene, loaders._FileInfo) for a mesh file, checked: every
     failure is a FileNotFoundError or a ValueError naming the file."""
+    from .loaders import _file_info
+
     if not os.path.isfile(path_str):
         raise FileNotFoundError(errno.ENOENT, "mesh file not found", path_str)
     stated_faces = check_mesh_file(path_str)
@@ -503,8 +505,6 @@ def _load_trimesh(path_str: str) -> tuple[Any, Any]:
     try:
         with _keep_ctrl_c():
             import trimesh
-
-            from .loaders import _file_info
 
             loaded = trimesh.load(path_str, process=False)  # process=False keeps the vertex order
             if isinstance(loaded, trimesh.Scene):
@@ -527,7 +527,6 @@ def _load_trimesh(path_str: str) -> tuple[Any, Any]:
                 if bad.any():
                     raise _FileProblem(f"face {int(np.flatnonzero(bad.any(axis=1))[0])} has a vertex "
                                        f"index {int(faces[bad][0])} out of bounds for {count} vertices")
-            info = _file_info(path_str)
     except ImportError as exc:  # trimesh imports optional modules lazily (and hides .name)
         hint = " (Pillow, a softrast dependency: pip install pillow)" if "PIL" in str(exc) else ""
         raise ValueError(f"could not load mesh {path_str!r}: trimesh needs a module that is not "
@@ -535,6 +534,12 @@ def _load_trimesh(path_str: str) -> tuple[Any, Any]:
     except Exception as exc:
         what = str(exc) if isinstance(exc, _FileProblem) else f"{type(exc).__name__}: {exc}"
         raise ValueError(f"could not load mesh {path_str!r}: {what}") from exc
+    try:
+        info = _file_info(path_str)  # the file's materials (an MTL file, the glTF JSON)
+    except UserWarning:
+        raise  # a warning made an error (-W error): it names the file already
+    except Exception as exc:
+        raise ValueError(f"could not load mesh {path_str!r}: {type(exc).__name__}: {exc}") from exc
     return loaded, info
 
 
@@ -570,6 +575,8 @@ def load_mesh(path: str | os.PathLike[str], smooth: bool = True, color: Sequence
 
         with _keep_ctrl_c():
             return mesh_from_trimesh(loaded, smooth, color, info)
+    except UserWarning:
+        raise  # a warning made an error (-W error): it names the file already
     except Exception as exc:  # NaN vertices and the like: say which file they came from
         what = str(exc) if type(exc) is ValueError else f"{type(exc).__name__}: {exc}"
         raise ValueError(f"could not load mesh {path_str!r}: {what}") from exc
