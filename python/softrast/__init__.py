@@ -9,6 +9,7 @@ from .camera import Camera, IntrinsicsCamera, OrthographicCamera, PerspectiveCam
 from .io import imread, imwrite
 from .light import DirectionalLight, Light, PointLight, SpotLight
 from .limits import get_memory_budget, set_memory_budget
+from .loaders import load_scene
 from .material import Material
 from .mesh import Mesh, PrecisionWarning, load_mesh
 from .render import Frame, Renderer
@@ -41,5 +42,6 @@ __all__ = [
     "imread",
     "imwrite",
     "load_mesh",
+    "load_scene",
     "set_memory_budget",
 ]

@@ -427,36 +427,31 @@ class Mesh:
 
     # -- constructors -----------------------------------------------------------------------
     @classmethod
-    def from_trimesh(cls, tm: Any, smooth: bool = True, color: Sequence[float] | None = None) -> "Mesh":
+    def from_trimesh(cls, tm: Any, smooth: bool = True, color: Sequence[float] | None = None,
+                     srgb_colors: bool = False) -> "Mesh":
         """Build a Mesh from a ``trimesh.Trimesh`` (or a ``trimesh.Scene``, concatenated).
 
         smooth : True => per-vertex normals from ``tm.vertex_normals``; False => flat shading.
-        color : base RGBA; None => the default grey.
-        uvs are taken from a ``TextureVisuals`` with uv; colors from per-vertex ``ColorVisuals``
-        (per-face colours are not carried over).
+        color : base RGBA; None => the material's base colour, else the default grey. With a
+            material, ``color`` replaces its base colour.
+        srgb_colors : True => trimesh's 8-bit vertex / face colours are sRGB-encoded (as PLY,
+            OBJ and OFF files store them) and are decoded to linear with the exact IEC 61966-2-1
+            curve; False (default) => they are taken as linear (value / 255). Alpha is linear.
+
+        Keeps uvs (``TextureVisuals``), per-vertex colours and per-face colours: a Mesh colours
+        vertices, so each face with a colour of its own gets three vertices of its own (faces keep
+        their order; smooth normals are the original vertex's). A trimesh material becomes a
+        ``softrast.Material``: a ``SimpleMaterial`` (MTL) -> ka/kd/ks/shininess, model
+        "blinn_phong"; a ``PBRMaterial`` (glTF) -> base colour, metallic, roughness (trimesh's
+        None: glTF's defaults 1 and 1), emissive, double_sided, model "pbr". trimesh holds their
+        colours as 8 bits; ``softrast.load_mesh`` reads the exact values from the file instead.
+        Textures and whatever else softrast cannot draw yet are dropped with a UserWarning.
+        A Scene whose parts have different materials gets the first part's, with a UserWarning
+        (``softrast.load_scene`` keeps each part's).
         """
-        import trimesh
+        from .loaders import _FileInfo, mesh_from_trimesh
 
-        if isinstance(tm, trimesh.Scene):
-            parts = [g for g in tm.dump() if isinstance(g, trimesh.Trimesh) and len(g.faces)]
-            if not parts:
-                raise ValueError("tm is a trimesh.Scene without any triangle geometry")
-            # One part keeps its visuals untouched; several are merged with their scene transforms.
-            tm = parts[0] if len(parts) == 1 else trimesh.util.concatenate(parts)
-        if not isinstance(tm, trimesh.Trimesh):
-            raise TypeError(f"tm must be a trimesh.Trimesh or trimesh.Scene, got {type(tm).__name__}")
-
-        normals = np.asarray(tm.vertex_normals) if smooth else None
-        uvs = colors = None
-        visual = getattr(tm, "visual", None)
-        if isinstance(visual, trimesh.visual.texture.TextureVisuals) and visual.uv is not None:
-            uvs = np.asarray(visual.uv)[:, :2]
-        elif visual is not None and visual.kind == "vertex":
-            colors = np.asarray(visual.vertex_colors)
-        return cls(
-            tm.vertices, tm.faces, normals=normals, uvs=uvs, colors=colors,
-            color=DEFAULT_COLOR if color is None else color,
-        )
+        return mesh_from_trimesh(tm, smooth, color, _FileInfo(None, srgb=bool(srgb_colors)))
 
 
 class _FileProblem(ValueError):
@@ -496,11 +491,73 @@ def _keep_ctrl_c() -> Iterator[None]:
         raise KeyboardInterrupt
 
 
+def _load_trimesh(path_str: str) -> tuple[Any, Any]:
+    """(trimesh.Trimesh or trimesh.Scene, loaders._FileInfo) for a mesh file, checked: every
+    failure is a FileNotFoundError or a ValueError naming the file."""
+    from .loaders import _file_info
+
+    if not os.path.isfile(path_str):
+        raise FileNotFoundError(errno.ENOENT, "mesh file not found", path_str)
+    stated_faces = check_mesh_file(path_str)
+    # trimesh raises anything from KeyError to struct.error while parsing, and more later, from
+    # its lazily computed properties (an IndexError for a face index past the vertices): all of
+    # it is this file's failure to load, so it becomes a ValueError naming the file.
+    try:
+        with _keep_ctrl_c():
+            import trimesh
+
+            loaded = trimesh.load(path_str, process=False)  # process=False keeps the vertex order
+            if isinstance(loaded, trimesh.Scene):
+                parts = [loaded.geometry.get(loaded.graph[node][1]) for node in loaded.graph.nodes_geometry]
+                parts = [g for g in parts if isinstance(g, trimesh.Trimesh) and len(g.faces)]
+                if not parts:
+                    raise _FileProblem("the file contains no triangles")
+            elif (not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0
+                    or len(loaded.vertices) == 0):
+                raise _FileProblem("the file contains no triangles")
+            else:
+                parts = [loaded]
+            read = sum(len(g.faces) for g in parts)
+            if read < stated_faces:
+                raise _FileProblem(f"it has {stated_faces} faces but only {read} "
+                                   "could be read: corrupt face rows were skipped")
+            for g in parts:
+                faces, count = np.asarray(g.faces), len(g.vertices)
+                bad = (faces < 0) | (faces >= count)
+                if bad.any():
+                    raise _FileProblem(f"face {int(np.flatnonzero(bad.any(axis=1))[0])} has a vertex "
+                                       f"index {int(faces[bad][0])} out of bounds for {count} vertices")
+    except ImportError as exc:  # trimesh imports optional modules lazily (and hides .name)
+        hint = " (Pillow, a softrast dependency: pip install pillow)" if "PIL" in str(exc) else ""
+        raise ValueError(f"could not load mesh {path_str!r}: trimesh needs a module that is not "
+                         f"installed to read it: {exc}{hint}") from exc
+    except Exception as exc:
+        what = str(exc) if isinstance(exc, _FileProblem) else f"{type(exc).__name__}: {exc}"
+        raise ValueError(f"could not load mesh {path_str!r}: {what}") from exc
+    try:
+        info = _file_info(path_str)  # the file's materials (an MTL file, the glTF JSON)
+    except UserWarning:
+        raise  # a warning made an error (-W error): it names the file already
+    except Exception as exc:
+        raise ValueError(f"could not load mesh {path_str!r}: {type(exc).__name__}: {exc}") from exc
+    return loaded, info
+
+
 def load_mesh(path: str | os.PathLike[str], smooth: bool = True, color: Sequence[float] | None = None) -> Mesh:
     """Load a triangle mesh file (OBJ, PLY, STL, GLB, OFF, ...) with trimesh, keeping vertex order.
 
-    A multi-object file is concatenated into one Mesh. See ``Mesh.from_trimesh`` for
+    A multi-object file is concatenated into one Mesh (with its node transforms applied). If its
+    parts have different materials, the mesh gets the first part's, with a UserWarning:
+    ``softrast.load_scene`` keeps each part's material. See ``Mesh.from_trimesh`` for
     ``smooth`` and ``color``.
+
+    Keeps the file's per-vertex and per-face colours and its materials (OBJ + MTL, glTF), exactly
+    as written in the file (see ``softrast.loaders`` for the conventions). Colour spaces: 8-bit
+    colours in PLY, OBJ, OFF and STL files are sRGB and are decoded to linear (exact IEC
+    61966-2-1 curve), so an ``unlit`` render with the default sRGB output gives back the file's
+    bytes; glTF ``COLOR_0`` and factors, and MTL colours, are linear. A per-face colour gives each
+    face three vertices of its own (faces keep their order). Textures, transparency and whatever
+    else softrast cannot draw yet are dropped with a UserWarning naming the file and what.
 
     Raises FileNotFoundError if ``path`` (or a buffer or texture file a glTF references) does not
     exist, ValueError (naming the file) for every other failure: it cannot be parsed, holds no
@@ -509,46 +566,17 @@ def load_mesh(path: str | os.PathLike[str], smooth: bool = True, color: Sequence
     than ``softrast.get_memory_budget()`` (checked before parsing).
     """
     path_str = os.fspath(path)
-    if not os.path.isfile(path_str):
-        raise FileNotFoundError(errno.ENOENT, "mesh file not found", path_str)
-    stated_faces = check_mesh_file(path_str)
-    # trimesh raises anything from KeyError to struct.error while parsing, and more later, from
-    # its lazily computed properties (an IndexError for a face index past the vertices, a
-    # ModuleNotFoundError when merging textured parts needs Pillow): all of it is this file's
-    # failure to load, so it becomes a ValueError naming the file.
-    try:
-        with _keep_ctrl_c():
-            import trimesh
-
-            loaded = trimesh.load(path_str, process=False)  # process=False keeps the vertex order
-            if isinstance(loaded, trimesh.Scene):
-                parts = [g for g in loaded.dump() if isinstance(g, trimesh.Trimesh) and len(g.faces)]
-                if not parts:
-                    raise _FileProblem("the file contains no triangles")
-                loaded = parts[0] if len(parts) == 1 else trimesh.util.concatenate(parts)
-            if (not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0
-                    or len(loaded.vertices) == 0):
-                raise _FileProblem("the file contains no triangles")
-            if len(loaded.faces) < stated_faces:
-                raise _FileProblem(f"it has {stated_faces} faces but only {len(loaded.faces)} "
-                                   "could be read: corrupt face rows were skipped")
-            faces, count = np.asarray(loaded.faces), len(loaded.vertices)
-            bad = (faces < 0) | (faces >= count)
-            if bad.any():
-                raise _FileProblem(f"face {int(np.flatnonzero(bad.any(axis=1))[0])} has a vertex "
-                                   f"index {int(faces[bad][0])} out of bounds for {count} vertices")
-    except ImportError as exc:  # trimesh imports optional modules lazily (and hides .name)
-        hint = " (Pillow, a softrast dependency: pip install pillow)" if "PIL" in str(exc) else ""
-        raise ValueError(f"could not load mesh {path_str!r}: trimesh needs a module that is not "
-                         f"installed to read it: {exc}{hint}") from exc
-    except Exception as exc:
-        what = str(exc) if isinstance(exc, _FileProblem) else f"{type(exc).__name__}: {exc}"
-        raise ValueError(f"could not load mesh {path_str!r}: {what}") from exc
+    if color is not None:
+        _rgba(color, "color")  # a wrong argument names the argument, not the file
+    loaded, info = _load_trimesh(path_str)
     token = _LOADING_FILE.set(path_str)  # a PrecisionWarning then names the file
     try:
-        return Mesh.from_trimesh(loaded, smooth=smooth, color=color)
-    except TypeError:
-        raise  # an argument (color) of the wrong type: it names the argument, not the file
+        from .loaders import mesh_from_trimesh
+
+        with _keep_ctrl_c():
+            return mesh_from_trimesh(loaded, smooth, color, info)
+    except UserWarning:
+        raise  # a warning made an error (-W error): it names the file already
     except Exception as exc:  # NaN vertices and the like: say which file they came from
         what = str(exc) if type(exc) is ValueError else f"{type(exc).__name__}: {exc}"
         raise ValueError(f"could not load mesh {path_str!r}: {what}") from exc

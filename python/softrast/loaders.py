@@ -1,0 +1,619 @@
+"""What mesh files carry besides geometry: colours, materials, parts and node transforms.
+
+``softrast.load_mesh`` (one Mesh) and ``softrast.load_scene`` (a Scene, one instance per part)
+read files with trimesh and keep, with these conventions:
+
+* Per-vertex and per-face colours. A Mesh has only per-vertex colours, so a file with per-face
+  colours (PLY ``face`` red/green/blue, trimesh ``visual.kind == "face"``) gets three vertices of
+  its own per face, carrying the face's colour (faces keep their order, so ``triangle_id`` still
+  indexes the file's faces; smooth normals are the original vertex's).
+* Colour spaces. Colours stored in PLY, OBJ, OFF (and STL) files are 8-bit sRGB by convention:
+  they are decoded to linear with the exact IEC 61966-2-1 curve (c <= 0.04045 ? c / 12.92 :
+  ((c + 0.055) / 1.055) ** 2.4), so an ``unlit`` render with the default sRGB output gives back
+  the file's bytes. Alpha is linear and only scaled (/ 255). glTF ``COLOR_0`` is linear (glTF
+  spec) and kept as is, multiplied by the material's ``baseColorFactor`` as glTF prescribes.
+  MTL colours (Ka, Kd, Ks) and glTF factors are linear.
+* OBJ + MTL: ``Ka Kd Ks Ns d`` (and ``Ke``) -> ``Material(ka=Ka, kd=Kd, base_color=(Kd, d),
+  ks=Ks, shininess=Ns, emissive=Ke, model="blinn_phong", name=newmtl)``, read from the MTL file
+  itself (trimesh keeps them only as 8-bit values). Absent: Kd -> base colour 0.8 grey, Ka ->
+  kd, Ks -> no specular (0), Ns -> 32, d -> 1.
+* glTF / GLB: ``pbrMetallicRoughness.baseColorFactor`` (default 1), ``metallicFactor`` (default 1),
+  ``roughnessFactor`` (default 1), ``emissiveFactor`` (default 0), ``doubleSided`` (default
+  false) -> ``Material(base_color=, metallic=, roughness=, emissive=, double_sided=,
+  model="pbr", name=)``, read exactly from the file's JSON; ``KHR_materials_unlit`` -> model
+  "unlit". A primitive without a material gets none (softrast's default look).
+
+Whatever a file carries that softrast cannot draw yet (textures, normal maps, alpha blending or
+masking, transparency, unknown material extensions) is dropped with a ``UserWarning`` naming
+the file, the material and what was dropped: never silently.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import struct
+import sys
+import warnings
+from dataclasses import dataclass, field
+from typing import Any, Sequence
+
+import numpy as np
+
+from .material import Material
+
+__all__ = ["load_scene", "srgb_to_linear"]
+
+_GLTF_TEXTURES = ("baseColorTexture", "metallicRoughnessTexture")
+_GLTF_MATERIAL_TEXTURES = ("normalTexture", "occlusionTexture", "emissiveTexture")
+# MTL statements naming texture maps (lower case), all dropped with a warning.
+_MTL_MAPS = ("map_ka", "map_kd", "map_ks", "map_ns", "map_d", "map_ke", "map_bump", "bump",
+             "disp", "decal", "refl", "norm", "map_pr", "map_pm", "map_ps", "map_rma", "map_orm")
+
+
+def srgb_to_linear(c: Any) -> np.ndarray:
+    """Exact IEC 61966-2-1 sRGB decoding of values in [0, 1] (float64)."""
+    c = np.asarray(c, dtype=np.float64)
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+_SRGB8 = srgb_to_linear(np.arange(256) / 255.0)  # 8-bit code -> linear
+
+
+def _colors8(u8: Any, srgb: bool) -> np.ndarray:
+    """(n, 3|4) 8-bit colours -> (n, 4) float64 linear RGBA (alpha only scaled)."""
+    arr = np.asarray(u8)
+    if arr.dtype != np.uint8:  # trimesh's colours are uint8; anything else as 0..255 numbers
+        arr = np.clip(np.rint(np.asarray(arr, dtype=np.float64)), 0, 255).astype(np.uint8)
+    out = np.ones((arr.shape[0], 4), dtype=np.float64)
+    out[:, :3] = _SRGB8[arr[:, :3]] if srgb else arr[:, :3] / 255.0
+    if arr.shape[1] == 4:
+        out[:, 3] = arr[:, 3] / 255.0
+    return out
+
+
+def _normalized(values: Any) -> np.ndarray:
+    """glTF COLOR_0 accessor data (float, or normalized unsigned byte / short) -> (n, 4) float64."""
+    arr = np.asarray(values)
+    if arr.ndim != 2 or arr.shape[1] not in (3, 4):
+        raise ValueError(f"COLOR_0 must have 3 or 4 components, got shape {arr.shape}")
+    if np.issubdtype(arr.dtype, np.integer):
+        arr = arr / float(np.iinfo(arr.dtype).max)
+    arr = np.clip(np.asarray(arr, dtype=np.float64), 0.0, 1.0)
+    if arr.shape[1] == 3:
+        arr = np.hstack([arr, np.ones((arr.shape[0], 1))])
+    return arr
+
+
+# -- what a file says about its materials --------------------------------------------------------
+@dataclass
+class _FileInfo:
+    """Per-load context: the file (for warnings), its colour convention and exact materials."""
+
+    source: str | None  # the path as given; None for Mesh.from_trimesh
+    srgb: bool  # 8-bit colours are sRGB-encoded (PLY / OBJ / OFF / STL); False for glTF
+    gltf: list[Any] | None = None  # the glTF JSON "materials" list
+    mtl: dict[str, tuple[Material, list[str]]] | None = None  # newmtl name -> (material, dropped)
+    warned: set[Any] = field(default_factory=set)
+
+    def warn(self, key: Any, text: str) -> None:
+        if key in self.warned:
+            return
+        self.warned.add(key)
+        warnings.warn((f"{self.source}: " if self.source else "") + text, UserWarning,
+                      stacklevel=_caller_level())
+
+
+_PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__))
+
+
+def _caller_level() -> int:
+    """The stacklevel of the first frame outside softrast (the user's load_mesh call)."""
+    frame, level = sys._getframe(1), 1
+    while frame is not None and os.path.dirname(os.path.abspath(frame.f_code.co_filename)) == _PACKAGE_DIR:
+        frame, level = frame.f_back, level + 1
+    return level
+
+
+def _file_info(path_str: str) -> _FileInfo:
+    ext = os.path.splitext(path_str)[1].lower()
+    if ext in (".gltf", ".glb"):
+        info = _FileInfo(path_str, srgb=False)
+        try:
+            mats = _gltf_doc(path_str).get("materials", [])
+            info.gltf = mats if isinstance(mats, list) else []
+        except (OSError, ValueError, UnicodeDecodeError, struct.error):
+            info.gltf = []  # check_mesh_file has refused broken JSON already
+        return info
+    info = _FileInfo(path_str, srgb=True)
+    if ext == ".obj":
+        info.mtl = _obj_materials(path_str, info)
+    return info
+
+
+def _gltf_doc(path_str: str) -> dict[str, Any]:
+    """The JSON of a .gltf or .glb (only its JSON chunk is read)."""
+    with open(path_str, "rb") as f:
+        head = f.read(20)
+        if head[:4] == b"glTF":
+            _, _, _, length, _ = struct.unpack("<4sIII4s", head)
+            text = f.read(length)
+        else:
+            text = head + f.read()
+    doc = json.loads(text)
+    return doc if isinstance(doc, dict) else {}
+
+
+def _first_mtllib(path_str: str) -> str | None:
+    """The ``mtllib`` file name as trimesh reads it: the rest of the line after the file's first
+    "mtllib" (trimesh loads only that one)."""
+    tail = b""
+    with open(path_str, "rb") as f:
+        while True:
+            block = f.read(1 << 20)
+            if not block:
+                break
+            text = tail + block
+            at = text.find(b"mtllib")
+            if at >= 0:
+                line = text[at + 6:]
+                while b"\n" not in line and b"\r" not in line:
+                    more = f.read(1 << 16)
+                    if not more:
+                        break
+                    line += more
+                return line.splitlines()[0].decode("utf-8", "replace").strip() if line else ""
+            tail = text[-5:]
+    return None
+
+
+def _obj_materials(path_str: str, info: _FileInfo) -> dict[str, tuple[Material, list[str]]]:
+    name = _first_mtllib(path_str)
+    if name is None:
+        return {}
+    folder = os.path.dirname(os.path.abspath(path_str))
+    for candidate in (os.path.join(folder, name), os.path.join(folder, os.path.basename(name))):
+        if name and os.path.isfile(candidate):
+            try:
+                with open(candidate, "rb") as f:
+                    text = f.read().decode("utf-8", "replace")
+            except OSError as exc:
+                info.warn("mtllib", f"mtllib {name!r} could not be read ({exc}): its materials are "
+                                    "dropped, faces render in the default grey")
+                return {}
+            return _parse_mtl(text, name, info)
+    info.warn("mtllib", f"mtllib {name!r} not found next to the OBJ: its materials are dropped, "
+                        "faces render in the default grey")
+    return {}
+
+
+def _mtl_color(words: list[str], key: str, where: str, info: _FileInfo) -> tuple[float, ...] | None:
+    if words and words[0].lower() in ("spectral", "xyz"):
+        info.warn((where, key), f"{where}: {key} {' '.join(words)}: only RGB colours are read; "
+                                f"{key} is dropped")
+        return None
+    try:
+        values = [float(w) for w in words[:3]]
+    except ValueError:
+        info.warn((where, key), f"{where}: {key} {' '.join(words)!r} is not a colour; dropped")
+        return None
+    if not values or not all(math.isfinite(v) for v in values):
+        info.warn((where, key), f"{where}: {key} {' '.join(words)!r} is not a colour; dropped")
+        return None
+    if len(values) < 3:  # "Kd 0.5": g and b default to r
+        values = [values[0]] * 3
+    clipped = tuple(min(max(v, 0.0), 1.0) for v in values)
+    if clipped != tuple(values):
+        info.warn((where, key, "clip"), f"{where}: {key} {values} clipped to [0, 1]: {list(clipped)}")
+    return clipped
+
+
+def _parse_mtl(text: str, mtl_name: str, info: _FileInfo) -> dict[str, tuple[Material, list[str]]]:
+    """newmtl name -> (Material, what is dropped) from MTL text."""
+    found: dict[str, tuple[Material, list[str]]] = {}
+    current: dict[str, Any] | None = None
+
+    def finish() -> None:
+        if current is None:
+            return
+        name = current["name"]
+        where = f"material {name!r}"
+        kd = current.get("kd")
+        d = current.get("d", 1.0)
+        dropped = list(current["dropped"])
+        if d < 1.0:
+            dropped.append(f"transparency (d {d:g}, kept as base_color alpha) is not drawn yet")
+        kwargs: dict[str, Any] = {
+            "base_color": (*kd, d) if kd is not None else (0.8, 0.8, 0.8, d),
+            "ka": current.get("ka"), "kd": kd, "ks": current.get("ks"),
+            "model": "blinn_phong", "name": name,
+        }
+        if "ns" in current:
+            kwargs["shininess"] = current["ns"]
+        if "ke" in current:
+            kwargs["emissive"] = current["ke"]
+        try:
+            found[name] = (Material(**kwargs), dropped)
+        except (TypeError, ValueError) as exc:  # cannot happen after the clipping above
+            info.warn((where, "bad"), f"{where} in {mtl_name!r} is invalid ({exc}); dropped")
+
+    for raw in text.splitlines():
+        words = raw.split("#", 1)[0].split()
+        if len(words) < 2:
+            continue
+        key = words[0].lower()
+        if key == "newmtl":
+            finish()
+            current = {"name": " ".join(words[1:]), "dropped": []}
+            continue
+        if current is None:
+            continue
+        where = f"material {current['name']!r}"
+        if key in ("ka", "kd", "ks", "ke"):
+            value = _mtl_color(words[1:], words[0], where, info)
+            if value is not None:
+                current[key] = value
+        elif key in ("ns", "d"):
+            try:
+                v = float(words[1])
+                if not math.isfinite(v):
+                    raise ValueError
+            except ValueError:
+                info.warn((where, key), f"{where}: {words[0]} {words[1]!r} is not a number; dropped")
+                continue
+            if key == "ns":
+                current["ns"] = max(v, 0.0)
+            else:
+                current["d"] = min(max(v, 0.0), 1.0)
+        elif key in _MTL_MAPS:
+            current["dropped"].append(f"{words[0]} {words[-1]!r} is not drawn yet (textures: issue 17)")
+        # other statements (illum, Ni, Tf, ...) are not read
+    finish()
+    return found
+
+
+def _gltf_material(index: int, entry: Any, info: _FileInfo) -> tuple[Material, list[str]]:
+    """The exact Material of glTF material ``index`` and the list of what is dropped."""
+    entry = entry if isinstance(entry, dict) else {}
+    name = entry.get("name") if isinstance(entry.get("name"), str) else None
+    where = f"material {name!r}" if name is not None else f"material {index}"
+    pbr = entry.get("pbrMetallicRoughness", {})
+    pbr = pbr if isinstance(pbr, dict) else {}
+    dropped: list[str] = []
+
+    def factor(obj: dict[str, Any], key: str, default: Any, n: int) -> Any:
+        value = obj.get(key, default)
+        try:
+            arr = np.asarray(value, dtype=np.float64).reshape(n) if n else float(value)
+        except (TypeError, ValueError):
+            dropped.append(f"{key} {value!r} is not valid (using {default})")
+            return default
+        arr_np = np.asarray(arr, dtype=np.float64)
+        if not np.isfinite(arr_np).all():
+            dropped.append(f"{key} {value!r} is not finite (using {default})")
+            return default
+        clipped = np.clip(arr_np, 0.0, 1.0)
+        if (clipped != arr_np).any():
+            dropped.append(f"{key} {value!r} clipped to [0, 1]")
+        return tuple(clipped.tolist()) if n else float(clipped)
+
+    base = factor(pbr, "baseColorFactor", (1.0, 1.0, 1.0, 1.0), 4)
+    metallic = factor(pbr, "metallicFactor", 1.0, 0)
+    roughness = factor(pbr, "roughnessFactor", 1.0, 0)
+    emissive = factor(entry, "emissiveFactor", (0.0, 0.0, 0.0), 3)
+    for key in _GLTF_TEXTURES:
+        if key in pbr:
+            extra = "; rendering its base colour factor" if key == "baseColorTexture" else ""
+            dropped.append(f"{key} is not drawn yet (textures: issue 17){extra}")
+    for key in _GLTF_MATERIAL_TEXTURES:
+        if key in entry:
+            dropped.append(f"{key} is not drawn yet (textures: issue 17)")
+    mode = entry.get("alphaMode", "OPAQUE")
+    if mode != "OPAQUE":
+        dropped.append(f"alphaMode {mode!r} is not drawn yet: rendered opaque")
+    model = "pbr"
+    extensions = entry.get("extensions", {})
+    for ext in (extensions if isinstance(extensions, dict) else {}):
+        if ext == "KHR_materials_unlit":
+            model = "unlit"
+        else:
+            dropped.append(f"extension {ext} is ignored")
+    double = entry.get("doubleSided", False)
+    return Material(base_color=base, metallic=metallic, roughness=roughness, emissive=emissive,
+                    double_sided=bool(double) if isinstance(double, bool) else False,
+                    model=model, name=name), dropped
+
+
+def _u8(value: Any) -> tuple[int, ...] | None:
+    if value is None:
+        return None
+    return tuple(int(v) for v in np.asarray(value).reshape(-1))
+
+
+def _gltf_index(mat: Any, info: _FileInfo) -> int | None:
+    """Which of the file's glTF materials trimesh's PBRMaterial ``mat`` was built from.
+
+    trimesh keeps the factors (baseColorFactor only as 8 bits) and the name but not the index, so
+    the candidates are the file's materials whose values agree with ``mat``; among equals, the
+    first (their exact values can then differ only below 8 bits, in base colour).
+    """
+    from trimesh.visual.color import to_rgba
+
+    entries = info.gltf or []
+
+    def agrees(entry: Any, strict: bool) -> bool:
+        if not isinstance(entry, dict):
+            return False
+        name = entry.get("name") if isinstance(entry.get("name"), str) else None
+        if name != getattr(mat, "name", None):
+            return False
+        if not strict:
+            return True
+        pbr = entry.get("pbrMetallicRoughness", {})
+        pbr = pbr if isinstance(pbr, dict) else {}
+        try:
+            if "baseColorFactor" in pbr and _u8(to_rgba(pbr["baseColorFactor"])) != _u8(mat.baseColorFactor):
+                return False
+            for key in ("metallicFactor", "roughnessFactor"):
+                if key in pbr and getattr(mat, key) is not None and float(pbr[key]) != getattr(mat, key):
+                    return False
+        except (TypeError, ValueError):
+            return False
+        return bool(entry.get("doubleSided", False)) == bool(mat.doubleSided)
+
+    for strict in (True, False):
+        for i, entry in enumerate(entries):
+            if agrees(entry, strict):
+                return i
+    return None
+
+
+def _trimesh_material(mat: Any, info: _FileInfo) -> tuple[Material | None, list[str], Any]:
+    """(Material or None, dropped, key for warning once) for a trimesh material object."""
+    from trimesh.visual import material as tmat
+
+    if mat is None:
+        return None, [], None
+    if isinstance(mat, tmat.PBRMaterial):
+        if info.gltf is not None:
+            index = _gltf_index(mat, info)
+            if index is not None:
+                m, dropped = _gltf_material(index, info.gltf[index], info)
+                return m, dropped, ("gltf", index)
+        # from trimesh's values (8-bit base colour): Mesh.from_trimesh, or no match in the file
+        dropped = [f"{k} is not drawn yet (textures: issue 17)"
+                   + ("; rendering its base colour factor" if k == "baseColorTexture" else "")
+                   for k in ("baseColorTexture", "metallicRoughnessTexture", "normalTexture",
+                             "occlusionTexture", "emissiveTexture") if getattr(mat, k, None) is not None]
+        if mat.alphaMode not in (None, "OPAQUE"):
+            dropped.append(f"alphaMode {mat.alphaMode!r} is not drawn yet: rendered opaque")
+        base = (1.0, 1.0, 1.0, 1.0) if mat.baseColorFactor is None else tuple(
+            (np.asarray(mat.baseColorFactor, dtype=np.float64) / 255.0).tolist())
+        emissive = (0.0, 0.0, 0.0) if mat.emissiveFactor is None else tuple(
+            np.clip(np.asarray(mat.emissiveFactor, dtype=np.float64), 0.0, 1.0).tolist())
+        m = Material(base_color=base,
+                     metallic=1.0 if mat.metallicFactor is None else min(max(mat.metallicFactor, 0.0), 1.0),
+                     roughness=1.0 if mat.roughnessFactor is None else min(max(mat.roughnessFactor, 0.0), 1.0),
+                     emissive=emissive, double_sided=bool(mat.doubleSided), model="pbr",
+                     name=mat.name if isinstance(mat.name, str) else None)
+        return m, dropped, ("pbr", id(mat))
+    if isinstance(mat, tmat.SimpleMaterial):
+        name = getattr(mat, "_name", None)
+        if info.mtl is not None:  # an OBJ: the MTL file's own values, or none
+            if name in info.mtl:
+                m, dropped = info.mtl[name]
+                return m, dropped, ("mtl", name)
+            return None, [], None
+        if name is None and _is_empty(mat):
+            return None, [], None  # trimesh's placeholder for UVs without a material
+        rgb = [tuple((np.asarray(c, dtype=np.float64)[:3] / 255.0).tolist())
+               for c in (mat.ambient, mat.diffuse, mat.specular)]
+        alpha = float(np.asarray(mat.diffuse)[3]) / 255.0
+        dropped = []
+        if mat.image is not None and not _is_empty(mat):
+            dropped.append("its texture image is not drawn yet (textures: issue 17)")
+        m = Material(base_color=(*rgb[1], alpha), ka=rgb[0], kd=rgb[1], ks=rgb[2],
+                     shininess=max(float(mat.glossiness), 0.0), model="blinn_phong",
+                     name=name if isinstance(name, str) else None)
+        return m, dropped, ("simple", id(mat))
+    return None, [f"a {type(mat).__name__} is not supported"], ("other", id(mat))
+
+
+def _is_empty(mat: Any) -> bool:
+    """trimesh's empty_material(): unnamed, default colours, a 2x2 placeholder image."""
+    from trimesh.visual.color import DEFAULT_COLOR
+
+    image = getattr(mat, "image", None)
+    return (getattr(mat, "_name", None) is None
+            and all(_u8(getattr(mat, k)) == _u8(DEFAULT_COLOR) for k in ("ambient", "diffuse", "specular"))
+            and (image is None or getattr(image, "size", None) == (2, 2)))
+
+
+# -- trimesh geometry -> arrays -------------------------------------------------------------------
+@dataclass
+class _Part:
+    positions: np.ndarray
+    faces: np.ndarray
+    normals: np.ndarray | None
+    uvs: np.ndarray | None
+    colors: np.ndarray | None  # (n, 4) float64 linear RGBA
+    material: Material | None
+
+
+def _part(tm: Any, smooth: bool, info: _FileInfo) -> _Part:
+    """One trimesh.Trimesh as arrays, its colours linear, its material resolved (warning about
+    what is dropped, once per material)."""
+    import trimesh
+
+    faces = np.asarray(tm.faces)
+    positions = np.asarray(tm.vertices)
+    normals = np.asarray(tm.vertex_normals) if smooth else None
+    uvs = colors = face_colors = None
+    material = None
+    visual = getattr(tm, "visual", None)
+    if isinstance(visual, trimesh.visual.texture.TextureVisuals):
+        if visual.uv is not None and len(visual.uv) == len(positions):
+            uvs = np.asarray(visual.uv)[:, :2]
+        material, dropped, key = _trimesh_material(visual.material, info)
+        if dropped and key is not None:
+            if material is not None and material.name:
+                where = f"material {material.name!r}"
+            else:
+                where = f"material {key[1]}" if key[0] == "gltf" else "material"
+            info.warn(key, f"{where}: " + "; ".join(dropped))
+        raw = getattr(visual, "vertex_attributes", {}).get("color")  # glTF COLOR_0 with a material
+        if raw is not None and len(raw) == len(positions):
+            colors = _normalized(raw)
+            if info.srgb and np.issubdtype(np.asarray(raw).dtype, np.integer):
+                colors[:, :3] = srgb_to_linear(colors[:, :3])
+    elif visual is not None:
+        kind = visual.kind
+        if kind == "vertex":
+            colors = _colors8(visual.vertex_colors, info.srgb)
+        elif kind == "face":
+            face_colors = _colors8(visual.face_colors, info.srgb)
+    if colors is not None and material is not None and info.gltf is not None:
+        colors = colors * np.asarray(material.base_color)  # glTF: COLOR_0 x baseColorFactor
+    if face_colors is not None:
+        # A Mesh colours vertices: each face gets three vertices of its own, in face order.
+        corners = faces.reshape(-1)
+        positions = positions[corners]
+        normals = None if normals is None else normals[corners]
+        uvs = None if uvs is None else uvs[corners]
+        colors = np.repeat(face_colors, 3, axis=0)
+        faces = np.arange(3 * len(faces), dtype=np.int64).reshape(-1, 3)
+    return _Part(positions, faces, normals, uvs, colors, material)
+
+
+def _merge(parts: list[_Part], info: _FileInfo) -> _Part:
+    """Concatenate parts into one; different materials => the first part's, with a warning."""
+    if len(parts) == 1:
+        return parts[0]
+    materials: list[Material | None] = []
+    for p in parts:
+        if p.material not in materials:
+            materials.append(p.material)
+    material = parts[0].material
+    if len(materials) > 1:
+        info.warn("merged", f"{len(parts)} parts with {len(materials)} different materials were merged "
+                            "into one mesh with the first part's material; use softrast.load_scene "
+                            "to keep each part's material")
+    offsets = np.cumsum([0] + [len(p.positions) for p in parts[:-1]])
+    faces = np.concatenate([p.faces + o for p, o in zip(parts, offsets)])
+    positions = np.concatenate([p.positions for p in parts])
+    normals = (np.concatenate([p.normals for p in parts])
+               if all(p.normals is not None for p in parts) else None)
+    uvs = np.concatenate([p.uvs for p in parts]) if all(p.uvs is not None for p in parts) else None
+    colors = None
+    if any(p.colors is not None for p in parts):
+        fill = material.base_color if material is not None else (0.8, 0.8, 0.8, 1.0)
+        colors = np.concatenate([
+            p.colors if p.colors is not None else np.tile(np.asarray(fill, dtype=np.float64), (len(p.positions), 1))
+            for p in parts])
+    return _Part(positions, faces, normals, uvs, colors, material)
+
+
+def _to_mesh(part: _Part, color: Sequence[float] | None) -> Any:
+    from .mesh import DEFAULT_COLOR, Mesh
+
+    material = part.material
+    if material is not None and color is not None:
+        material = material.replace(base_color=color)  # checked like the constructor's
+    colors = None
+    if part.colors is not None:
+        colors = np.clip(part.colors, 0.0, 1.0)
+    if material is not None:
+        return Mesh(part.positions, part.faces, normals=part.normals, uvs=part.uvs, colors=colors,
+                    material=material)
+    return Mesh(part.positions, part.faces, normals=part.normals, uvs=part.uvs, colors=colors,
+                color=DEFAULT_COLOR if color is None else color)
+
+
+def _transformed(part: _Part, matrix: Any) -> _Part:
+    """``part`` moved by the (4, 4) ``matrix`` as trimesh's apply_transform moves a mesh: normals
+    by the adjugate, and a mirroring matrix reverses each face's corners (keeping faces in order)
+    so front faces stay counter-clockwise."""
+    m = np.asarray(matrix, dtype=np.float64)
+    if np.array_equal(m, np.eye(4)):
+        return part
+    linear = m[:3, :3]
+    positions = part.positions @ linear.T + m[:3, 3]
+    faces, normals = part.faces, part.normals
+    flip = np.linalg.det(linear) < 0
+    if normals is not None:
+        adjugate = np.cross(linear.T[[1, 2, 0]], linear.T[[2, 0, 1]])
+        normals = normals @ (-adjugate if flip else adjugate)
+        length = np.linalg.norm(normals, axis=1, keepdims=True)
+        normals = np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
+    if flip:
+        faces = np.ascontiguousarray(faces[:, ::-1])
+    return _Part(positions, faces, normals, part.uvs, part.colors, part.material)
+
+
+def mesh_from_trimesh(tm: Any, smooth: bool, color: Sequence[float] | None, info: _FileInfo) -> Any:
+    """Mesh.from_trimesh's work (a Trimesh, or a Scene merged with its transforms)."""
+    import trimesh
+
+    if isinstance(tm, trimesh.Scene):
+        # Each placement of each geometry, in trimesh's graph order (as Scene.dump() lists them);
+        # not dump() itself: its copies lose vertex attributes such as glTF COLOR_0.
+        parts, converted = [], {}
+        for node in tm.graph.nodes_geometry:
+            transform, name = tm.graph[node]
+            geom = tm.geometry.get(name)
+            if isinstance(geom, trimesh.Trimesh) and len(geom.faces):
+                if name not in converted:  # geometry placed by several nodes: converted once
+                    converted[name] = _part(geom, smooth, info)
+                parts.append(_transformed(converted[name], transform))
+        if not parts:
+            raise ValueError("tm is a trimesh.Scene without any triangle geometry")
+    elif isinstance(tm, trimesh.Trimesh):
+        parts = [_part(tm, smooth, info)]
+    else:
+        raise TypeError(f"tm must be a trimesh.Trimesh or trimesh.Scene, got {type(tm).__name__}")
+    return _to_mesh(_merge(parts, info), color)
+
+
+def load_scene(path: str | os.PathLike[str], smooth: bool = True) -> Any:
+    """Load a mesh file as a ``softrast.Scene``: one instance per part, each with its own Mesh
+    and Material, placed by the file's node transforms (glTF nodes; identity for formats without
+    a scene graph). Geometry that several nodes instance is one shared Mesh. Instance ids are
+    0, 1, 2, ... in the order of trimesh's scene graph (``graph.nodes_geometry``).
+
+    Colours, materials and what is dropped (with a warning) are as described in
+    ``softrast.loaders``; ``smooth`` as for ``load_mesh``. Raises like ``load_mesh``:
+    FileNotFoundError for a missing file (or a buffer or texture a glTF references), ValueError
+    naming the file for every other failure.
+    """
+    from .mesh import _FileProblem, _LOADING_FILE, _load_trimesh
+    from .scene import Scene
+
+    path_str = os.fspath(path)
+    loaded, info = _load_trimesh(path_str)
+    token = _LOADING_FILE.set(path_str)
+    try:
+        import trimesh
+
+        scene = Scene()
+        if isinstance(loaded, trimesh.Trimesh):
+            scene.add(_to_mesh(_part(loaded, smooth, info), None))
+            return scene
+        meshes: dict[str, Any] = {}
+        for node in loaded.graph.nodes_geometry:
+            transform, name = loaded.graph[node]
+            geom = loaded.geometry.get(name)
+            if not isinstance(geom, trimesh.Trimesh) or len(geom.faces) == 0:
+                continue
+            if name not in meshes:
+                meshes[name] = _to_mesh(_part(geom, smooth, info), None)
+            scene.add(meshes[name], pose=np.asarray(transform, dtype=np.float64))
+        if not len(scene):
+            raise _FileProblem("the file contains no triangles")
+        return scene
+    except UserWarning:
+        raise  # a warning made an error (-W error): it names the file already
+    except Exception as exc:
+        what = str(exc) if type(exc) in (ValueError, _FileProblem) else f"{type(exc).__name__}: {exc}"
+        raise ValueError(f"could not load mesh {path_str!r}: {what}") from exc
+    finally:
+        _LOADING_FILE.reset(token)
