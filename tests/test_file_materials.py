@@ -100,8 +100,11 @@ def test_ply_face_colors_reach_the_image(tmp_path, no_warnings):
     # face 0 covers the lower right (x > y), face 1 the upper left; image row 0 is the top
     lower_right, upper_left = frame.color[28, 28], frame.color[3, 3]
     assert frame.triangle_id[28, 28] == 0 and frame.triangle_id[3, 3] == 1
-    # This core writes linear colours (no gamma curve); with sRGB output the bytes come back.
+    # Decoded to linear at load, sRGB-encoded on output: the file's bytes come back exactly.
     for pixel, rgb in ((lower_right, (200, 10, 0)), (upper_left, (30, 128, 255))):
+        np.testing.assert_array_equal(pixel[:3], rgb)
+    linear = sr.Renderer(32, 32).render(scene, cam, outputs=("color",), shading="unlit", srgb=False)
+    for pixel, rgb in ((linear.color[28, 28], (200, 10, 0)), (linear.color[3, 3], (30, 128, 255))):
         np.testing.assert_allclose(pixel[:3], [round(255 * decode(b)) for b in rgb], atol=1)
 
 
