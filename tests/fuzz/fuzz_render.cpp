@@ -3,13 +3,19 @@
 // tests/fuzz/make_corpus.py, which writes the same byte format this file decodes.
 //
 // Input format (little-endian; a read past the end yields zero bytes, so every input decodes):
-//   u8 width-1, u8 height-1, u8 threads (1 + t % 3), u8 outputs (raw bits: 0 and bit 7 are
-//   invalid), u8 cull % 3, u8 shading % 2, u8 flags (bit 0 orthographic, bit 1 re-render with
+//   u8 width-1, u8 height-1, u8 threads (1 + t % 3), u8 outputs (raw bits: 0 is
+//   invalid), u8 cull % 3, u8 shading % kNumShadingModels, u8 flags (bit 0 orthographic, bit 1 re-render with
 //   another thread count and compare), 3 x F background, F ambient,
 //   camera: M view, P proj, D near, D far,
 //   mesh: u8 vertices, vertices x 3 F, u8 faces, faces x 3 I, then normals, colors, uvs each as
 //   u8 mode (0 absent, 1 one per vertex, 2 one too many, 3 one too few) and their values,
-//   u8 draws % 4, per draw: M model, i32 instance id, 4 x F colour.
+//   u8 draws % 4, per draw: M model, i32 instance id, 4 x F colour,
+//   then (read by the lit model, Shading::Lit; an input that ends before them decodes them as
+//   zero bytes: no lights, default-like materials) u8 lights % 5, per light: u8 kind % 3,
+//   3 x F radiance, 3 x F position, 3 x F direction, u8 inverse_square, F cone scale,
+//   F cone offset; 3 x F ambient light; u8 frequency % 3; u8 srgb; per draw: u8 brdf % 6,
+//   u8 flags (kd_is_base, ka_is_kd, double_sided), 3 x F ka, kd, ks, emissive, F shininess,
+//   metallic, roughness.
 // F (float) / D (double) values: u8 selector, then for some selectors a payload (see value()).
 // I (face index): u8 < 0xf0 => that byte % vertices, else a special value (see index()).
 // M (matrix): u8 mode: identity, translation, scale + translation, 16 raw values, mirror.
@@ -172,6 +178,10 @@ int check_frame(const Framebuffer& fb, const MeshData& mesh, std::size_t num_dra
     }
     if (fb.get<uint8_t>(kOutColor) && hit == 0 && std::memcmp(fb.get<uint8_t>(kOutColor) + 3 * i, background, 3) != 0)
       fail("background colour", i);
+    if (fb.get<float>(kOutRadiance) && hit == 0) {
+      const float* rad = fb.get<float>(kOutRadiance) + 3 * i;
+      if (rad[0] != 0.0f || rad[1] != 0.0f || rad[2] != 0.0f) fail("background radiance is 0", i);
+    }
     if (hit == 1 && num_draws == 0) fail("a hit without draws", i);
     hits += hit == 1;
   }
@@ -235,6 +245,34 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
     d.model = in.matrix();
     d.instance_id = in.raw<int32_t>();
     d.color = vec4(in.value_f(), in.value_f(), in.value_f(), in.value_f());
+  }
+
+  const int num_lights = in.u8() % 5;
+  for (int k = 0; k < num_lights; ++k) {
+    Light light;
+    light.kind = LightKind(in.u8() % 3);
+    light.radiance = vec3(in.value_f(), in.value_f(), in.value_f());
+    light.position = vec3(in.value_f(), in.value_f(), in.value_f());
+    light.direction = vec3(in.value_f(), in.value_f(), in.value_f());
+    light.inverse_square = in.u8() & 1;
+    light.cone_scale = in.value_f();
+    light.cone_offset = in.value_f();
+    options.lights.push_back(light);
+  }
+  options.ambient_light = vec3(in.value_f(), in.value_f(), in.value_f());
+  options.frequency = Frequency(in.u8() % 3);
+  options.srgb = in.u8() & 1;
+  for (Draw& d : draws) {
+    Material& m = d.material;
+    m.brdf = Brdf(in.u8() % 6);
+    const uint8_t f = in.u8();
+    m.kd_is_base = !(f & 1);
+    m.ka_is_kd = !(f & 2);
+    m.double_sided = !(f & 4);
+    for (vec3* v : {&m.ka, &m.kd, &m.ks, &m.emissive}) *v = vec3(in.value_f(), in.value_f(), in.value_f());
+    m.shininess = in.value_f();
+    m.metallic = in.value_f();
+    m.roughness = in.value_f();
   }
 
   try {

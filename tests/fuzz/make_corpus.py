@@ -87,7 +87,8 @@ def attribute(rows, mode: int | None = None) -> bytes:
 def scene(*, size=(64, 48), threads=1, outputs=ALL_OUTPUTS, cull="back", shading=1, ortho_cam=False,
           compare_threads=False, background=(0.1, 0.2, 0.3), ambient=0.25, view=None,
           near=0.1, far=100.0, proj=None, positions=(), faces=(), normals=None, colors=None,
-          uvs=None, attr_modes=(None, None, None), draws=((None, 0, (0.8, 0.6, 0.4, 1.0)),)) -> bytes:
+          uvs=None, attr_modes=(None, None, None), draws=((None, 0, (0.8, 0.6, 0.4, 1.0)),),
+          lit: bytes = b"") -> bytes:
     w, h = size
     b = u8(w - 1) + u8(h - 1) + u8(threads - 1) + u8(outputs) + u8(CULL[cull]) + u8(shading)
     b += u8(int(ortho_cam) | (2 if compare_threads else 0))
@@ -106,6 +107,21 @@ def scene(*, size=(64, 48), threads=1, outputs=ALL_OUTPUTS, cull="back", shading
     for model, instance_id, rgba in draws:
         b += model if isinstance(model, bytes) else matrix(model)
         b += struct.pack("<i", instance_id) + b"".join(value(c) for c in rgba)
+    return b + lit
+
+
+def lighting(lights=(), ambient_light=(0.05, 0.05, 0.05), frequency=0, srgb=True, materials=()) -> bytes:
+    """The lit model's tail: lights [(kind, radiance, position, direction, inverse_square, scale,
+    offset)], ambient light, frequency, srgb, then per draw (brdf, flags, ka, kd, ks, emissive,
+    shininess, metallic, roughness)."""
+    b = u8(len(lights))
+    for kind, rad, pos, dirn, inv_sq, scale, offset in lights:
+        b += u8(kind) + b"".join(value(float(v)) for v in (*rad, *pos, *dirn))
+        b += u8(int(inv_sq)) + value(scale) + value(offset)
+    b += b"".join(value(v) for v in ambient_light) + u8(frequency) + u8(int(srgb))
+    for brdf, flags, ka, kd, ks, em, shininess, metallic, roughness in materials:
+        b += u8(brdf) + u8(flags) + b"".join(value(float(v)) for v in (*ka, *kd, *ks, *em))
+        b += value(shininess) + value(metallic) + value(roughness)
     return b
 
 
@@ -234,6 +250,28 @@ def seeds() -> dict[str, bytes]:
         positions=p, faces=rng.integers(0, 60, size=(40, 3)), cull="none", view=matrix(np.eye(4) + rng.normal(size=(4, 4)) * 0.1),
         proj=u8(2) + b"".join(value(float(v)) for v in rng.normal(size=16)),
         draws=((matrix(rng.normal(size=(4, 4))), 0, (1, 1, 1, 1)),))
+    # The lit model (shading 4): every light kind, material model and frequency, and extremes.
+    lights = [(0, (1, 0.9, 0.8), (0, 0, 0), (0, -0.6, -0.8), 0, 0.0, 1.0),
+              (1, (3, 3, 3), (1, 1, -2), (0, 0, -1), 1, 0.0, 1.0),
+              (2, (5, 2, 2), (0, 2, -3), (0, -1, 0), 1, 3.4, -2.4)]
+    mats = [(b, b % 8, (0.1, 0.1, 0.1), (0.5, 0.4, 0.3), (0.6, 0.6, 0.6), (0.0, 0.01, 0.0), 40.0,
+             0.5, 0.3) for b in range(6)]
+    for freq in range(3):
+        out[f"lit_sphere_models_frequency{freq}"] = scene(
+            size=(120, 90), threads=2, compare_threads=True, outputs=0xFF, shading=4, cull="none",
+            positions=sphere_p, faces=sphere_f, normals=sphere_p,
+            colors=np.c_[(sphere_p + 1) / 2, np.ones(len(sphere_p))] if freq == 1 else None,
+            draws=tuple((translation((x, 0, -4)), i, (0.7, 0.7, 0.7, 1)) for i, x in enumerate((-1.5, -0.5, 0.5, 1.5))),
+            lit=lighting(lights, frequency=freq, srgb=freq != 2, materials=mats[freq:freq + 4]))
+    out["lit_extreme_values"] = scene(
+        outputs=0xFF, shading=4, positions=sphere_p, faces=sphere_f, normals=np.zeros_like(sphere_p),
+        draws=((translation((0, 0, -3)), 0, (1, 1, 1, 1)),),
+        lit=lighting([(1, (1e30, 1e30, 1e30), (0, 0, -3), (0, 0, 1), 1, 0.0, 1.0),
+                      (2, (1, 1, 1), (0, 0, 0), (0, 0, 0), 0, 1e30, -1e30)],
+                     materials=[(4, 0, (0, 0, 0), (0, 0, 0), (1, 1, 1), (0, 0, 0), 1e30, 1.0, 0.0)]))
+    out["lit_nan_light_refused"] = scene(
+        outputs=0xFF, shading=4, positions=TRI, faces=[[0, 1, 2]],
+        lit=lighting([(0, (NAN, 1, 1), (0, 0, 0), (0, 0, -1), 0, 0.0, 1.0)], materials=[mats[3]]))
     return out
 
 
