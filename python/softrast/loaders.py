@@ -440,14 +440,43 @@ class _Part:
     material: Material | None
 
 
-def _part(tm: Any, smooth: bool, info: _FileInfo) -> _Part:
+SMOOTH = (True, False, "area", "angle")
+
+
+def vertex_normals(tm: Any, smooth: bool | str) -> np.ndarray | None:
+    """Per-vertex normals for ``smooth`` (see load_mesh): the file's own where it has them, else
+    the sum of the adjacent faces' normals weighted by their areas (True or "area", as the
+    course notes prescribe) or by their corner angles ("angle", trimesh's rule); False: None
+    (flat face normals)."""
+    if not (isinstance(smooth, bool) or (isinstance(smooth, str) and smooth in ("area", "angle"))):
+        raise ValueError(f"smooth must be True, False, 'area' or 'angle', got {smooth!r:.80}")
+    if smooth is False:
+        return None
+    cached = tm._cache.cache.get("vertex_normals") if hasattr(tm, "_cache") else None
+    if cached is not None and len(cached) == len(tm.vertices):  # the file's own normals
+        return np.asarray(cached)
+    if smooth == "angle":
+        return np.asarray(tm.vertex_normals)
+    v = np.asarray(tm.vertices, dtype=np.float64)
+    f = np.asarray(tm.faces, dtype=np.int64)
+    # The cross product's length is twice the face's area: summing it weights by area.
+    cross = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    acc = np.zeros_like(v)
+    for k in range(3):
+        np.add.at(acc, f[:, k], cross)
+    length = np.linalg.norm(acc, axis=1, keepdims=True)
+    # A vertex in no face (or whose faces cancel) keeps a zero normal: shaded with ambient only.
+    return np.divide(acc, length, out=np.zeros_like(acc), where=length > 0)
+
+
+def _part(tm: Any, smooth: bool | str, info: _FileInfo) -> _Part:
     """One trimesh.Trimesh as arrays, its colours linear, its material resolved (warning about
     what is dropped, once per material)."""
     import trimesh
 
     faces = np.asarray(tm.faces)
     positions = np.asarray(tm.vertices)
-    normals = np.asarray(tm.vertex_normals) if smooth else None
+    normals = vertex_normals(tm, smooth)
     uvs = colors = face_colors = None
     material = None
     visual = getattr(tm, "visual", None)
@@ -574,7 +603,7 @@ def mesh_from_trimesh(tm: Any, smooth: bool, color: Sequence[float] | None, info
     return _to_mesh(_merge(parts, info), color)
 
 
-def load_scene(path: str | os.PathLike[str], smooth: bool = True) -> Any:
+def load_scene(path: str | os.PathLike[str], smooth: bool | str = True) -> Any:
     """Load a mesh file as a ``softrast.Scene``: one instance per part, each with its own Mesh
     and Material, placed by the file's node transforms (glTF nodes; identity for formats without
     a scene graph). Geometry that several nodes instance is one shared Mesh. Instance ids are
@@ -585,10 +614,11 @@ def load_scene(path: str | os.PathLike[str], smooth: bool = True) -> Any:
     FileNotFoundError for a missing file (or a buffer or texture a glTF references), ValueError
     naming the file for every other failure.
     """
-    from .mesh import _FileProblem, _LOADING_FILE, _load_trimesh
+    from .mesh import _FileProblem, _LOADING_FILE, _check_smooth, _load_trimesh
     from .scene import Scene
 
     path_str = os.fspath(path)
+    _check_smooth(smooth)
     loaded, info = _load_trimesh(path_str)
     token = _LOADING_FILE.set(path_str)
     try:

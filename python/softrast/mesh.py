@@ -431,7 +431,10 @@ class Mesh:
                      srgb_colors: bool = False) -> "Mesh":
         """Build a Mesh from a ``trimesh.Trimesh`` (or a ``trimesh.Scene``, concatenated).
 
-        smooth : True => per-vertex normals from ``tm.vertex_normals``; False => flat shading.
+        smooth : per-vertex normals: the file's own where it carries them, else True or "area"
+            (default): each vertex's adjacent face normals weighted by face area (the course
+            notes' rule), "angle": weighted by the face's corner angle (trimesh's
+            ``vertex_normals``); False: flat face normals (faceted shading).
         color : base RGBA; None => the material's base colour, else the default grey. With a
             material, ``color`` replaces its base colour.
         srgb_colors : True => trimesh's 8-bit vertex / face colours are sRGB-encoded (as PLY,
@@ -543,7 +546,13 @@ def _load_trimesh(path_str: str) -> tuple[Any, Any]:
     return loaded, info
 
 
-def load_mesh(path: str | os.PathLike[str], smooth: bool = True, color: Sequence[float] | None = None) -> Mesh:
+def _check_smooth(smooth: Any) -> None:
+    """True, False, "area" or "angle" (not 1 or 0: bools only)."""
+    if not (isinstance(smooth, bool) or (isinstance(smooth, str) and smooth in ("area", "angle"))):
+        raise ValueError(f"smooth must be True, False, 'area' or 'angle', got {smooth!r:.80}")
+
+
+def load_mesh(path: str | os.PathLike[str], smooth: bool | str = True, color: Sequence[float] | None = None) -> Mesh:
     """Load a triangle mesh file (OBJ, PLY, STL, GLB, OFF, ...) with trimesh, keeping vertex order.
 
     A multi-object file is concatenated into one Mesh (with its node transforms applied). If its
@@ -568,6 +577,7 @@ def load_mesh(path: str | os.PathLike[str], smooth: bool = True, color: Sequence
     path_str = os.fspath(path)
     if color is not None:
         _rgba(color, "color")  # a wrong argument names the argument, not the file
+    _check_smooth(smooth)
     loaded, info = _load_trimesh(path_str)
     token = _LOADING_FILE.set(path_str)  # a PrecisionWarning then names the file
     try:
