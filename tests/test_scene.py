@@ -132,3 +132,47 @@ def test_add_arguments_of_the_wrong_kind_raise_naming_them(cube, kwargs, error):
     with pytest.raises(error, match=f"^{name}"):
         scene.add(cube, **kwargs)
     assert len(scene) == 0
+
+
+def test_renders_follow_every_change_to_the_scene():
+    """render.py caches what it derives from a scene (draw and light records) until the scene
+    changes: adding a mesh or a light, clearing it, or setting ambient_light must show."""
+    import trimesh
+
+    import softrast as sr
+
+    tm = trimesh.creation.icosphere(subdivisions=2)
+    mesh = sr.Mesh(tm.vertices, tm.faces, normals=tm.vertex_normals)
+    cam = sr.PerspectiveCamera(fov_y=45.0)
+    cam.look_at((0, 0, 4), (0, 0, 0))
+    r = sr.Renderer(48, 32)
+    scene = sr.Scene()
+    scene.add(mesh)
+
+    def radiance():
+        return r.render(scene, cam, outputs=("radiance",)).radiance.copy()
+
+    headlit = radiance()
+    pose = np.eye(4)
+    pose[:3, 3] = (0, 3, 1)
+    scene.add(sr.PointLight(intensity=5.0), pose=pose)
+    lit = radiance()
+    assert not np.array_equal(headlit, lit)
+    scene.ambient_light = (0.5, 0.5, 0.5)
+    brighter = radiance()
+    assert (brighter >= lit).all() and (brighter > lit).any()
+    scene.add(mesh, pose=np.diag([0.5, 0.5, 0.5, 1.0]) @ np.array(
+        [[1, 0, 0, 1.5], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], float))
+    assert not np.array_equal(radiance(), brighter)
+    scene.clear()  # instances and lights; the ambient light stays
+    assert not radiance().any()
+    scene.add(mesh)
+    assert not np.array_equal(radiance(), headlit)
+    scene.ambient_light = None
+    np.testing.assert_array_equal(radiance(), headlit)
+    # A camera moved between renders moves the headlight with it.
+    cam.look_at((4, 0, 0), (0, 0, 0))
+    side = radiance()
+    cam.look_at((0, 0, 4), (0, 0, 0))
+    np.testing.assert_array_equal(radiance(), headlit)
+    assert side.any()

@@ -87,7 +87,7 @@ def test_gil_is_released_while_rendering():
     # The core's call directly: the Python wrapper around it could release the GIL itself.
     draws = [(inst.mesh._core_data(), inst.pose, inst.instance_id, inst.color, _LAMBERT_PLAIN)
              for inst in scene]
-    lights, ambient_light = _lighting(scene, cam, cam.view_matrix(), 0.25)  # the headlight
+    lights, ambient_light = _lighting(scene, cam.view_matrix(), 0.25)  # the headlight
     spec = _spec(cam.view_matrix(), cam.projection_matrix(512, 512), False, cam.near, cam.far,
                  ["color", "depth", "normal"], lights=lights, ambient_light=ambient_light)
     count = 0
@@ -167,7 +167,7 @@ def test_core_mesh_dropped_by_python_while_a_render_reads_it():
 
     cam = sr.PerspectiveCamera(fov_y=45.0).look_at(eye=(0.0, 0.0, 3.0), target=(0.0, 0.0, 0.0))
     renderer = _core.Renderer(512, 512, 1)
-    lights, ambient_light = _lighting(sr.Scene(), cam, cam.view_matrix(), 0.25)  # the headlight
+    lights, ambient_light = _lighting(sr.Scene(), cam.view_matrix(), 0.25)  # the headlight
     spec = _spec(cam.view_matrix(), cam.projection_matrix(512, 512), False, cam.near, cam.far,
                  ["color", "depth"], lights=lights, ambient_light=ambient_light)
     expected = renderer.render(draws(), spec)

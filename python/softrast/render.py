@@ -86,35 +86,51 @@ def _spec(view: Any, proj: Any, orthographic: bool, near: float, far: float, out
             "ambient_light": ambient_light, "frequency": frequency, "srgb": srgb}
 
 
-def _lighting(scene: Scene, camera: Camera, view: Any, ambient: float) -> tuple[list[tuple], tuple]:
-    """The core's light records (world space) and ambient light for one render.
+def _lighting(scene: Scene, view: Any, ambient: float) -> tuple[list[tuple], tuple]:
+    """The core's light records (world space) and ambient light for one render, cached in the
+    scene for the last view matrix (cameras keep one array per pose) and ambient.
 
     A scene without lights gets the headlight: a white directional light along the camera's
     viewing axis of intensity 1 - ambient, and an ambient light of ``ambient``."""
+    cached = scene._render_cache.get("lights")
+    if cached is not None and cached[0] is view and cached[1] == ambient:
+        return cached[2]
     lights = scene._lights
     if not lights:
-        cam_to_world = np.linalg.inv(np.asarray(view, dtype=np.float64))
-        axis = -cam_to_world[:3, 2]
+        # The viewing axis in world space is -(the view matrix's third row) for a rigid view.
+        axis = -np.asarray(view, dtype=np.float64)[2, :3]
         axis = axis / np.linalg.norm(axis)
         rgb = 1.0 - ambient
         headlight = (0, (rgb, rgb, rgb), (0.0, 0.0, 0.0), tuple(float(x) for x in axis), False,
                      0.0, 1.0)
         ia = scene.ambient_light if scene.ambient_light is not None else (ambient,) * 3
-        return [headlight], ia
-    records = []
-    cam_to_world = None
-    for li in lights:
-        pose = li.pose
-        if li.camera_space:
-            if cam_to_world is None:
-                cam_to_world = np.linalg.inv(np.asarray(view, dtype=np.float64))
-            pose = cam_to_world @ pose
-        records.append(li.light._core(pose))
-    ia = scene.ambient_light if scene.ambient_light is not None else (0.0, 0.0, 0.0)
-    return records, ia
+        result: tuple[list[tuple], tuple] = ([headlight], ia)
+    else:
+        records = []
+        cam_to_world = None
+        for li in lights:
+            pose = li.pose
+            if li.camera_space:
+                if cam_to_world is None:
+                    cam_to_world = np.linalg.inv(np.asarray(view, dtype=np.float64))
+                pose = cam_to_world @ pose
+            records.append(li.light._core(pose))
+        ia = scene.ambient_light if scene.ambient_light is not None else (0.0, 0.0, 0.0)
+        result = (records, ia)
+    scene._render_cache["lights"] = (view, ambient, result)
+    return result
 
 
 def _draws(scene: Scene, shading: str, frequency: str) -> tuple[list[tuple], str]:
+    """The core's draw records and model (cached in the scene until it changes)."""
+    key = (shading, frequency)
+    cached = scene._render_cache.get(key)
+    if cached is None:
+        cached = scene._render_cache[key] = _make_draws(scene, shading, frequency)
+    return cached
+
+
+def _make_draws(scene: Scene, shading: str, frequency: str) -> tuple[list[tuple], str]:
     """The core's draw records and model: "lit" with each draw's reflectance model, or one of the
     core's fast kernels where every draw allows it (a scene of plain lambert meshes under the
     headlight keeps the headlight kernel; unlit, normal and uv have their own)."""
@@ -321,7 +337,7 @@ class Renderer:
 
         draws, model = _draws(scene, shading, frequency)
         view, proj = camera._render_matrices(w, h)
-        lights, ambient_light = _lighting(scene, camera, view, ambient_f)
+        lights, ambient_light = _lighting(scene, view, ambient_f)
         # Every option is checked above, once; the core gets them as one spec.
         buffers = self._core.render(draws, _spec(view, proj, camera.orthographic, camera.near,
                                                  camera.far, names, cull, model, bg, ambient_f,

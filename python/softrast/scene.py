@@ -62,6 +62,9 @@ class Scene:
     def __init__(self, ambient_light: Sequence[float] | None = None) -> None:
         self._instances: list[Instance] = []
         self._lights: list[LightInstance] = []
+        # What render.py derives from the scene for the core (draw and light records), kept
+        # until the scene changes: every change goes through add, clear or ambient_light.
+        self._render_cache: dict[Any, Any] = {}
         self.ambient_light = ambient_light  # checked by the property
 
     @property
@@ -71,6 +74,7 @@ class Scene:
 
     @ambient_light.setter
     def ambient_light(self, value: Sequence[float] | None) -> None:
+        self._render_cache.clear()
         if value is None:
             self._ambient_light = None
             return
@@ -105,6 +109,7 @@ class Scene:
             if not isinstance(camera_space, (bool, np.bool_)):
                 raise TypeError(f"camera_space must be True or False, got {camera_space!r:.80}")
             self._lights.append(LightInstance(item, _check_model_pose(pose), bool(camera_space)))
+            self._render_cache.clear()
             return len(self._lights) - 1
         if camera_space:
             raise ValueError("camera_space is for lights, not meshes")
@@ -126,6 +131,7 @@ class Scene:
             if mat is not None:
                 mat = mat.replace(base_color=rgba)
         self._instances.append(Instance(mesh, model, int(iid), rgba, mat))
+        self._render_cache.clear()
         return int(iid)
 
     @property
@@ -148,6 +154,7 @@ class Scene:
         """Remove every instance and light."""
         self._instances.clear()
         self._lights.clear()
+        self._render_cache.clear()
 
     @property
     def bounds(self) -> npt.NDArray[np.float64]:
