@@ -51,8 +51,9 @@ def test_public_api_renders_correctly_or_names_the_bad_argument():
 # Everything below runs in the child process.
 # ---------------------------------------------------------------------------------------------
 
-OUTPUTS = ("color", "depth", "mask", "normal", "triangle_id", "instance_id", "coverage")
-DTYPES = {"color": (np.uint8, 3), "depth": (np.float32, 0), "mask": (np.bool_, 0),
+OUTPUTS = ("color", "depth", "mask", "normal", "triangle_id", "instance_id", "coverage", "radiance")
+SHADINGS = ("auto", "unlit", "lambert", "phong", "blinn_phong", "pbr", "normal", "uv")
+DTYPES = {"radiance": (np.float32, 3), "color": (np.uint8, 3), "depth": (np.float32, 0), "mask": (np.bool_, 0),
           "normal": (np.float32, 3), "triangle_id": (np.int32, 0), "instance_id": (np.int32, 0),
           "coverage": (np.uint32, 0)}
 
@@ -176,10 +177,34 @@ def _strategies():
                                  st.lists(st.sampled_from(OUTPUTS), min_size=1, max_size=8).map(tuple)))
         return {"outputs": outputs,
                 "cull": draw(st.sampled_from(["back", "front", "none", "none"])),
-                "shading": draw(st.sampled_from(["lambert", "unlit"])),
+                "shading": draw(st.sampled_from(SHADINGS)),
+                "frequency": draw(st.sampled_from(["pixel", "pixel", "vertex", "face"])),
+                "srgb": draw(st.booleans()),
                 "shading_path": draw(st.sampled_from(["auto", "forward", "deferred"])),
                 "background": draw(rgb),
                 "ambient": draw(unit)}
+
+    @st.composite
+    def material_args(draw):
+        return {"base_color": draw(rgb), "ks": draw(rgb), "shininess": draw(st.sampled_from([0.0, 1.0, 32.0, 1e4])),
+                "metallic": draw(unit), "roughness": draw(unit), "emissive": draw(rgb),
+                "double_sided": draw(st.booleans()),
+                "model": draw(st.sampled_from([None, "lambert", "phong", "blinn_phong", "pbr", "unlit", "normal"]))}
+
+    @st.composite
+    def light_args(draw):
+        kind = draw(st.sampled_from(["directional", "point", "spot"]))
+        kw = {"color": draw(rgb), "intensity": draw(st.sampled_from([0.0, 1.0, 3.0, 1e3]))}
+        if kind != "directional":
+            kw["falloff"] = draw(st.sampled_from(["inverse_square", "none"]))
+        if kind == "spot":
+            outer = draw(floats(0.01, math.pi / 2))
+            kw["outer_cone"] = outer
+            kw["inner_cone"] = draw(floats(0.0, outer * 0.99))
+        pose = np.eye(4)
+        pose[:3, :3] = rotation(draw)
+        pose[:3, 3] = draw(st.tuples(*[floats(-5.0, 5.0)] * 3))
+        return kind, kw, pose, draw(st.booleans())
 
     # ---- bad values: (where, argument, value, expected name in the message) ----------------
     nan3 = (0.1, math.nan, 0.2)
@@ -194,7 +219,7 @@ def _strategies():
                                             np.zeros((0, 3), int), "012"]),
         ("mesh", "normals"): st.sampled_from(["abc", np.zeros((2, 3)), np.full((9, 3), np.inf), np.zeros((9, 2))]),
         ("mesh", "colors"): st.sampled_from(["abc", np.full((9, 3), 2.0), np.zeros((9, 5)), np.zeros((2, 3))]),
-        ("mesh", "color"): st.one_of(not_numbers_or_none, st.sampled_from([(2.0, 0.0, 0.0), (0.1, 0.2), nan3])),
+        ("mesh", "color"): st.one_of(not_numbers, st.sampled_from([(2.0, 0.0, 0.0), (0.1, 0.2), nan3])),  # None: the default
         ("add", "pose"): st.one_of(not_numbers, st.sampled_from([np.eye(3), np.full((4, 4), np.nan), np.ones((4, 4)),
                                                                  np.eye(4, dtype=bool), [["1"] * 4] * 4])),
         ("add", "instance_id"): st.one_of(not_numbers, st.sampled_from([-1, 2**31, 1.5, np.float64(2.0)])),
@@ -217,7 +242,18 @@ def _strategies():
                                                                    np.diag([-1.0, 1.0, 1.0, 1.0]), np.eye(3)])),
         ("render", "outputs"): st.sampled_from([None, 5, (), ("albedo",), ("color", 5), b"color", [None]]),
         ("render", "cull"): st.sampled_from([None, "BACK", 1, ["back"], "sideways"]),
-        ("render", "shading"): st.sampled_from([None, "phong", 0, ("lambert",)]),
+        ("render", "shading"): st.sampled_from([None, "toon", 0, ("lambert",), "lit"]),
+        ("render", "frequency"): st.sampled_from([None, "fragment", 1, ("pixel",)]),
+        ("render", "srgb"): st.sampled_from([None, "yes", 1, 0.0]),
+        ("material", "base_color"): st.one_of(not_numbers_or_none, st.sampled_from([(2.0, 0.0, 0.0), nan3, (0.1,)])),
+        ("material", "shininess"): st.one_of(not_numbers_or_none, st.sampled_from([-1.0, math.nan, math.inf])),
+        ("material", "metallic"): st.one_of(not_numbers_or_none, st.sampled_from([-0.1, 1.5, math.nan])),
+        ("material", "roughness"): st.one_of(not_numbers_or_none, st.sampled_from([-0.1, 2.0, math.nan])),
+        ("material", "model"): st.sampled_from(["toon", 1, "uv", "auto"]),
+        ("light", "intensity"): st.one_of(not_numbers_or_none, st.sampled_from([-1.0, math.nan, math.inf])),
+        ("light", "color"): st.one_of(not_numbers_or_none, st.sampled_from([(2.0, 0.0, 0.0), nan3, (0.5, 0.5)])),
+        ("spot", "outer_cone"): st.one_of(not_numbers_or_none, st.sampled_from([0.0, 2.0, -1.0, math.nan])),
+        ("spot", "inner_cone"): st.one_of(not_numbers_or_none, st.sampled_from([-0.1, 1.0, math.nan])),
         ("render", "shading_path"): st.sampled_from([None, "fast", 2]),
         ("render", "background"): st.one_of(not_numbers_or_none, st.sampled_from([(0.1, 0.2), (2.0, 0.0, 0.0), nan3,
                                                                           (True, 0, 0), ("0", "0", "0")])),
@@ -246,6 +282,9 @@ def _strategies():
         spec["adds"] = [{"pose": draw(st.one_of(st.none(), model_pose())),
                          "instance_id": draw(st.one_of(st.none(), st.integers(0, 2**31 - 1))),
                          "color": draw(st.one_of(st.none(), rgb))} for _ in spec["meshes"]]
+        spec["materials"] = [draw(st.one_of(st.none(), st.none(), material_args())) for _ in spec["meshes"]]
+        spec["lights"] = [draw(light_args()) for _ in range(draw(st.sampled_from([0, 0, 1, 2, 4])))]
+        spec["ambient_light"] = draw(st.one_of(st.none(), rgb))
         if which is not None:
             where, arg = which
             value = draw(bad[which])
@@ -256,9 +295,21 @@ def _strategies():
                 if not spec["meshes"]:
                     spec["meshes"].append(draw(mesh_args()))
                     spec["adds"].append({"pose": None, "instance_id": None, "color": None})
+                    spec["materials"].append(None)
                 spec["meshes" if where == "mesh" else "adds"][0][arg] = value
             elif where == "camera":
                 cam_kw[arg] = value
+            elif where == "material":
+                if not spec["meshes"]:
+                    spec["meshes"].append(draw(mesh_args()))
+                    spec["adds"].append({"pose": None, "instance_id": None, "color": None})
+                    spec["materials"].append(None)
+                spec["materials"][0] = dict(spec["materials"][0] or {}, **{arg: value})
+            elif where in ("light", "spot"):
+                kind = "spot" if where == "spot" else draw(st.sampled_from(["directional", "point", "spot"]))
+                kw = {"outer_cone": 0.5, "inner_cone": 0.2} if kind == "spot" else {}
+                kw[arg] = value
+                spec["lights"].insert(0, (kind, kw, np.eye(4), False))
             elif where in ("perspective", "orthographic", "intrinsics"):
                 if kind != where:
                     spec["camera"] = kind, cam_kw = draw(camera_args(w, h).filter(lambda c: c[0] == where))
@@ -317,6 +368,9 @@ def _check_frame(frame, spec, renderer, scene, cam):
         assert ((np.abs(length - 1.0) < 1e-5) | (length == 0.0)).all(), "normal neither unit nor 0"
     if frame.coverage is not None:
         assert (frame.coverage[hit] >= 1).all(), "visible pixel with coverage 0"
+    if frame.radiance is not None:
+        assert (frame.radiance[~hit] == 0).all(), "background radiance is not 0"
+        assert not np.isnan(frame.radiance).any(), "NaN radiance"
     if frame.color is not None:
         bg = np.asarray(spec["render"]["background"], dtype=np.float32)
         bg8 = (np.clip(bg, 0, 1) * np.float32(255.0) + np.float32(0.5)).astype(np.uint8)
@@ -331,10 +385,14 @@ def _run(spec):
     r = spec["renderer"]
     renderer = sr.Renderer(r["width"], r["height"], threads=r["threads"], simd=r["simd"])
     w, h = renderer.width, renderer.height
-    scene = sr.Scene()
-    for mesh_kw, add_kw in zip(spec["meshes"], spec["adds"]):
+    scene = sr.Scene(ambient_light=spec["ambient_light"])
+    for mesh_kw, add_kw, mat_kw in zip(spec["meshes"], spec["adds"], spec["materials"]):
         mesh = sr.Mesh(**mesh_kw)
-        scene.add(mesh, **add_kw)
+        material = None if mat_kw is None else sr.Material(**mat_kw)
+        scene.add(mesh, material=material, **add_kw)
+    kinds = {"directional": sr.DirectionalLight, "point": sr.PointLight, "spot": sr.SpotLight}
+    for kind, kw, pose, camera_space in spec["lights"]:
+        scene.add(kinds[kind](**kw), pose=pose, camera_space=camera_space)
     kind, cam_kw = spec["camera"]
     if kind == "perspective":
         cam = sr.PerspectiveCamera(**cam_kw)

@@ -108,7 +108,11 @@ class Scene:
                 raise ValueError("instance_id, color and material are for meshes, not lights")
             if not isinstance(camera_space, (bool, np.bool_)):
                 raise TypeError(f"camera_space must be True or False, got {camera_space!r:.80}")
-            self._lights.append(LightInstance(item, _check_model_pose(pose), bool(camera_space)))
+            light_pose = _check_model_pose(pose)
+            if not np.linalg.norm(light_pose[:3, 2]) > 0.0:
+                raise ValueError("pose: a light's pose must keep its z axis (the way it shines): "
+                                 "its third column is zero")
+            self._lights.append(LightInstance(item, light_pose, bool(camera_space)))
             self._render_cache.clear()
             return len(self._lights) - 1
         if camera_space:

@@ -1,0 +1,73 @@
+"""Renders a scene with pyrender 0.1.45 under OSMesa (Mesa's llvmpipe) for test_pbr_vs_pyrender.
+
+Run as a separate process so the test process never loads OpenGL:
+    PYOPENGL_PLATFORM=osmesa python3 tests/pyrender_child.py SPEC.json OUT_DIR
+SPEC.json (written by the test):
+    width, height, yfov (radians), znear, zfar, camera_pose (4x4), ambient (RGB),
+    lights: [{kind: "directional" | "point", color, intensity, pose}],
+    meshes: [{arrays: NPZ path with positions / faces / normals, base (RGBA), metallic,
+              roughness, pose}]     (explicit primitives: exactly these normals), and/or
+    gltf: a .glb path loaded with trimesh (process=False, as softrast.load_scene does) and
+          turned into nodes by pyrender.Scene.from_trimesh_scene.
+Writes OUT_DIR/color.npy ((H, W, 3) uint8, pyrender's bytes) and OUT_DIR/depth.npy ((H, W)
+float32, 0 where nothing was drawn). Exit status 3 with a message if pyrender cannot be imported.
+Imports neither softrast nor anything of the test suite.
+"""
+import json
+import os
+import sys
+
+os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
+
+import numpy as np  # noqa: E402
+
+if not hasattr(np, "infty"):  # pyrender 0.1.45's Mesh.bounds uses np.infty (removed in NumPy 2)
+    np.infty = np.inf
+
+try:
+    import pyrender  # noqa: E402
+    import trimesh  # noqa: E402
+except Exception as exc:  # ImportError, or PyOpenGL failing to find libOSMesa
+    sys.stderr.write(f"pyrender_child: cannot import pyrender with OSMesa: {type(exc).__name__}: {exc}\n")
+    sys.exit(3)
+
+
+def main(spec_path: str, out_dir: str) -> None:
+    with open(spec_path) as f:
+        spec = json.load(f)
+    scene = pyrender.Scene(ambient_light=np.asarray(spec["ambient"], float), bg_color=[0.0, 0.0, 0.0, 1.0])
+    if spec.get("gltf"):
+        loaded = trimesh.load(spec["gltf"], process=False)
+        scene = pyrender.Scene.from_trimesh_scene(loaded, bg_color=[0.0, 0.0, 0.0, 1.0],
+                                                  ambient_light=np.asarray(spec["ambient"], float))
+    for m in spec.get("meshes", []):
+        arrays = np.load(m["arrays"])
+        material = pyrender.MetallicRoughnessMaterial(
+            baseColorFactor=list(m["base"]), metallicFactor=float(m["metallic"]),
+            roughnessFactor=float(m["roughness"]))
+        prim = pyrender.Primitive(positions=arrays["positions"], normals=arrays["normals"],
+                                  indices=arrays["faces"], material=material)
+        scene.add(pyrender.Mesh(primitives=[prim]), pose=np.asarray(m["pose"], float))
+    for li in spec["lights"]:
+        if li["kind"] == "directional":
+            light = pyrender.DirectionalLight(color=li["color"], intensity=li["intensity"])
+        elif li["kind"] == "point":
+            light = pyrender.PointLight(color=li["color"], intensity=li["intensity"])
+        else:
+            raise ValueError(f"unknown light kind {li['kind']!r}")
+        scene.add(light, pose=np.asarray(li["pose"], float))
+    w, h = int(spec["width"]), int(spec["height"])
+    cam = pyrender.PerspectiveCamera(yfov=float(spec["yfov"]), znear=float(spec["znear"]),
+                                     zfar=float(spec["zfar"]), aspectRatio=w / h)
+    scene.add(cam, pose=np.asarray(spec["camera_pose"], float))
+    renderer = pyrender.OffscreenRenderer(w, h)
+    try:
+        color, depth = renderer.render(scene)
+    finally:
+        renderer.delete()
+    np.save(os.path.join(out_dir, "color.npy"), np.ascontiguousarray(color[..., :3]))
+    np.save(os.path.join(out_dir, "depth.npy"), np.ascontiguousarray(depth, dtype=np.float32))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1], sys.argv[2])
