@@ -14,6 +14,18 @@ table, not across runs):
   order     the same sphere with its vertices in trimesh's order, in order of first use by the
             faces, and shuffled (faces unchanged): what the mesh's vertex order costs
   threads   1 vs 2 threads
+  lit       issue 16: cost of each shading model per covered pixel and per light. ico6 (81,920
+            faces) at 1024x1024, colour+depth, frequency="pixel", srgb=False (the encoding is
+            timed apart), a white-ish Material with every model's parameters and 1, 2, 4 or 8
+            point lights in front of the sphere. ns per covered px = (time - depth-only time) /
+            covered pixels (so it holds the interpolation, the lighting and the colour write);
+            per light = the least-squares slope over 1..8 lights, fixed = the intercept (0
+            lights). The plain Lambert headlight (no lights, no material: today's fast path) and
+            sRGB encoding (srgb=True - srgb=False) are timed alongside.
+  litcg     the lit table in instructions (valgrind callgrind, 1 thread, counted only inside the
+            core's sr::Renderer::render, so Python is left out): repeatable under any load. With
+            --ab-old PATH also the Lambert rows' instructions, old build (softrast importable
+            from PATH) vs this checkout's python/
   overhead  Python cost per call: a 1x1 render of a 1-triangle scene
   memory    peak RSS of rendering the 1.3M-face sphere at 1024x1024 (a fresh subprocess) against
             the mesh's own arrays plus the framebuffers
@@ -44,7 +56,8 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FOV_Y_DEG, NEAR, FAR = 45.0, 0.05, 100.0
 SILHOUETTE_FRACTION = 0.8  # as bench_vs_pyrender.py: the sphere spans 0.8 of the image height
 ALL_OUTPUTS = sr.OUTPUTS
-SECTIONS = ("faces", "pixels", "outputs", "paths", "order", "threads", "overhead", "memory", "callgrind")
+SECTIONS = ("faces", "pixels", "outputs", "paths", "order", "threads", "lit", "litcg", "overhead",
+            "memory", "callgrind")
 
 
 def camera_distance() -> float:
@@ -283,6 +296,182 @@ def section_threads(opts):
         print(f"{'ico%d %dx%d' % sc:<18}{d1:>8.2f}{d2:>8.2f}{d1 / d2:>9.2f}{c1:>9.2f}{c2:>9.2f}{c1 / c2:>9.2f}")
 
 
+LIT_MODELS = ("unlit", "lambert", "phong", "blinn_phong", "pbr")
+LIT_COUNTS = (1, 2, 4, 8)
+
+
+class LitJob(Job):
+    """The sphere with a Material and `lights` point lights, rendered with one shading model."""
+
+    def __init__(self, key, sub, width, height, model, lights, srgb=False):
+        super().__init__(key, sub, width, height)
+        self.scene = sr.Scene(ambient_light=(0.05, 0.05, 0.05))
+        material = sr.Material(base_color=(0.8, 0.5, 0.3), ks=(0.5, 0.5, 0.5), shininess=32.0,
+                               metallic=0.2, roughness=0.4)
+        self.scene.add(_MESHES[sub], material=material)
+        d = camera_distance()
+        for k in range(lights):  # on a ring in front of the sphere, all lighting its visible side
+            a = 2 * math.pi * k / max(lights, 1)
+            pose = _translate(1.5 * math.cos(a), 1.5 * math.sin(a), 0.5 * d)
+            self.scene.add(sr.PointLight(color=(1.0, 1.0, 1.0), intensity=4.0 / max(lights, 1)), pose=pose)
+        self.kwargs = dict(outputs=("color", "depth"), shading=model, frequency="pixel", srgb=srgb)
+        self.frame = self.renderer.render(self.scene, self.cam, **self.kwargs)
+
+
+def section_lit(opts):
+    sub, size = 6, 1024
+    print(f"\n## Lit shading (issue 16): ns per covered pixel by model and point lights; ico{sub} "
+          f"{size}x{size}, colour+depth, frequency=pixel, srgb=False, threads 2, out=")
+    counts = LIT_COUNTS if not opts.quick else (1, 4)
+    jobs = [Job("depth", sub, size, size, outputs=("depth",)),
+            Job("headlight", sub, size, size),  # no lights, no material: the plain Lambert path
+            LitJob(("lambert", 1, "srgb"), sub, size, size, "lambert", 1, srgb=True)]
+    jobs += [LitJob((m, n), sub, size, size, m, n) for m in LIT_MODELS for n in counts]
+    run_interleaved(jobs, opts.target, opts.rounds)
+    by = {j.key: j for j in jobs}
+    depth = by["depth"]
+    cov = depth.covered
+    ns = lambda j: 1e6 * (j.ms - depth.ms) / cov  # noqa: E731
+    print(f"depth only {depth.ms:.2f} ms; {cov:,} covered px; plain Lambert headlight (no lights, no "
+          f"material) {by['headlight'].ms:.2f} ms = {ns(by['headlight']):.2f} ns/covered px over depth")
+    print(f"{'model':<13}" + "".join(f"{str(n) + ' light' + ('s' if n > 1 else '') + ' ms':>13}" for n in counts)
+          + "".join(f"{'ns/px ' + str(n):>10}" for n in counts) + f"{'fixed ns/px':>13}{'ns/px/light':>13}")
+    rows = {}
+    for m in LIT_MODELS:
+        ms = [by[(m, n)].ms for n in counts]
+        per = [ns(by[(m, n)]) for n in counts]
+        a, b, _ = linear_fit(list(counts), per) if len(counts) > 1 else (per[0], float("nan"), 0)
+        rows[m] = (ms, per, a, b)
+        print(f"{m:<13}" + "".join(f"{x:>13.2f}" for x in ms) + "".join(f"{x:>10.2f}" for x in per)
+              + f"{a:>13.2f}{b:>13.2f}")
+    srgb, lin = by[("lambert", 1, "srgb")], by[("lambert", 1)]
+    print(f"sRGB encoding (lambert, 1 light, srgb=True - srgb=False): {srgb.ms - lin.ms:+.2f} ms = "
+          f"{1e6 * (srgb.ms - lin.ms) / cov:+.2f} ns/covered px")
+    print("(2 threads: ns are wall time over both cores; per core, double them)")
+
+
+# Runs under valgrind in a fresh interpreter (no trimesh import: the mesh comes from an .npz):
+# renders one configuration `renders` times (the first into new arrays, then out=); callgrind
+# counts only inside sr::Renderer::render.
+LITCG_CHILD = r"""
+import json, math, sys
+import numpy as np, softrast as sr
+spec = json.loads(sys.argv[1])
+arrays = np.load(spec["mesh"])  # the icosphere's float32 positions and normals, int32 faces
+mesh = sr.Mesh(arrays["p"], arrays["f"], normals=arrays["n"])
+w, h = spec["size"]
+d = 1.0 / math.sin(math.atan(0.8 * math.tan(math.radians(45.0) / 2)))
+cam = sr.PerspectiveCamera(fov_y=45.0, width=w, height=h, near=0.05, far=100.0)
+cam.look_at(eye=(0.0, 0.0, d), target=(0.0, 0.0, 0.0), up=(0.0, 1.0, 0.0))
+kw = dict(outputs=tuple(spec["outputs"]))
+if spec.get("model") is None:
+    scene = sr.Scene(); scene.add(mesh, color=(1.0, 1.0, 1.0))
+    if "srgb" in spec:
+        kw["srgb"] = spec["srgb"]
+else:
+    scene = sr.Scene(ambient_light=(0.05, 0.05, 0.05))
+    scene.add(mesh, material=sr.Material(base_color=(0.8, 0.5, 0.3), ks=(0.5, 0.5, 0.5), shininess=32.0,
+                                         metallic=0.2, roughness=0.4))
+    n = spec["lights"]
+    for k in range(n):
+        a = 2 * math.pi * k / n
+        pose = np.eye(4); pose[:3, 3] = (1.5 * math.cos(a), 1.5 * math.sin(a), 0.5 * d)
+        scene.add(sr.PointLight(color=(1.0, 1.0, 1.0), intensity=4.0 / n), pose=pose)
+    kw.update(shading=spec["model"], frequency="pixel", srgb=spec.get("srgb", False))
+r = sr.Renderer(w, h, threads=1)
+frame = r.render(scene, cam, **kw)
+for _ in range(spec["renders"] - 1):
+    r.render(scene, cam, out=frame, **kw)
+print(json.dumps({"covered": int((r.render(scene, cam, outputs=("depth",)).depth > 0).sum())
+                  if spec["count_cover"] else None}))
+"""
+
+
+def _callgrind_renders(specs, pythonpath, parallel=2):
+    """Instructions per render inside sr::Renderer::render for each spec (dict), run `parallel`
+    valgrind processes at a time. Returns [(instructions per render, covered px or None)]."""
+    import concurrent.futures
+    # The interpreter itself (a pyenv shim would hide it from valgrind).
+    exe = os.path.realpath(sys.executable)
+    meshes = tempfile.TemporaryDirectory()
+    for sub in sorted({spec["sub"] for spec in specs}):
+        tm = trimesh.creation.icosphere(subdivisions=sub)
+        np.savez(os.path.join(meshes.name, f"ico{sub}.npz"), p=np.asarray(tm.vertices, np.float32),
+                 f=np.asarray(tm.faces, np.int32), n=np.asarray(tm.vertex_normals, np.float32))
+    specs = [dict(spec, mesh=os.path.join(meshes.name, f"ico{spec['sub']}.npz")) for spec in specs]
+
+    def one(spec):
+        with tempfile.TemporaryDirectory() as tmp:
+            out = os.path.join(tmp, "cg.out")
+            env = dict(os.environ, PYTHONPATH=pythonpath)
+            run = subprocess.run(["valgrind", "--tool=callgrind", "--collect-atstart=no",
+                                  "--toggle-collect=sr::Renderer::render*", f"--callgrind-out-file={out}",
+                                  exe, "-c", LITCG_CHILD, json.dumps(spec)],
+                                 capture_output=True, text=True, env=env)
+            if run.returncode != 0:
+                raise RuntimeError(f"callgrind failed for {spec}: {run.stderr[-1500:]}")
+            with open(out) as fh:
+                total = next(int(line.split()[1]) for line in fh if line.startswith("totals:"))
+            renders = spec["renders"] + (1 if spec["count_cover"] else 0)
+            return total / renders if not spec["count_cover"] else None, json.loads(run.stdout.strip().splitlines()[-1])
+    with meshes, concurrent.futures.ThreadPoolExecutor(parallel) as pool:
+        return list(pool.map(one, specs))
+
+
+def section_litcg(opts):
+    if not shutil.which("valgrind"):
+        print("\n## litcg skipped: valgrind is needed (bash benchmarks/setup_baselines.sh installs it)")
+        return
+    new_path = os.path.join(REPO, "python")
+    sub, size, renders = 6, (1024, 1024), 2
+    counts = LIT_COUNTS if not opts.quick else (1, 4)
+    print(f"\n## Lit shading in instructions (callgrind, 1 thread, inside sr::Renderer::render only): "
+          f"ico{sub} {size[0]}x{size[1]}, colour+depth, frequency=pixel, srgb=False; mean of {renders} renders")
+    base = dict(sub=sub, size=size, renders=renders, count_cover=False)
+    specs = [dict(base, outputs=["depth"], count_cover=True), dict(base, outputs=["depth"]),
+             dict(base, outputs=["color", "depth"]), dict(base, outputs=["color", "depth"], model="lambert",
+                                                           lights=1, srgb=True)]
+    specs += [dict(base, outputs=["color", "depth"], model=m, lights=n) for m in LIT_MODELS for n in counts]
+    res = _callgrind_renders(specs, new_path)
+    cov = res[0][1]["covered"]
+    depth = res[1][0]
+    ipx = lambda i: (i - depth) / cov  # noqa: E731
+    print(f"depth only {depth / 1e6:.1f} M instructions per render; {cov:,} covered px; plain Lambert "
+          f"headlight {res[2][0] / 1e6:.1f} M = {ipx(res[2][0]):.1f} instr/covered px over depth")
+    print(f"{'model':<13}" + "".join(f"{'M instr ' + str(n) + 'L':>13}" for n in counts)
+          + "".join(f"{'i/px ' + str(n) + 'L':>9}" for n in counts) + f"{'fixed i/px':>12}{'i/px/light':>12}")
+    by = {(s.get("model"), s.get("lights")): r[0] for s, r in zip(specs[4:], res[4:])}
+    for m in LIT_MODELS:
+        per = [ipx(by[(m, n)]) for n in counts]
+        a, b, _ = linear_fit(list(counts), per)
+        print(f"{m:<13}" + "".join(f"{by[(m, n)] / 1e6:>13.1f}" for n in counts)
+              + "".join(f"{x:>9.1f}" for x in per) + f"{a:>12.1f}{b:>12.1f}")
+    print(f"sRGB encoding (lambert, 1 light): {(res[3][0] - by[('lambert', 1)]) / cov:+.1f} instr/covered px")
+
+    if not opts.ab_old:
+        return
+    print(f"\n## Lambert rows in instructions, old build ({opts.ab_old}) vs new (callgrind, 1 thread, "
+          f"inside sr::Renderer::render only; mean of {renders} renders, out= after the first)")
+    cases = [(6, (640, 480)), (6, (1024, 1024))]  # larger meshes take minutes under valgrind
+    variants = [("color+depth", ["color", "depth"], {}), ("depth", ["depth"], {})]
+    old_specs = [dict(sub=c[0], size=c[1], renders=renders, count_cover=False, outputs=o) for c in cases
+                 for _, o, _ in variants]
+    new_specs = [dict(s, srgb=False) if s["outputs"] != ["depth"] else dict(s) for s in old_specs]
+    new_srgb = [dict(s, srgb=True) for s in old_specs if s["outputs"] != ["depth"]]
+    old_res = _callgrind_renders(old_specs, opts.ab_old)
+    new_res = _callgrind_renders(new_specs + new_srgb, new_path)
+    print(f"{'case':<30}{'old':>14}{'new':>14}{'new/old':>9}")
+    k_srgb = len(new_specs)
+    for i, s in enumerate(old_specs):
+        label = f"ico{s['sub']} {s['size'][0]}x{s['size'][1]} {'+'.join(s['outputs'])}"
+        o, n = old_res[i][0], new_res[i][0]
+        print(f"{label + (' linear' if len(s['outputs']) > 1 else ''):<30}{o:>14,.0f}{n:>14,.0f}{n / o:>9.4f}")
+        if len(s["outputs"]) > 1:
+            n2 = new_res[k_srgb][0]
+            k_srgb += 1
+            print(f"{label + ' sRGB':<30}{o:>14,.0f}{n2:>14,.0f}{n2 / o:>9.4f}")
+
+
 def section_overhead(opts):
     print("\n## Python overhead per frame: 1x1 image, one triangle (goal: < 50 us)")
     tri = sr.Mesh(np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], np.float32), np.array([[0, 1, 2]], np.int32))
@@ -468,6 +657,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="fewer repetitions, no sub 8 / 4096 / 2048 rows")
     ap.add_argument("--sections", default=",".join(SECTIONS), help="comma-separated: " + ",".join(SECTIONS))
+    ap.add_argument("--ab-old", default=None, metavar="PATH",
+                    help="litcg: also count the Lambert rows' instructions with the old build importable from PATH")
     opts = ap.parse_args(argv)
     opts.target, opts.rounds = (0.3, 3) if opts.quick else (1.2, 5)
     sections = opts.sections.split(",")

@@ -3,6 +3,8 @@
 Run ``bash benchmarks/setup_baselines.sh`` once first, then::
 
     python3 benchmarks/bench_vs_pyrender.py [--quick] [--rows 0,1,4] [--json out.json]
+    python3 benchmarks/bench_vs_pyrender.py --lit [--lit-only] [--png DIR]    # issue 16's lit rows
+    python3 benchmarks/bench_vs_pyrender.py --ab OLD_PYTHONPATH [--rows 1,2,3,4]  # Lambert A/B
 
 Scenes: trimesh icospheres (radius 1, smooth normals) seen by a 45-degree perspective camera at a
 distance that makes the sphere's silhouette 0.8 of the image height (about half of a square
@@ -19,6 +21,21 @@ Columns:
              (colour+depth only; the raw [0, 1] depth buffer, not linearised as the others are)
   softrast   Renderer(w, h, threads).render(scene, cam, outputs=...), "out" = into the frame of
              an earlier render (out=frame, as a batch user would), "new" = fresh arrays per frame
+Lit rows (--lit, issue 16): "blinn_phong" with 4 point lights and "pbr" with one directional and
+two point lights, on ico6 at 640x480 and 1024x1024 and on Spot (assets/meshes/spot.obj, vertices
+merged, no texture) at 640x480; the same lights, poses, ambient light and base colour in both
+renderers. pyrender has no Blinn-Phong: both rows run its standard metallic-roughness shader
+(MetallicRoughnessMaterial), which is what a pyrender user would run. softrast cells: t2 and t1
+colour+depth into out=, with the default sRGB-encoded colour, and t2 with srgb=False (linear).
+--png DIR writes each lit row's colour image from each renderer.
+
+--ab OLD_PYTHONPATH (Lambert rows, old build vs new): two worker processes, one importing softrast
+from OLD_PYTHONPATH and one from this file's ../python (the new build), each holding the rows'
+scenes and renderers; the parent alternates blocks of frames between them (only one renders at a
+time, who goes first alternating), cell by cell, and reports medians over all frames and new/old.
+The old build is timed as the bench always timed it; the new one with srgb=False (the kernels'
+cost, the same bits as the old build) and with the default srgb=True.
+
 The "first" column is context + first frame: creating the renderer (and its GL context), uploading
 the scene and rendering and reading back one colour+depth frame; scene build (mesh conversion and
 Scene construction from a trimesh) is reported apart.
@@ -297,6 +314,316 @@ class SoftrastRow:
         return cells
 
 
+# ------------------------------------------------------------------------- lit rows (issue 16)
+
+# (model, scene, width, height): scene is "ico6" or "spot".
+LIT_ROWS = [("blinn_phong", "ico6", 640, 480), ("blinn_phong", "ico6", 1024, 1024),
+            ("blinn_phong", "spot", 640, 480), ("pbr", "ico6", 640, 480),
+            ("pbr", "ico6", 1024, 1024), ("pbr", "spot", 640, 480)]
+LIT_GOAL = 20.0  # issue 16: lit rows >= 20x pyrender
+LIT_BASE = (0.8, 0.5, 0.3)  # linear base colour of every lit row
+LIT_AMBIENT = 0.05
+SPOT_PATH = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "assets", "meshes",
+                         "spot.obj")
+# Point lights: (offset in the camera's axes, in units of the object's radius, RGB); intensity
+# scaled by radius**2 so every scene gets the same irradiance. Offsets are towards the camera.
+LIT_POINTS = {"blinn_phong": [((1.5, 1.5, 1.5), (1.0, 0.9, 0.8)), ((-1.5, 1.5, 1.5), (0.8, 0.9, 1.0)),
+                              ((1.5, -1.5, 1.5), (0.9, 1.0, 0.9)), ((-1.5, -1.5, 1.5), (1.0, 1.0, 1.0))],
+              "pbr": [((1.5, 1.5, 1.5), (1.0, 0.9, 0.8)), ((-1.5, -1.0, 1.5), (0.8, 0.9, 1.0))]}
+LIT_POINT_INTENSITY = {"blinn_phong": 3.0, "pbr": 6.0}
+LIT_DIRECTIONAL = {"pbr": [((-0.4, 0.6, 1.0), (1.0, 1.0, 1.0), 2.0)]}  # from the light, camera axes
+
+
+def look_at(eye, target, up=(0.0, 1.0, 0.0)) -> np.ndarray:
+    """A 4x4 pose (OpenGL: -z towards target) at eye."""
+    eye, target, up = (np.asarray(v, float) for v in (eye, target, up))
+    z = eye - target
+    z /= np.linalg.norm(z)
+    x = np.cross(up, z)
+    x /= np.linalg.norm(x)
+    pose = np.eye(4)
+    pose[:3, 0], pose[:3, 1], pose[:3, 2], pose[:3, 3] = x, np.cross(z, x), z, eye
+    return pose
+
+
+class LitScene:
+    """The geometry, camera pose and lights (world poses) of one lit row, for both renderers."""
+
+    def __init__(self, model: str, scene: str, width: int, height: int) -> None:
+        self.model, self.name, self.width, self.height = model, scene, width, height
+        if scene == "spot":
+            raw = trimesh.load(SPOT_PATH, force="mesh", process=False)
+            # Only the geometry: vertices merged across the texture seams, no texture.
+            self.tm = trimesh.Trimesh(vertices=raw.vertices, faces=raw.faces, process=True)
+            centre = self.tm.bounds.mean(axis=0)
+            radius = float(np.linalg.norm(self.tm.vertices - centre, axis=1).max())
+            view_dir = np.array([1.0, 0.4, 1.0]) / np.linalg.norm([1.0, 0.4, 1.0])  # 3/4 view
+        else:
+            self.tm = trimesh.creation.icosphere(subdivisions=int(scene[3:]), radius=1.0)
+            centre, radius, view_dir = np.zeros(3), 1.0, np.array([0.0, 0.0, 1.0])
+        self.cam_pose = look_at(centre + radius * camera_distance() * view_dir, centre)
+        rot = self.cam_pose[:3, :3]
+        self.points = []  # (pose, rgb, intensity)
+        for offset, rgb in LIT_POINTS[model]:
+            pose = np.eye(4)
+            pose[:3, 3] = centre + radius * (rot @ np.asarray(offset))
+            self.points.append((pose, rgb, LIT_POINT_INTENSITY[model] * radius ** 2))
+        self.directionals = []
+        for from_dir, rgb, intensity in LIT_DIRECTIONAL.get(model, []):
+            d = rot @ np.asarray(from_dir, float)
+            self.directionals.append((look_at(centre + d, centre), rgb, intensity))
+
+    @property
+    def label(self) -> str:
+        return f"{self.model} {self.name} {self.width}x{self.height}"
+
+
+class PyrenderLitRow(PyrenderRow):
+    """pyrender with the lit row's lights and a MetallicRoughnessMaterial (its standard shader)."""
+
+    def __init__(self, pyrender, lit: LitScene) -> None:
+        self.lit = lit
+        super().__init__(pyrender, lit.tm, lit.width, lit.height)
+
+    def _scene(self, tm, width, height):
+        pr, lit = self.pyrender, self.lit
+        scene = pr.Scene(ambient_light=[LIT_AMBIENT] * 3, bg_color=[0.0, 0.0, 0.0, 0.0])
+        metallic, roughness = (0.2, 0.4) if lit.model == "pbr" else (0.0, 0.5)
+        material = pr.MetallicRoughnessMaterial(baseColorFactor=(*LIT_BASE, 1.0), metallicFactor=metallic,
+                                                roughnessFactor=roughness)
+        scene.add(pr.Mesh.from_trimesh(tm, material=material, smooth=True))
+        scene.add(pr.PerspectiveCamera(yfov=math.radians(FOV_Y_DEG), aspectRatio=width / height,
+                                       znear=NEAR, zfar=FAR), pose=lit.cam_pose)
+        for pose, rgb, intensity in lit.points:
+            scene.add(pr.PointLight(color=rgb, intensity=intensity), pose=pose)
+        for pose, rgb, intensity in lit.directionals:
+            scene.add(pr.DirectionalLight(color=rgb, intensity=intensity), pose=pose)
+        return scene
+
+    def cells(self) -> list[Cell]:
+        r, s = self.renderer, self.scene
+        return [Cell("pyrender color+depth", lambda: r.render(s))]
+
+
+class SoftrastLitRow:
+    """softrast with the lit row's lights and material; t2 and t1 renderers."""
+
+    def __init__(self, lit: LitScene, threads: tuple[int, ...] = (2, 1)) -> None:
+        self.lit = lit
+        self.build_ms, self.scene = timed_once(lambda: self._scene(fresh_trimesh(lit.tm)))
+        self.cam = sr.PerspectiveCamera(fov_y=FOV_Y_DEG, width=lit.width, height=lit.height, near=NEAR, far=FAR)
+        self.cam.pose = lit.cam_pose
+        self.kwargs = dict(outputs=("color", "depth"), shading=lit.model, frequency="pixel")
+        self.renderers, self.first_ms = {}, {}
+        for t in threads:
+            self.first_ms[t], self.renderers[t] = timed_once(
+                lambda t=t: self._first(lit.width, lit.height, t))
+        self.coverage = float((self.renderers[threads[0]].render(self.scene, self.cam, **self.kwargs)
+                               .depth > 0).mean())
+
+    def _scene(self, tm):
+        lit = self.lit
+        scene = sr.Scene(ambient_light=(LIT_AMBIENT,) * 3)
+        if lit.model == "pbr":
+            material = sr.Material(base_color=LIT_BASE, metallic=0.2, roughness=0.4, model="pbr")
+        else:
+            material = sr.Material(base_color=LIT_BASE, ks=(0.5, 0.5, 0.5), shininess=32.0, model="blinn_phong")
+        scene.add(sr.Mesh.from_trimesh(tm), material=material)
+        for pose, rgb, intensity in lit.points:
+            scene.add(sr.PointLight(color=rgb, intensity=intensity), pose=pose)
+        for pose, rgb, intensity in lit.directionals:
+            scene.add(sr.DirectionalLight(color=rgb, intensity=intensity), pose=pose)
+        return scene
+
+    def _first(self, width, height, threads):
+        renderer = sr.Renderer(width, height, threads=threads)
+        renderer.render(self.scene, self.cam, **self.kwargs)
+        return renderer
+
+    def cells(self) -> list[Cell]:
+        s, cam, kw = self.scene, self.cam, self.kwargs
+        cells = []
+        for t, r in self.renderers.items():
+            f = r.render(s, cam, **kw)
+            cells.append(Cell(f"softrast t{t} color+depth out",
+                              lambda r=r, f=f: r.render(s, cam, out=f, **kw)))
+            if t == max(self.renderers):
+                lin = r.render(s, cam, srgb=False, **kw)
+                cells.append(Cell(f"softrast t{t} color+depth out linear",
+                                  lambda r=r, f=lin: r.render(s, cam, out=f, srgb=False, **kw)))
+        return cells
+
+
+def run_lit(rows, pyrender, pyrender_error, target_s, n_min, n_max, rounds, png_dir) -> list[dict]:
+    results = []
+    for model, scene_name, w, h in rows:
+        lit = LitScene(model, scene_name, w, h)
+        res = {"row": lit.label, "model": model, "scene": scene_name, "faces": len(lit.tm.faces),
+               "width": w, "height": h, "errors": {}}
+        cells: list[Cell] = []
+        pr = None
+        if pyrender is not None:
+            try:
+                pr = PyrenderLitRow(pyrender, lit)
+                cells += pr.cells()
+            except Exception as exc:  # noqa: BLE001
+                res["errors"]["pyrender"] = f"{type(exc).__name__}: {exc}"
+        srow = SoftrastLitRow(lit)
+        cells += srow.cells()
+        if png_dir:
+            os.makedirs(png_dir, exist_ok=True)
+            stem = os.path.join(png_dir, f"{model}_{scene_name}_{w}x{h}")
+            sr.imwrite(stem + "_softrast.png", srow.renderers[2].render(srow.scene, srow.cam, **srow.kwargs).color)
+            if pr is not None:
+                sr.imwrite(stem + "_pyrender.png", pr.renderer.render(pr.scene)[0])
+        run_interleaved(cells, target_s, n_min, n_max, rounds)
+        res["ms"] = {c.name: c.median_ms for c in cells}
+        res["n"] = {c.name: len(c.times) for c in cells}
+        res["coverage"] = srow.coverage
+        res["first_ms"] = {"pyrender": pr.first_ms if pr else float("nan"),
+                           **{f"softrast t{t}": v for t, v in srow.first_ms.items()}}
+        if pr is not None:
+            pr.close()
+        results.append(res)
+        print(f"  done {lit.label}: " + ", ".join(f"{k} {v:.2f}" for k, v in res["ms"].items()), flush=True)
+    return results
+
+
+def report_lit(results: list[dict]) -> None:
+    get = lambda r, k: r["ms"].get(k, float("nan"))  # noqa: E731
+    print("\nLit rows (issue 16): median ms per colour+depth frame (steady state, out=, readback included);"
+          "\npyrender runs its standard metallic-roughness shader for both models (it has no Blinn-Phong);"
+          "\nsr = softrast (sRGB-encoded colour unless 'lin'), t2/t1 = threads")
+    head = (f"{'model':<12}{'scene':<7}{'faces':>8}{'size':>10}{'cover':>6}{'pyrender':>9}{'sr t2':>8}"
+            f"{'sr t2 lin':>10}{'sr t1':>8}{'xpyr t2':>9}{'xpyr t1':>9}  goal >= {LIT_GOAL:.0f}x (t2)")
+    print(head)
+    print("-" * len(head))
+    for r in results:
+        pyr, t2, lin, t1 = (get(r, k) for k in ("pyrender color+depth", "softrast t2 color+depth out",
+                                                "softrast t2 color+depth out linear",
+                                                "softrast t1 color+depth out"))
+        x = ratio(pyr, t2)
+        verdict = "n/a" if x != x else ("MET" if x >= LIT_GOAL else f"NOT MET (short by {LIT_GOAL / x:.2f}x)")
+        print(f"{r['model']:<12}{r['scene']:<7}{r['faces']:>8,}{str(r['width']) + 'x' + str(r['height']):>10}"
+              f"{100 * r['coverage']:>5.0f}%{fmt(pyr, 9)}{fmt(t2, 8, 2)}{fmt(lin, 10, 2)}{fmt(t1, 8, 2)}"
+              f"{fmt(ratio(pyr, t2), 9)}{fmt(ratio(pyr, t1), 9)}  {verdict}")
+    errors = {k: v for r in results for k, v in r["errors"].items()}
+    for name, err in errors.items():
+        print(f"  {name}: {err}")
+
+
+# ------------------------------------------------------------------ Lambert A/B (old vs new)
+
+
+def ab_cells(sr_mod, rows, new: bool) -> dict[str, Callable[[], object]]:
+    """The Lambert cells of `rows` for one build: {key: frame callable}."""
+    cells = {}
+    for sub, w, h in rows:
+        tm = trimesh.creation.icosphere(subdivisions=sub, radius=1.0)
+        scene = sr_mod.Scene()
+        scene.add(sr_mod.Mesh.from_trimesh(fresh_trimesh(tm)), color=(1.0, 1.0, 1.0))
+        cam = sr_mod.PerspectiveCamera(fov_y=FOV_Y_DEG, width=w, height=h, near=NEAR, far=FAR)
+        cam.pose = camera_pose()
+        row = f"ico{sub} {w}x{h}"
+        for t in (2, 1):
+            r = sr_mod.Renderer(w, h, threads=t)
+            variants = [("color+depth", ("color", "depth"), {}), ("depth", ("depth",), {})]
+            if new:  # the old build has no srgb=; its colour is linear
+                variants = [("color+depth", ("color", "depth"), {"srgb": False}),
+                            ("color+depth srgb", ("color", "depth"), {"srgb": True}),
+                            ("depth", ("depth",), {})]
+            for name, outs, kw in variants:
+                f = r.render(scene, cam, outputs=outs, **kw)
+                cells[f"{row} t{t} {name}"] = (lambda r=r, f=f, outs=outs, kw=kw, s=scene, c=cam:
+                                               r.render(s, c, outputs=outs, out=f, **kw))
+    return cells
+
+
+def ab_worker(rows) -> int:
+    """Worker of --ab: holds one build's cells, times blocks on request (JSON lines on stdio)."""
+    import hashlib
+    cells = ab_cells(sr, rows, new=hasattr(sr, "Material"))
+    digests = {}
+    for key, fn in cells.items():
+        fr = fn()
+        digests[key] = hashlib.sha1(b"".join(np.ascontiguousarray(a).tobytes() for a in
+                                             (fr.color, fr.depth) if a is not None)).hexdigest()[:12]
+    print(json.dumps({"ready": list(cells), "file": sr.__file__, "digest": digests}), flush=True)
+    for line in sys.stdin:
+        cmd = json.loads(line)
+        if cmd.get("quit"):
+            break
+        fn = cells[cmd["cell"]]
+        times = []
+        for _ in range(cmd["n"]):
+            t0 = time.perf_counter()
+            fn()
+            times.append(time.perf_counter() - t0)
+        print(json.dumps({"times": times}), flush=True)
+    return 0
+
+
+def run_ab(old_path: str, rows, target_s: float, rounds: int) -> dict:
+    new_path = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "python")
+    rows_arg = ",".join(str(ROWS.index(r)) for r in rows)
+    workers = {}
+    for name, path in (("old", old_path), ("new", new_path)):
+        env = dict(os.environ, PYTHONPATH=path)
+        proc = subprocess.Popen([sys.executable, os.path.abspath(__file__), "--ab-worker", "--rows", rows_arg],
+                                stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env)
+        workers[name] = (proc, json.loads(proc.stdout.readline()))
+        print(f"{name}: softrast from {workers[name][1]['file']}", flush=True)
+
+    def block(name, cell, n):
+        proc = workers[name][0]
+        proc.stdin.write(json.dumps({"cell": cell, "n": n}) + "\n")
+        proc.stdin.flush()
+        return json.loads(proc.stdout.readline())["times"]
+
+    # (old cell, new cell) pairs; the old cell is the baseline of every new variant.
+    pairs = []
+    for key in workers["new"][1]["ready"]:
+        old_key = key.replace(" srgb", "")
+        pairs.append((old_key, key))
+    same_bits = {key: workers["new"][1]["digest"][key] == workers["old"][1]["digest"][key]
+                 for key in workers["old"][1]["ready"] if key in workers["new"][1]["digest"]}
+    times = {("old", k): [] for k in workers["old"][1]["ready"]}
+    times.update({("new", k): [] for k in workers["new"][1]["ready"]})
+    counts = {}
+    for name, key in times:  # size blocks from one warm-up block
+        est = statistics.median(block(name, key, 3))
+        counts[(name, key)] = max(3, min(400, math.ceil(target_s / max(est, 1e-6) / rounds)))
+    for r in range(rounds):
+        for old_key, new_key in pairs:
+            order = [("old", old_key), ("new", new_key)]
+            if r % 2:
+                order.reverse()
+            for name, key in order:
+                times[(name, key)] += block(name, key, counts[(name, key)])
+    for proc, _ in workers.values():
+        proc.stdin.write(json.dumps({"quit": True}) + "\n")
+        proc.stdin.flush()
+        proc.wait()
+    ms = {f"{name} {key}": 1e3 * statistics.median(v) for (name, key), v in times.items()}
+    return {"ms": ms, "pairs": pairs, "same_bits": same_bits, "rounds": rounds,
+            "n": {f"{name} {key}": len(v) for (name, key), v in times.items()}}
+
+
+def report_ab(ab: dict) -> None:
+    print("\nLambert A/B, old build vs new, in one run (median ms per frame, out=, readback included);"
+          "\nnew linear = srgb=False (the same kernels' work as old), new sRGB = the default srgb=True")
+    head = f"{'cell':<34}{'old':>9}{'new':>9}{'new/old':>9}  same bits as old"
+    print(head)
+    print("-" * len(head))
+    for old_key, new_key in ab["pairs"]:
+        o, n = ab["ms"][f"old {old_key}"], ab["ms"][f"new {new_key}"]
+        label = new_key + (" linear" if new_key.endswith("color+depth") else "")
+        bits = "" if new_key.endswith("srgb") else ("yes" if ab["same_bits"].get(old_key) else "NO")
+        print(f"{label:<34}{o:>9.3f}{n:>9.3f}{n / o:>9.3f}  {bits}")
+    print("(same bits: each build makes its mesh with its own Mesh.from_trimesh, whose vertex normals"
+          "\n may differ in the last bits between builds; colour then differs by 1/255 at a few pixels)")
+
+
 # ------------------------------------------------------------------------------- report
 
 
@@ -340,17 +667,51 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-moderngl", action="store_true")
     ap.add_argument("--json", help="also write every median to this JSON file")
     ap.add_argument("--from-json", help="print the tables of an earlier --json file and exit")
+    ap.add_argument("--lit", action="store_true", help="also run issue 16's lit rows (blinn_phong, pbr)")
+    ap.add_argument("--lit-only", action="store_true", help="run only the lit rows")
+    ap.add_argument("--png", help="write each lit row's colour image from each renderer into this directory")
+    ap.add_argument("--ab", metavar="OLD_PYTHONPATH",
+                    help="only the Lambert A/B: the old build (softrast importable from this path) vs "
+                         "this checkout's python/ (default rows 1,2,3,4)")
+    ap.add_argument("--ab-rounds", type=int, default=None, help="alternations of --ab (default 8, --quick 3)")
+    ap.add_argument("--ab-worker", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.from_json:
         with open(args.from_json) as fh:
-            report(json.load(fh), None, None)
+            data = json.load(fh)
+        if isinstance(data, list):
+            data = {"lambert": data}
+        if data.get("lambert"):
+            report(data["lambert"], None, None)
+        if data.get("lit"):
+            report_lit(data["lit"])
+        if data.get("ab"):
+            report_ab(data["ab"])
         return 0
 
     if args.rows:
         rows = [ROWS[int(i)] for i in args.rows.split(",")]
+    elif args.ab or args.ab_worker:
+        rows = ROWS[1:]
     else:
         rows = [r for r in ROWS if not (args.quick and r[1] >= 2048)]
     target_s, n_min, n_max, rounds = (0.3, 3, 60, 3) if args.quick else (1.5, 7, 400, 7)
+    if args.ab_worker:
+        return ab_worker(rows)
+    if args.ab:
+        for line in machine_lines():
+            print(line)
+        ab_rounds = args.ab_rounds or (3 if args.quick else 8)
+        print(f"A/B: {ab_rounds} alternations, ~{target_s * 2:.1f} s per cell and build in all; old from "
+              f"{args.ab}", flush=True)
+        ab = run_ab(args.ab, rows, target_s * 2, ab_rounds)
+        report_ab(ab)
+        if args.json:
+            with open(args.json, "w") as fh:
+                json.dump({"ab": ab}, fh, indent=1)
+        return 0
+    if args.lit_only:
+        rows = []
 
     pyrender, pyrender_error = (None, "skipped (--no-pyrender)") if args.no_pyrender else import_pyrender()
     moderngl, moderngl_error = (None, "skipped (--no-moderngl)") if args.no_moderngl else import_moderngl()
@@ -400,10 +761,19 @@ def main(argv: list[str] | None = None) -> int:
         print(f"  done ico{sub} {w}x{h}: "
               + ", ".join(f"{k} {v:.2f}" for k, v in res["ms"].items()), flush=True)
 
-    report(results, pyrender_error, moderngl_error)
+    lit_results = []
+    if args.lit or args.lit_only:
+        lit_results = run_lit([r for r in LIT_ROWS if not (args.quick and r[2] * r[3] > 640 * 480)]
+                              if args.quick else LIT_ROWS, pyrender, pyrender_error, target_s, n_min,
+                              n_max, rounds, args.png)
+
+    if results:
+        report(results, pyrender_error, moderngl_error)
+    if lit_results:
+        report_lit(lit_results)
     if args.json:
         with open(args.json, "w") as fh:
-            json.dump(results, fh, indent=1)
+            json.dump({"lambert": results, "lit": lit_results} if lit_results else results, fh, indent=1)
     return 0
 
 
