@@ -110,36 +110,29 @@ struct LitInputs {
 
 // Radiance of eight pixels: unit normal n (toward the side being lit), world position p, base
 // colour base (kd / ka where the material says so), material m, summed over the lights.
-template <bool kPositions>
-SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, Brdf brdf,
-                            const simd::f8 (&n)[3], const simd::f8 (&p)[3],
-                            const simd::f8 (&base)[3], simd::f8 (&out)[3]) {
+// Compiled per reflectance model B (Lambert, Phong, BlinnPhong or Pbr) and per whether it has a
+// specular term, so that only that model's values are live in the light loop (one loop for all
+// models kept some 27 vectors live, and spilled). kPositions: a light or term reads p.
+template <Brdf B, bool kSpecular, bool kPositions>
+SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, const simd::f8 (&n)[3],
+                            const simd::f8 (&p)[3], const simd::f8 (&base)[3],
+                            simd::f8 (&out)[3]) {
   using namespace simd;
-  f8 kd[3], ka[3];
-  const bool pbr = brdf == Brdf::Pbr;
+  constexpr bool kPbr = B == Brdf::Pbr;
+  constexpr bool kView = kPositions && (kSpecular || kPbr);  // reads the view vector
+  f8 kd[3];
   for (int c = 0; c < 3; ++c) {
     kd[c] = m.kd_is_base ? base[c] : splat(m.kd[c]);
-    ka[c] = m.ka_is_kd ? kd[c] : splat(m.ka[c]);
     // pbr: the base colour times the ambient light, as pyrender (ka is not read).
-    out[c] = (pbr ? base[c] : ka[c]) * in.ambient_light[c] + m.emissive[c];
+    const f8 ka = kPbr ? base[c] : (m.ka_is_kd ? kd[c] : splat(m.ka[c]));
+    out[c] = ka * in.ambient_light[c] + m.emissive[c];
   }
-  const bool specular = (brdf == Brdf::Phong || brdf == Brdf::BlinnPhong) &&
-                        (m.ks.x > 0.0f || m.ks.y > 0.0f || m.ks.z > 0.0f);
   f8 v[3] = {};
-  if (kPositions && (specular || pbr)) {  // unit vector toward the eye
+  if constexpr (kView) {  // unit vector toward the eye
     for (int c = 0; c < 3; ++c) v[c] = in.eye[c] - p[c] * in.eye_point;
     const f8 r = 1.0f / simd::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
     for (int c = 0; c < 3; ++c) v[c] *= r;
   }
-  // pbr (pyrender's mesh.frag): f0 = mix(0.04, base, metallic), c_diff = base * (1 - 0.04) *
-  // (1 - metallic), alpha = roughness^2.
-  f8 f0[3], c_diff[3];
-  if (pbr)
-    for (int c = 0; c < 3; ++c) {
-      f0[c] = 0.04f + (base[c] - 0.04f) * m.metallic;
-      c_diff[c] = base[c] * (0.96f * (1.0f - m.metallic));
-    }
-  const f8 shininess = splat(m.shininess);
   for (int k = 0; k < in.num_lights; ++k) {
     const Light& light = in.lights[k];
     f8 l[3], att = splat(1.0f);
@@ -150,7 +143,7 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, Brdf brdf,
       const f8 r2 = l[0] * l[0] + l[1] * l[1] + l[2] * l[2];
       const f8 inv_r = 1.0f / simd::sqrt(r2);
       for (int c = 0; c < 3; ++c) l[c] *= inv_r;
-      if (light.inverse_square) att = 1.0f / r2;
+      if (light.inverse_square) att = inv_r * inv_r;  // 1 / r^2 without a second division
       if (light.kind == LightKind::Spot) {
         const f8 cd = -(light.direction[0] * l[0] + light.direction[1] * l[1] + light.direction[2] * l[2]);
         const f8 t = clamp01(clamp01(cd) * light.cone_scale + light.cone_offset);
@@ -158,13 +151,14 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, Brdf brdf,
       }
     }
     const f8 ndl = n[0] * l[0] + n[1] * l[1] + n[2] * l[2];
-    if (pbr) {
-      // pyrender 0.1.45's mesh.frag (PBR_NOTES in the tests' reference): r = clamp(roughness,
-      // 0.04, 1), a = r^2; h = normalize(l + v); nl = clamp(n.l, 0.001, 1) (a light behind the
-      // surface still adds a little, as pyrender's does); nv = clamp(|n.v|, 0.001, 1); nh, vh
-      // clamped to [0, 1]; F = f0 + (1 - f0) (1 - vh)^5; k = (r + 1)^2 / 8, G = nl nv /
-      // ((nl (1 - k) + k)(nv (1 - k) + k)); D = a^2 / (pi (nh^2 (a^2 - 1) + 1)^2);
-      // radiance += nl I ((1 - F) c_diff / pi + F G D / (4 nl nv + 0.001)).
+    if constexpr (kPbr) {
+      // pyrender 0.1.45's mesh.frag (PBR_NOTES.md): r = clamp(roughness, 0.04, 1), a = r^2;
+      // h = normalize(l + v); nl = clamp(n.l, 0.001, 1) (a light behind the surface still adds
+      // a little, as pyrender's does); nv = clamp(|n.v|, 0.001, 1); nh, vh clamped to [0, 1];
+      // F = f0 + (1 - f0) (1 - vh)^5, f0 = mix(0.04, base, metallic); k = (r + 1)^2 / 8,
+      // G = nl nv / ((nl (1 - k) + k)(nv (1 - k) + k)); D = a^2 / (pi (nh^2 (a^2 - 1) + 1)^2);
+      // radiance += nl I ((1 - F) c_diff / pi + F G D / (4 nl nv + 0.001)),
+      // c_diff = base (1 - 0.04) (1 - metallic).
       f8 h[3];
       for (int c = 0; c < 3; ++c) h[c] = l[c] + v[c];
       const f8 hr = 1.0f / simd::sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
@@ -185,17 +179,22 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, Brdf brdf,
       const f8 s = one - vh, s2 = s * s, s5 = s2 * s2 * s;
       const f8 lit = nl * att;
       const f8 spec_common = g * d / (4.0f * nl * nv + 0.001f);
+      const float diffuse_scale = 0.96f * (1.0f - m.metallic) * 0.318309886f;
       for (int c = 0; c < 3; ++c) {
-        const f8 fr = f0[c] + (1.0f - f0[c]) * s5;
-        out[c] += lit * light.radiance[c] * ((1.0f - fr) * c_diff[c] * 0.318309886f + fr * spec_common);
+        const f8 f0 = 0.04f + (base[c] - 0.04f) * m.metallic;
+        const f8 fr = f0 + (1.0f - f0) * s5;
+        out[c] += lit * light.radiance[c] * ((1.0f - fr) * (base[c] * diffuse_scale) + fr * spec_common);
       }
       continue;
     }
-    const f8 diffuse = max0(ndl) * att;
+    // Lights behind the surface add nothing: a group that no light reaches skips the light.
+    const i8 front = ndl > f8{};
+    if (!any(front)) continue;
+    const f8 diffuse = (front ? ndl : f8{}) * att;
     for (int c = 0; c < 3; ++c) out[c] += kd[c] * (diffuse * light.radiance[c]);
-    if (specular) {
+    if constexpr (kSpecular) {
       f8 cosine;
-      if (brdf == Brdf::Phong) {  // r = 2 (n.l) n - l, (r.v)^p
+      if constexpr (B == Brdf::Phong) {  // r = 2 (n.l) n - l, (r.v)^p
         f8 rv = f8{};
         for (int c = 0; c < 3; ++c) rv += (2.0f * ndl * n[c] - l[c]) * v[c];
         cosine = rv;
@@ -205,10 +204,30 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, Brdf brdf,
         const f8 len2 = h[0] * h[0] + h[1] * h[1] + h[2] * h[2];
         cosine = (n[0] * h[0] + n[1] * h[1] + n[2] * h[2]) / simd::sqrt(len2);
       }
-      const f8 spec = ndl > f8{} ? pow01(clamp01(cosine), shininess) * att : f8{};
+      const f8 spec = front ? pow01(clamp01(cosine), splat(m.shininess)) * att : f8{};
       for (int c = 0; c < 3; ++c) out[c] += (spec * light.radiance[c]) * m.ks[c];
     }
   }
+}
+
+// lit_radiance for the reflectance model `brdf` (Lambert, Phong, BlinnPhong or Pbr): one branch
+// per call on a per-triangle value.
+template <bool kPositions>
+SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, Brdf brdf,
+                            const simd::f8 (&n)[3], const simd::f8 (&p)[3],
+                            const simd::f8 (&base)[3], simd::f8 (&out)[3]) {
+  const bool specular = m.ks.x > 0.0f || m.ks.y > 0.0f || m.ks.z > 0.0f;
+  switch (brdf) {
+    case Brdf::Pbr: return lit_radiance<Brdf::Pbr, false, kPositions>(in, m, n, p, base, out);
+    case Brdf::Phong:
+      if (specular) return lit_radiance<Brdf::Phong, true, kPositions>(in, m, n, p, base, out);
+      break;
+    case Brdf::BlinnPhong:
+      if (specular) return lit_radiance<Brdf::BlinnPhong, true, kPositions>(in, m, n, p, base, out);
+      break;
+    default: break;
+  }
+  lit_radiance<Brdf::Lambert, false, kPositions>(in, m, n, p, base, out);
 }
 
 }  // namespace sr
