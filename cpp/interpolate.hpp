@@ -122,6 +122,21 @@ SR_INLINE void prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTri
     }
     uniform_color = s.color[0] == s.color[1] && s.color[0] == s.color[2];
   }
+  if (kNormals && d.world_normals) {
+    // A zero vertex normal (a file's, or one a singular pose collapses) falls back to the face
+    // normal, so that shading never loses the surface's orientation (one check per triangle).
+    const bool zero0 = s.normal[0] == vec3(0.0f), zero1 = s.normal[1] == vec3(0.0f),
+               zero2 = s.normal[2] == vec3(0.0f);
+    if (zero0 || zero1 || zero2) {
+      const vec3 face = a.clip_ref != kNoClip ? flat_normal(d, mesh.faces[t.prim].x, mesh.faces[t.prim].y,
+                                                            mesh.faces[t.prim].z)
+                        : a.swapped ? flat_normal(d, a.vertex[0], a.vertex[2], a.vertex[1])
+                                    : flat_normal(d, a.vertex[0], a.vertex[1], a.vertex[2]);
+      if (zero0) s.normal[0] = face;
+      if (zero1) s.normal[1] = face;
+      if (zero2) s.normal[2] = face;
+    }
+  }
   if (kNormals && a.back_facing)  // two-sided: the side the camera sees
     for (vec3& n : s.normal) n = -n;
   s.back_facing = a.back_facing;

@@ -840,3 +840,21 @@ def test_bad_renderer_argument_raises_naming_it(kwargs, error, name):
     with pytest.raises(error, match=f"^{name}"):
         sr.Renderer(**args)
     assert sr.Renderer(np.int64(16), np.int32(8), threads=np.int64(1)).threads == 1
+
+
+def test_zero_vertex_normals_fall_back_to_the_face_normal():
+    """A pose can collapse a vertex normal to zero (diag(1, 1, 0) maps normals through its
+    cofactor diag(0, 0, 1), so (1, 0, 0) becomes 0) while the face keeps a normal: shading and
+    the normal output then use the face normal instead of losing the orientation (issue 16)."""
+    mesh = sr.Mesh(np.array([[-1.0, -1, 0], [1, -1, 0], [0, 1, 0]]), np.array([[0, 1, 2]]),
+                   normals=np.tile([1.0, 0.0, 0.0], (3, 1)))
+    scene = sr.Scene()
+    scene.add(mesh, pose=np.diag([1.0, 1.0, 0.0, 1.0]))
+    cam = sr.PerspectiveCamera(fov_y=60.0)
+    cam.look_at((0, 0, 3), (0, 0, 0))
+    frame = sr.Renderer(32, 32).render(scene, cam, outputs=("normal", "radiance", "mask"),
+                                       shading="lambert", ambient=0.25)
+    assert frame.mask.sum() > 50
+    np.testing.assert_array_equal(frame.normal[frame.mask], np.tile([0.0, 0.0, 1.0], (frame.mask.sum(), 1)))
+    # Lambert under the headlight, facing the camera: base * (0.25 + 0.75 * n.l) with n.l ~ 1.
+    np.testing.assert_allclose(frame.radiance[frame.mask], 0.8, atol=1e-6)
