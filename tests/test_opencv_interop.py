@@ -169,3 +169,78 @@ def test_from_opencv_refuses_distortion_and_bad_input() -> None:
     cam = sr.IntrinsicsCamera.from_opencv(K, np.zeros(3), np.zeros(3), W, H, dist=np.zeros((1, 5)))
     assert np.array_equal(cam.pose, np.eye(4))
     assert math.isclose(cam.fx, 500.0)
+
+
+# -- softrast.opencv helpers ------------------------------------------------------------------------
+def test_to_bgr_matches_cv2_cvtcolor() -> None:
+    rng = np.random.default_rng(0)
+    rgb = rng.integers(0, 256, (37, 53, 3), dtype=np.uint8)
+    bgr = sr.opencv.to_bgr(rgb)
+    assert np.array_equal(bgr, cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
+    assert bgr.flags.c_contiguous and not np.shares_memory(bgr, rgb)
+    assert np.array_equal(sr.opencv.to_bgr(bgr), rgb)
+    rgba = rng.integers(0, 256, (5, 7, 4), dtype=np.uint8)
+    assert np.array_equal(sr.opencv.to_bgr(rgba), cv2.cvtColor(rgba, cv2.COLOR_RGBA2BGRA))
+    # a rendered frame, drawn on by OpenCV in place (needs the contiguous copy)
+    scene = sr.Scene()
+    scene.add(sr.Mesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], color=(1.0, 0.0, 0.0)))
+    cam = sr.PerspectiveCamera(fov_y=60.0).look_at((0.3, 0.3, 2.0), (0.3, 0.3, 0.0))
+    frame = sr.Renderer(64, 48).render(scene, cam, outputs="color", shading="unlit")
+    bgr = sr.opencv.to_bgr(frame.color)
+    cv2.circle(bgr, (5, 5), 2, (255, 255, 255), -1)
+    hit = frame.color[24, 32]
+    assert tuple(hit) == (255, 0, 0) and tuple(bgr[24, 32]) == (0, 0, 255)
+    with pytest.raises(ValueError, match="RGB"):
+        sr.opencv.to_bgr(np.zeros((4, 4)))
+
+
+def test_depth_to_mm_uint16() -> None:
+    depth = np.array([[0.0, 0.0004, 0.0005, 0.0015, 1.2344999], [1.2345001, 65.535, 65.5355, 1e6, 1e308]],
+                     dtype=np.float64)
+    mm = sr.opencv.depth_to_mm_uint16(depth)
+    assert mm.dtype == np.uint16
+    assert mm.tolist() == [[0, 1, 1, 2, 1234], [1235, 65535, 65535, 65535, 65535]]
+    assert sr.opencv.depth_to_mm_uint16(np.array([2.5, 3.5], np.float32), scale=1.0).tolist() == [3, 4]
+    # a float32 render's depth: background 0, hits to the nearest millimetre
+    rng = np.random.default_rng(1)
+    d = (rng.uniform(0.2, 9.0, (40, 50)) * (rng.uniform(size=(40, 50)) > 0.3)).astype(np.float32)
+    mm = sr.opencv.depth_to_mm_uint16(d)
+    assert np.array_equal(mm == 0, d == 0)
+    assert np.abs(mm[d > 0] - d[d > 0].astype(np.float64) * 1000).max() <= 0.5 + 1e-6
+    # what OpenCV writes and reads back as a 16-bit PNG is the same
+    ok, png = cv2.imencode(".png", mm)
+    assert ok and np.array_equal(cv2.imdecode(png, cv2.IMREAD_UNCHANGED), mm)
+    for bad in (np.array([-1.0]), np.array([np.nan]), np.array([np.inf])):
+        with pytest.raises(ValueError, match="depth"):
+            sr.opencv.depth_to_mm_uint16(bad)
+    with pytest.raises(ValueError, match="scale"):
+        sr.opencv.depth_to_mm_uint16(d, scale=0.0)
+
+
+def test_draw_outline_marks_the_boundary_pixels() -> None:
+    from scipy import ndimage
+
+    scene = sr.Scene()
+    import trimesh
+
+    scene.add(sr.Mesh.from_trimesh(trimesh.creation.icosphere(subdivisions=3, radius=0.5)))
+    ring = trimesh.creation.annulus(r_min=0.25, r_max=0.45, height=0.1, sections=48)
+    pose = np.eye(4)
+    pose[:3, 3] = (1.2, 0.0, 0.0)
+    scene.add(sr.Mesh.from_trimesh(ring), pose=pose)  # a silhouette with a hole
+    cam = sr.PerspectiveCamera(fov_y=50.0).look_at((0.6, 0.2, 3.0), (0.6, 0.0, 0.0))
+    frame = sr.Renderer(160, 120).render(scene, cam, outputs=("color", "mask"))
+    photo = np.full((120, 160, 3), 40, np.uint8)
+    out = sr.opencv.draw_outline(photo, frame.mask, color=(0, 255, 0))
+    assert out is photo
+    drawn = (photo == (0, 255, 0)).all(axis=2)
+    four = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], bool)
+    boundary = frame.mask & ~ndimage.binary_erosion(frame.mask, four, border_value=0)
+    assert boundary.sum() > 100
+    assert np.array_equal(drawn, boundary), f"{int((drawn != boundary).sum())} pixels differ"
+    thick = sr.opencv.draw_outline(np.zeros_like(photo), frame.mask, color=(255, 255, 255), thickness=3)
+    assert ((thick[..., 0] > 0) & boundary).sum() == boundary.sum()
+    with pytest.raises(ValueError, match="shape"):
+        sr.opencv.draw_outline(photo, frame.mask[:-1])
+    with pytest.raises(ValueError, match="contiguous"):
+        sr.opencv.draw_outline(photo[:, ::-1], frame.mask)

@@ -14,6 +14,7 @@ from .material import Material
 from .mesh import Mesh, PrecisionWarning, load_mesh
 from .render import Frame, Renderer
 from .scene import Scene
+from . import opencv  # noqa: E402 (helpers; cv2 is imported only when draw_outline runs)
 
 __version__ = "0.1.0"
 
