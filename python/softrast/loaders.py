@@ -615,28 +615,13 @@ def load_scene(path: str | os.PathLike[str], smooth: bool | str = True) -> Any:
     naming the file for every other failure.
     """
     from .mesh import _FileProblem, _LOADING_FILE, _check_smooth, _load_trimesh
-    from .scene import Scene
 
     path_str = os.fspath(path)
     _check_smooth(smooth)
     loaded, info = _load_trimesh(path_str)
     token = _LOADING_FILE.set(path_str)
     try:
-        import trimesh
-
-        scene = Scene()
-        if isinstance(loaded, trimesh.Trimesh):
-            scene.add(_to_mesh(_part(loaded, smooth, info), None))
-            return scene
-        meshes: dict[str, Any] = {}
-        for node in loaded.graph.nodes_geometry:
-            transform, name = loaded.graph[node]
-            geom = loaded.geometry.get(name)
-            if not isinstance(geom, trimesh.Trimesh) or len(geom.faces) == 0:
-                continue
-            if name not in meshes:
-                meshes[name] = _to_mesh(_part(geom, smooth, info), None)
-            scene.add(meshes[name], pose=np.asarray(transform, dtype=np.float64))
+        scene = scene_from_trimesh(loaded, smooth, info)
         if not len(scene):
             raise _FileProblem("the file contains no triangles")
         return scene
@@ -647,3 +632,31 @@ def load_scene(path: str | os.PathLike[str], smooth: bool | str = True) -> Any:
         raise ValueError(f"could not load mesh {path_str!r}: {what}") from exc
     finally:
         _LOADING_FILE.reset(token)
+
+
+def scene_from_trimesh(loaded: Any, smooth: bool | str, info: _FileInfo) -> Any:
+    """load_scene's and Scene.from_trimesh's work: a softrast.Scene with one instance per
+    placement of each triangle geometry of a trimesh.Scene (trimesh's graph order,
+    ``graph.nodes_geometry``), placed by its node's world transform; geometry placed by several
+    nodes is one shared Mesh. A trimesh.Trimesh is one instance at the identity. May be empty."""
+    import trimesh
+
+    from .scene import Scene
+
+    scene = Scene()
+    if isinstance(loaded, trimesh.Trimesh):
+        if len(loaded.faces):
+            scene.add(_to_mesh(_part(loaded, smooth, info), None))
+        return scene
+    if not isinstance(loaded, trimesh.Scene):
+        raise TypeError(f"expected a trimesh.Scene or trimesh.Trimesh, got {type(loaded).__name__}")
+    meshes: dict[str, Any] = {}
+    for node in loaded.graph.nodes_geometry:
+        transform, name = loaded.graph[node]
+        geom = loaded.geometry.get(name)
+        if not isinstance(geom, trimesh.Trimesh) or len(geom.faces) == 0:
+            continue
+        if name not in meshes:
+            meshes[name] = _to_mesh(_part(geom, smooth, info), None)
+        scene.add(meshes[name], pose=np.asarray(transform, dtype=np.float64))
+    return scene
