@@ -252,9 +252,10 @@ class Camera(abc.ABC):
 
 
 class PerspectiveCamera(Camera):
-    """A pinhole camera with a vertical field of view (pyrender / gluPerspective).
+    """A pinhole camera with a vertical field of view (gluPerspective's projection, as pyrender's
+    ``PerspectiveCamera``, but pyrender's ``yfov`` is in RADIANS: ``fov_y=math.degrees(yfov)``).
 
-    fov_y : vertical field of view in degrees, in (0, 180), and large enough that the projection
+    fov_y : vertical field of view in DEGREES, in (0, 180), and large enough that the projection
         is finite in float32 (at least 5.5e-33 degrees without a fixed aspect or image size).
     aspect : width / height of the view volume; None => the aspect of the rendered image.
     width, height : optional image size in pixels (informational; None if not fixed).
