@@ -19,7 +19,9 @@ context. What is converted, and how (pyrender 0.1.45's attribute names):
   ``innerConeAngle`` / ``outerConeAngle``, radians in both), posed by the node's world pose
   (both shine along their local -z); point and spot lights fall off as 1 / r^2 as pyrender's
   shader does (its ``range`` is not used by pyrender's shader either). ``scene.ambient_light``
-  -> ``Scene.ambient_light``.
+  -> ``Scene.ambient_light``. A pyrender scene without lights converts to a softrast scene
+  without lights, which softrast lights with its headlight (pyrender shows only the ambient
+  light): add a light for the same look.
 * The main camera (``scene.main_camera_node``, pose in OpenGL axes as in both libraries):
   ``PerspectiveCamera(yfov, znear, zfar, aspectRatio)`` -> ``sr.PerspectiveCamera(fov_y=
   degrees(yfov), near=znear, far=zfar, aspect=aspectRatio)`` (pyrender's ``yfov`` is RADIANS,
