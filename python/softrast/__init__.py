@@ -6,6 +6,7 @@ distance along the camera's viewing axis in scene units, 0 where nothing was hit
 """
 from ._core import MAX_IMAGE_SIDE, MAX_THREADS, OUTPUT_TABLE, OUTPUTS, SUBPIXEL_BITS, TILE_SIZE_PX
 from .camera import Camera, IntrinsicsCamera, OrthographicCamera, PerspectiveCamera
+from .interop import from_pyrender
 from .io import imread, imwrite
 from .light import DirectionalLight, Light, PointLight, SpotLight
 from .limits import get_memory_budget, set_memory_budget
@@ -14,6 +15,7 @@ from .material import Material
 from .mesh import Mesh, PrecisionWarning, load_mesh
 from .render import Frame, Renderer
 from .scene import Scene
+from . import opencv  # noqa: E402 (helpers; cv2 is imported only when draw_outline runs)
 
 __version__ = "0.1.0"
 
@@ -38,6 +40,7 @@ __all__ = [
     "Scene",
     "SpotLight",
     "TILE_SIZE_PX",
+    "from_pyrender",
     "get_memory_budget",
     "imread",
     "imwrite",

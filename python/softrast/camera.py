@@ -71,6 +71,38 @@ def _rigid_inverse(m: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
     return inv
 
 
+def _check_no_distortion(dist: Any) -> None:
+    if dist is None:
+        return
+    d = real_array(dist, "dist").reshape(-1)
+    if d.size not in (4, 5, 8, 12, 14):
+        raise ValueError(f"dist must hold 4, 5, 8, 12 or 14 OpenCV coefficients, got {d.size}")
+    if np.any(d != 0.0):
+        raise ValueError("dist: lens distortion is not supported yet (issue 19); pass None or zeros "
+                         f"(got {d.tolist()})")
+
+
+def _rotation(value: Any) -> npt.NDArray[np.float64]:
+    """A (3, 3) rotation from a Rodrigues vector (3 numbers) or a rotation matrix (checked)."""
+    arr = real_array(value, "rvec_or_R")
+    if not np.isfinite(arr).all():
+        raise ValueError("rvec_or_R must be finite")
+    if arr.size == 3:
+        r = arr.reshape(3)
+        theta = float(np.linalg.norm(r))
+        if theta == 0.0:
+            return np.eye(3)
+        k = r / theta
+        kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+        # Rodrigues' formula, as cv2.Rodrigues: R = cos I + (1 - cos) k k^T + sin [k]x
+        return math.cos(theta) * np.eye(3) + (1.0 - math.cos(theta)) * np.outer(k, k) + math.sin(theta) * kx
+    if arr.shape != (3, 3):
+        raise ValueError(f"rvec_or_R must be a rotation vector (3 numbers) or a (3, 3) matrix, got shape {arr.shape}")
+    if np.abs(arr.T @ arr - np.eye(3)).max() > _ORTHONORMAL_TOL or np.linalg.det(arr) < 0.0:
+        raise ValueError("rvec_or_R: a (3, 3) R must be a proper rotation (orthonormal, determinant +1)")
+    return arr
+
+
 class Camera(abc.ABC):
     """Base class: near/far planes, pose, look_at and the view matrix.
 
@@ -220,9 +252,10 @@ class Camera(abc.ABC):
 
 
 class PerspectiveCamera(Camera):
-    """A pinhole camera with a vertical field of view (pyrender / gluPerspective).
+    """A pinhole camera with a vertical field of view (gluPerspective's projection, as pyrender's
+    ``PerspectiveCamera``, but pyrender's ``yfov`` is in RADIANS: ``fov_y=math.degrees(yfov)``).
 
-    fov_y : vertical field of view in degrees, in (0, 180), and large enough that the projection
+    fov_y : vertical field of view in DEGREES, in (0, 180), and large enough that the projection
         is finite in float32 (at least 5.5e-33 degrees without a fixed aspect or image size).
     aspect : width / height of the view volume; None => the aspect of the rendered image.
     width, height : optional image size in pixels (informational; None if not fixed).
@@ -378,6 +411,61 @@ class IntrinsicsCamera(Camera):
     def K(self) -> npt.NDArray[np.float64]:  # noqa: N802 (the standard name)
         """(3, 3) float64 calibration matrix [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]."""
         return np.array([[self._fx, 0.0, self._cx], [0.0, self._fy, self._cy], [0.0, 0.0, 1.0]])
+
+    @classmethod
+    def from_opencv(cls, K: npt.ArrayLike, rvec_or_R: npt.ArrayLike, tvec: npt.ArrayLike,  # noqa: N803
+                    width: int, height: int, dist: npt.ArrayLike | None = None,
+                    near: float = 0.05, far: float = 100.0) -> "IntrinsicsCamera":
+        """A camera from an OpenCV calibration: ``x_cam = R @ X_world + t``, pixel ``K @ x_cam``.
+
+        K : (3, 3) [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] in OpenCV's pixel coordinates (pixel
+            (row i, col j) has its centre at (u, v) = (j, i)); zero skew.
+        rvec_or_R : a Rodrigues rotation vector (3 numbers, as ``cv2.solvePnP`` / ``cv2.calibrateCamera``
+            return it) or a (3, 3) rotation matrix, world-to-camera.
+        tvec : 3 numbers, world-to-camera translation (OpenCV's ``tvec``).
+        width, height : the image size K was calibrated for, pixels.
+        dist : OpenCV distortion coefficients (k1, k2, p1, p2[, k3[, k4, k5, k6]]); only None or
+            all zeros for now: lens distortion is not supported yet (issue 19), a non-zero
+            coefficient raises ValueError.
+        near, far : clipping distances along the viewing axis (scene units).
+
+        Returns an ``IntrinsicsCamera(convention="opencv")`` whose pose is the inverse of [R | t]:
+        a point ``cv2.projectPoints(X, rvec, tvec, K, dist)`` maps to (u, v) is drawn in pixel
+        (round(v), round(u)).
+        """
+        k = real_array(K, "K")
+        if k.shape != (3, 3):
+            raise ValueError(f"K must be a (3, 3) matrix, got shape {k.shape}")
+        if not np.isfinite(k).all():
+            raise ValueError("K must be finite")
+        if k[0, 1] != 0.0 or k[1, 0] != 0.0 or k[2, 0] != 0.0 or k[2, 1] != 0.0 or k[2, 2] != 1.0:
+            raise ValueError("K must be [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] (no skew), got "
+                             f"{k.tolist()}")
+        _check_no_distortion(dist)
+        rot = _rotation(rvec_or_R)
+        t = real_array(tvec, "tvec").reshape(-1)
+        if t.shape != (3,) or not np.isfinite(t).all():
+            raise ValueError(f"tvec must be 3 finite numbers, got {np.asarray(tvec).tolist()}")
+        cam = cls(k[0, 0], k[1, 1], k[0, 2], k[1, 2], width, height, near=near, far=far,
+                  convention="opencv")
+        pose = np.eye(4)
+        pose[:3, :3] = rot.T
+        pose[:3, 3] = -rot.T @ t
+        cam.pose = pose
+        return cam
+
+    def to_opencv(self) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64],
+                                 npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+        """(K, R, t, dist) for OpenCV: ``x_cam = R @ X_world + t``, pixels ``K @ x_cam``, (3, 3),
+        (3, 3), (3,) and (5,) float64; ``cv2.Rodrigues(R)[0]`` gives an ``rvec``. ``dist`` is
+        zeros (softrast renders an ideal pinhole). Works for either ``convention``: an "opengl"
+        camera's principal point is shifted by half a pixel to OpenCV's pixel-centre coordinates
+        and its pose's y and z axes flipped, so the same world point lands on the same pixel.
+        """
+        half = 0.0 if self._convention == "opencv" else 0.5
+        k = np.array([[self._fx, 0.0, self._cx - half], [0.0, self._fy, self._cy - half], [0.0, 0.0, 1.0]])
+        view_cv = _GL_FROM_CV @ self.view_matrix()  # world -> OpenCV camera axes
+        return k, view_cv[:3, :3].copy(), view_cv[:3, 3].copy(), np.zeros(5)
 
     def projection_matrix(self, width: int | None = None, height: int | None = None) -> npt.NDArray[np.float64]:
         w, h = self._render_size(width, height)

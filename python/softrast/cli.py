@@ -90,6 +90,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--normal", metavar="PATH", help="world-space unit normals, float32 (.exr or .tif)")
     r.add_argument("--eye", type=_vec3, metavar="x,y,z", help="camera position (default: frames the mesh)")
     r.add_argument("--target", type=_vec3, metavar="x,y,z", help="point looked at (default: bounds centre)")
+    r.add_argument("--up-axis", choices=("y", "z"), default="y",
+                   help="the file's up axis: z maps (x, y, z) to (x, z, -y) on loading (default y)")
     r.add_argument("--up", type=_vec3, default=(0.0, 1.0, 0.0), metavar="x,y,z", help="up direction (default 0,1,0)")
     r.add_argument("--fov", type=float, default=45.0, help="vertical field of view in degrees (default 45)")
     r.add_argument("--near", type=_positive_float, help="near plane distance (default: from the mesh size)")
@@ -147,7 +149,7 @@ def _render(args: argparse.Namespace) -> None:
     width, height = args.size
     if not 0.0 < args.fov < 180.0:
         raise CliError(f"--fov must be in (0, 180) degrees, got {args.fov}")
-    mesh = load_mesh(args.mesh)
+    mesh = load_mesh(args.mesh, up_axis=args.up_axis)
     scene = Scene()
     scene.add(mesh)
     eye, target, near, far = frame_camera(scene.bounds, args.fov, width, height, args.eye, args.target)

@@ -94,6 +94,7 @@ class _FileInfo:
     srgb: bool  # 8-bit colours are sRGB-encoded (PLY / OBJ / OFF / STL); False for glTF
     gltf: list[Any] | None = None  # the glTF JSON "materials" list
     mtl: dict[str, tuple[Material, list[str]]] | None = None  # newmtl name -> (material, dropped)
+    soup: bool = False  # the format stores no shared vertices (STL): smooth=True merges them
     warned: set[Any] = field(default_factory=set)
 
     def warn(self, key: Any, text: str) -> None:
@@ -125,7 +126,7 @@ def _file_info(path_str: str) -> _FileInfo:
         except (OSError, ValueError, UnicodeDecodeError, struct.error):
             info.gltf = []  # check_mesh_file has refused broken JSON already
         return info
-    info = _FileInfo(path_str, srgb=True)
+    info = _FileInfo(path_str, srgb=True, soup=ext == ".stl")
     if ext == ".obj":
         info.mtl = _obj_materials(path_str, info)
     return info
@@ -469,6 +470,21 @@ def vertex_normals(tm: Any, smooth: bool | str) -> np.ndarray | None:
     return np.divide(acc, length, out=np.zeros_like(acc), where=length > 0)
 
 
+def merge_exact(positions: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Merge vertices with exactly equal positions (as trimesh's ``merge_vertices`` does for a
+    file that stores none, but bit-exact, without its rounding): (positions, faces, first), the
+    merged vertices in order of first use, faces in their order, ``first[k]`` the index of merged
+    vertex k's first occurrence. -0.0 and 0.0 are one position."""
+    pos = np.ascontiguousarray(np.asarray(positions, dtype=np.float64) + 0.0)  # -0.0 -> 0.0
+    _, index, inverse = np.unique(pos, axis=0, return_index=True, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    order = np.argsort(index, kind="stable")  # unique rows sorted by first occurrence
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    first = index[order]
+    return np.asarray(positions)[first], rank[inverse][np.asarray(faces)], first
+
+
 def _part(tm: Any, smooth: bool | str, info: _FileInfo) -> _Part:
     """One trimesh.Trimesh as arrays, its colours linear, its material resolved (warning about
     what is dropped, once per material)."""
@@ -476,7 +492,12 @@ def _part(tm: Any, smooth: bool | str, info: _FileInfo) -> _Part:
 
     faces = np.asarray(tm.faces)
     positions = np.asarray(tm.vertices)
-    normals = vertex_normals(tm, smooth)
+    first = None  # merged vertex -> the file's vertex it came from (STL with smooth normals)
+    if info.soup and smooth is not False:
+        positions, faces, first = merge_exact(positions, faces)
+        normals = vertex_normals(trimesh.Trimesh(positions, faces, process=False), smooth)
+    else:
+        normals = vertex_normals(tm, smooth)
     uvs = colors = face_colors = None
     material = None
     visual = getattr(tm, "visual", None)
@@ -501,6 +522,9 @@ def _part(tm: Any, smooth: bool | str, info: _FileInfo) -> _Part:
             colors = _colors8(visual.vertex_colors, info.srgb)
         elif kind == "face":
             face_colors = _colors8(visual.face_colors, info.srgb)
+    if first is not None:  # per-vertex data of the file's vertices, to the merged ones
+        uvs = None if uvs is None or len(uvs) != len(tm.vertices) else uvs[first]
+        colors = None if colors is None or len(colors) != len(tm.vertices) else colors[first]
     if colors is not None and material is not None and info.gltf is not None:
         colors = colors * np.asarray(material.base_color)  # glTF: COLOR_0 x baseColorFactor
     if face_colors is not None:
@@ -579,7 +603,21 @@ def _transformed(part: _Part, matrix: Any) -> _Part:
     return _Part(positions, faces, normals, part.uvs, part.colors, part.material)
 
 
-def mesh_from_trimesh(tm: Any, smooth: bool, color: Sequence[float] | None, info: _FileInfo) -> Any:
+# load_mesh / load_scene(up_axis="z"): (x, y, z) -> (x, z, -y), a proper rotation about x
+UP_Z_TO_Y = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
+
+
+def up_axis_matrix(up_axis: Any) -> np.ndarray | None:
+    """None for "y" (as stored), the rotation for "z"; ValueError naming up_axis otherwise."""
+    if isinstance(up_axis, str) and up_axis == "y":
+        return None
+    if isinstance(up_axis, str) and up_axis == "z":
+        return UP_Z_TO_Y
+    raise ValueError(f"up_axis must be 'y' or 'z', got {up_axis!r:.80}")
+
+
+def mesh_from_trimesh(tm: Any, smooth: bool, color: Sequence[float] | None, info: _FileInfo,
+                      root: Any = None) -> Any:
     """Mesh.from_trimesh's work (a Trimesh, or a Scene merged with its transforms)."""
     import trimesh
 
@@ -600,43 +638,31 @@ def mesh_from_trimesh(tm: Any, smooth: bool, color: Sequence[float] | None, info
         parts = [_part(tm, smooth, info)]
     else:
         raise TypeError(f"tm must be a trimesh.Trimesh or trimesh.Scene, got {type(tm).__name__}")
-    return _to_mesh(_merge(parts, info), color)
+    merged = _merge(parts, info)
+    return _to_mesh(merged if root is None else _transformed(merged, root), color)
 
 
-def load_scene(path: str | os.PathLike[str], smooth: bool | str = True) -> Any:
+def load_scene(path: str | os.PathLike[str], smooth: bool | str = True, up_axis: str = "y") -> Any:
     """Load a mesh file as a ``softrast.Scene``: one instance per part, each with its own Mesh
     and Material, placed by the file's node transforms (glTF nodes; identity for formats without
     a scene graph). Geometry that several nodes instance is one shared Mesh. Instance ids are
     0, 1, 2, ... in the order of trimesh's scene graph (``graph.nodes_geometry``).
 
     Colours, materials and what is dropped (with a warning) are as described in
-    ``softrast.loaders``; ``smooth`` as for ``load_mesh``. Raises like ``load_mesh``:
+    ``softrast.loaders``; ``smooth`` and ``up_axis`` as for ``load_mesh`` (``up_axis="z"``
+    rotates every instance's pose, the meshes stay as stored). Raises like ``load_mesh``:
     FileNotFoundError for a missing file (or a buffer or texture a glTF references), ValueError
     naming the file for every other failure.
     """
     from .mesh import _FileProblem, _LOADING_FILE, _check_smooth, _load_trimesh
-    from .scene import Scene
 
     path_str = os.fspath(path)
     _check_smooth(smooth)
+    root = up_axis_matrix(up_axis)
     loaded, info = _load_trimesh(path_str)
     token = _LOADING_FILE.set(path_str)
     try:
-        import trimesh
-
-        scene = Scene()
-        if isinstance(loaded, trimesh.Trimesh):
-            scene.add(_to_mesh(_part(loaded, smooth, info), None))
-            return scene
-        meshes: dict[str, Any] = {}
-        for node in loaded.graph.nodes_geometry:
-            transform, name = loaded.graph[node]
-            geom = loaded.geometry.get(name)
-            if not isinstance(geom, trimesh.Trimesh) or len(geom.faces) == 0:
-                continue
-            if name not in meshes:
-                meshes[name] = _to_mesh(_part(geom, smooth, info), None)
-            scene.add(meshes[name], pose=np.asarray(transform, dtype=np.float64))
+        scene = scene_from_trimesh(loaded, smooth, info, root)
         if not len(scene):
             raise _FileProblem("the file contains no triangles")
         return scene
@@ -647,3 +673,32 @@ def load_scene(path: str | os.PathLike[str], smooth: bool | str = True) -> Any:
         raise ValueError(f"could not load mesh {path_str!r}: {what}") from exc
     finally:
         _LOADING_FILE.reset(token)
+
+
+def scene_from_trimesh(loaded: Any, smooth: bool | str, info: _FileInfo, root: Any = None) -> Any:
+    """load_scene's and Scene.from_trimesh's work: a softrast.Scene with one instance per
+    placement of each triangle geometry of a trimesh.Scene (trimesh's graph order,
+    ``graph.nodes_geometry``), placed by its node's world transform; geometry placed by several
+    nodes is one shared Mesh. A trimesh.Trimesh is one instance at the identity. May be empty."""
+    import trimesh
+
+    from .scene import Scene
+
+    scene = Scene()
+    if isinstance(loaded, trimesh.Trimesh):
+        if len(loaded.faces):
+            scene.add(_to_mesh(_part(loaded, smooth, info), None), pose=root)
+        return scene
+    if not isinstance(loaded, trimesh.Scene):
+        raise TypeError(f"expected a trimesh.Scene or trimesh.Trimesh, got {type(loaded).__name__}")
+    meshes: dict[str, Any] = {}
+    for node in loaded.graph.nodes_geometry:
+        transform, name = loaded.graph[node]
+        geom = loaded.geometry.get(name)
+        if not isinstance(geom, trimesh.Trimesh) or len(geom.faces) == 0:
+            continue
+        if name not in meshes:
+            meshes[name] = _to_mesh(_part(geom, smooth, info), None)
+        pose = np.asarray(transform, dtype=np.float64)
+        scene.add(meshes[name], pose=pose if root is None else root @ pose)
+    return scene

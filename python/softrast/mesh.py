@@ -552,13 +552,22 @@ def _check_smooth(smooth: Any) -> None:
         raise ValueError(f"smooth must be True, False, 'area' or 'angle', got {smooth!r:.80}")
 
 
-def load_mesh(path: str | os.PathLike[str], smooth: bool | str = True, color: Sequence[float] | None = None) -> Mesh:
+def load_mesh(path: str | os.PathLike[str], smooth: bool | str = True, color: Sequence[float] | None = None,
+              up_axis: str = "y") -> Mesh:
     """Load a triangle mesh file (OBJ, PLY, STL, GLB, OFF, ...) with trimesh, keeping vertex order.
 
     A multi-object file is concatenated into one Mesh (with its node transforms applied). If its
     parts have different materials, the mesh gets the first part's, with a UserWarning:
     ``softrast.load_scene`` keeps each part's material. See ``Mesh.from_trimesh`` for
-    ``smooth`` and ``color``.
+    ``smooth`` and ``color``. STL files store no shared vertices: with ``smooth`` other than
+    False, vertices at exactly the same position are merged first (as trimesh's
+    ``merge_vertices``, without its rounding; faces keep their order, vertices are in order of
+    first use), so the normals are smooth; ``smooth=False`` keeps the file's vertices.
+
+    up_axis : "y" (default): the file's axes are used as stored (softrast and glTF are y-up);
+        "z": a z-up file (most CAD and STL exports, Blender's own axes) is turned y-up by mapping
+        (x, y, z) -> (x, z, -y), positions and normals (a rotation about x, as Blender's glTF
+        exporter does).
 
     Keeps the file's per-vertex and per-face colours and its materials (OBJ + MTL, glTF), exactly
     as written in the file (see ``softrast.loaders`` for the conventions). Colour spaces: 8-bit
@@ -578,13 +587,14 @@ def load_mesh(path: str | os.PathLike[str], smooth: bool | str = True, color: Se
     if color is not None:
         _rgba(color, "color")  # a wrong argument names the argument, not the file
     _check_smooth(smooth)
+    from .loaders import mesh_from_trimesh, up_axis_matrix
+
+    root = up_axis_matrix(up_axis)
     loaded, info = _load_trimesh(path_str)
     token = _LOADING_FILE.set(path_str)  # a PrecisionWarning then names the file
     try:
-        from .loaders import mesh_from_trimesh
-
         with _keep_ctrl_c():
-            return mesh_from_trimesh(loaded, smooth, color, info)
+            return mesh_from_trimesh(loaded, smooth, color, info, root)
     except UserWarning:
         raise  # a warning made an error (-W error): it names the file already
     except Exception as exc:  # NaN vertices and the like: say which file they came from

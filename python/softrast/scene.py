@@ -138,6 +138,25 @@ class Scene:
         self._render_cache.clear()
         return int(iid)
 
+    @classmethod
+    def from_trimesh(cls, tm: Any, smooth: bool | str = True, srgb_colors: bool = False) -> "Scene":
+        """A Scene from a ``trimesh.Scene`` (or a ``trimesh.Trimesh``: one instance), keeping its
+        parts: one instance per placement of each triangle geometry, in trimesh's graph order
+        (``graph.nodes_geometry``), posed by the node's world transform, each with its own Mesh
+        and Material (a geometry placed by several nodes is one shared Mesh). Instance ids are
+        0, 1, 2, ... Exactly what ``softrast.load_scene`` does with a loaded file, but with
+        trimesh's values: its materials hold colours as 8 bits (``load_scene`` reads the file's
+        exact values). ``smooth`` and ``srgb_colors`` as for ``Mesh.from_trimesh``. Raises
+        ValueError if there is no triangle geometry."""
+        from .loaders import _FileInfo, scene_from_trimesh
+        from .mesh import _check_smooth
+
+        _check_smooth(smooth)
+        scene = scene_from_trimesh(tm, smooth, _FileInfo(None, srgb=bool(srgb_colors)))
+        if not len(scene):
+            raise ValueError("tm holds no triangle geometry")
+        return scene
+
     @property
     def lights(self) -> list[LightInstance]:
         """The lights in the order they were added (a copy of the list)."""

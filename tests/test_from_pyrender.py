@@ -1,0 +1,182 @@
+"""softrast.from_pyrender against pyrender 0.1.45 itself (issue 19).
+
+The child process (tests/pyrender_interop_child.py, PYOPENGL_PLATFORM=osmesa) builds a pyrender
+scene with two meshes (one under a parent node), a directional and a spot light, ambient light
+and a camera (perspective with yfov in radians, intrinsics, orthographic), renders it with
+pyrender on Mesa's llvmpipe, converts it with softrast.from_pyrender and renders the conversion
+with softrast, and writes both. Checked here:
+
+* what was converted: fov_y in degrees from yfov in radians, aspect, near / far, the camera's and
+  the nested node's world poses, light types / colours / intensities / cone angles, ambient
+  light, the MetallicRoughnessMaterial's factors, per-vertex colours;
+* masks: every pixel where the two differ is within 1 px of softrast's silhouette (pyrender
+  rasterizes with its own rule on silhouette pixels);
+* depth, perspective and intrinsics cameras: on interior pixels (the same instance in the whole
+  3x3 neighbourhood in both), |softrast - pyrender| <= 1e-5 relative. pyrender's depth comes
+  from a 24-bit depth buffer (resolution 2^-24 in NDC, ~1e-7 relative here): that is the limit
+  of the comparison, not softrast's float32 depth;
+* orthographic: pyrender's depth is wrong for orthographic cameras (its linearization assumes a
+  perspective projection), so softrast's depth is checked against rays cast through each pixel
+  centre (trimesh's ray-triangle intersection, float64) instead; masks against pyrender.
+The test FAILS (never skips) without pyrender and OSMesa: see test_pbr_vs_pyrender.py.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import pathlib
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import trimesh
+from scipy import ndimage
+
+import softrast as sr
+
+from test_pbr_vs_pyrender import INSTALL_HINT, _DROP_ENV
+
+CHILD = pathlib.Path(__file__).resolve().parent / "pyrender_interop_child.py"
+W, H = 320, 240
+
+
+def rigid(angle, axis, offset):  # as in the child
+    m = trimesh.transformations.rotation_matrix(angle, axis)
+    m[:3, 3] = offset
+    return m
+
+
+@pytest.fixture(scope="module")
+def rendered(tmp_path_factory) -> pathlib.Path:
+    out = tmp_path_factory.mktemp("pyrender_interop")
+    env = {k: v for k, v in os.environ.items() if k not in _DROP_ENV}
+    env["PYOPENGL_PLATFORM"] = "osmesa"
+    parent = str(pathlib.Path(sr.__file__).resolve().parent.parent)
+    try:
+        proc = subprocess.run([sys.executable, str(CHILD), parent, str(out)], env=env,
+                              capture_output=True, text=True, timeout=300)
+    except subprocess.TimeoutExpired as exc:
+        pytest.fail(f"the pyrender child ({CHILD.name}) did not finish in {exc.timeout} s")
+    if proc.returncode == 3:
+        pytest.fail(f"{INSTALL_HINT}\n{proc.stderr.strip()}")
+    assert proc.returncode == 0, f"the pyrender child failed (exit {proc.returncode}):\n{proc.stderr[-4000:]}"
+    return out
+
+
+def load(out: pathlib.Path, kind: str, name: str) -> np.ndarray:
+    return np.load(out / f"{kind}_{name}.npy")
+
+
+def test_what_from_pyrender_converts(rendered: pathlib.Path) -> None:
+    info = json.loads((rendered / "info.json").read_text())
+    cam_pose = rigid(0.15, (-1.0, 0.4, 0.0), (0.2, 0.6, 3.6))
+    persp = info["perspective"]
+    assert persp["camera"] == "PerspectiveCamera"
+    assert math.isclose(persp["fov_y"], 40.0, rel_tol=1e-12)  # yfov radians(40) -> 40 degrees
+    assert math.isclose(persp["aspect"], W / H, rel_tol=1e-12)
+    assert info["intrinsics"]["camera"] == "IntrinsicsCamera" and info["intrinsics"]["convention"] == "opengl"
+    assert info["orthographic"]["camera"] == "OrthographicCamera"
+    for kind in info.values():
+        assert (kind["near"], kind["far"]) == (0.5, 20.0)
+        np.testing.assert_allclose(kind["pose"], cam_pose, atol=1e-6)  # pyrender stores poses as float32
+    ball, box = persp["instances"]
+    assert ball["faces"] == 1280 and box["faces"] == 12
+    np.testing.assert_allclose(ball["material"][0], (0.9, 0.6, 0.3, 1.0), atol=1e-6)
+    assert ball["material"][1:] == [pytest.approx(0.2), pytest.approx(0.6), "pbr"] and not ball["colors"]
+    assert box["colors"]
+    np.testing.assert_allclose(ball["pose"], rigid(0.3, (0, 1, 0), (-0.5, 0.1, 0.0)), atol=1e-6)
+    nested = rigid(0.4, (1, 0, 0), (0.6, 0.0, -0.3)) @ rigid(0.7, (0.2, 1.0, 0.1), (0.1, -0.1, 0.0))
+    np.testing.assert_allclose(box["pose"], nested, atol=1e-6)
+    lights = {li["type"]: li for li in persp["lights"]}
+    assert set(lights) == {"DirectionalLight", "SpotLight"}
+    assert lights["SpotLight"]["cones"] == [pytest.approx(0.2), pytest.approx(0.6)]
+    assert lights["SpotLight"]["intensity"] == 9.0 and lights["DirectionalLight"]["intensity"] == 2.5
+    np.testing.assert_allclose(lights["SpotLight"]["color"], (0.5, 0.7, 1.0))
+    np.testing.assert_allclose(lights["SpotLight"]["pose"], rigid(0.2, (0, 1, 0), (0.5, 0.5, 3.0)), atol=1e-6)
+    np.testing.assert_allclose(persp["ambient"], (0.05, 0.05, 0.06), atol=1e-7)
+
+
+def silhouette_band(mask: np.ndarray) -> np.ndarray:
+    """Pixels within 1 px (8-neighbourhood) of the mask's boundary."""
+    full = np.ones((3, 3), bool)
+    return ndimage.binary_dilation(mask, full) & ~ndimage.binary_erosion(mask, full, border_value=1)
+
+
+@pytest.mark.parametrize("kind", ["perspective", "intrinsics", "orthographic"])
+def test_masks_agree_but_on_silhouettes(rendered: pathlib.Path, kind: str) -> None:
+    sr_mask = load(rendered, kind, "sr_mask")
+    pr_mask = load(rendered, kind, "pr_depth") > 0
+    assert sr_mask.sum() > 5000
+    differ = sr_mask != pr_mask
+    print(f"{kind}: masks differ on {int(differ.sum())} of {int(sr_mask.sum())} covered pixels")
+    assert not (differ & ~silhouette_band(sr_mask)).any()
+
+
+@pytest.mark.parametrize("kind", ["perspective", "intrinsics"])
+def test_depth_agrees_on_interior_pixels(rendered: pathlib.Path, kind: str) -> None:
+    sr_depth = load(rendered, kind, "sr_depth").astype(np.float64)
+    pr_depth = load(rendered, kind, "pr_depth").astype(np.float64)
+    both = (sr_depth > 0) & (pr_depth > 0)
+    # interior: inside both masks and no depth discontinuity (a silhouette over the other mesh)
+    # in the 3x3 neighbourhood: the depth's local range stays below 5% of the depth
+    hi = ndimage.maximum_filter(np.where(both, sr_depth, np.inf), size=3)
+    lo = ndimage.minimum_filter(np.where(both, sr_depth, 0.0), size=3)
+    interior = ndimage.binary_erosion(both, np.ones((3, 3), bool)) & (hi - lo < 0.05 * sr_depth)
+    assert interior.sum() > 0.8 * both.sum() * 0.8
+    rel = np.abs(sr_depth - pr_depth)[interior] / sr_depth[interior]
+    print(f"{kind}: depth on {int(interior.sum())} interior pixels: max rel {rel.max():.2e}, mean {rel.mean():.2e}")
+    assert rel.max() <= 1e-5
+
+
+def nearest_hit(origins: np.ndarray, direction: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    """Distance along ``direction`` (unit) from each origin to the nearest triangle it hits, inf
+    if none: Moller-Trumbore in float64, every ray against every triangle."""
+    t_best = np.full(len(origins), np.inf)
+    v0, e1, e2 = tris[:, 0], tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]
+    p = np.cross(direction, e2)  # (m, 3)
+    det = np.einsum("ij,ij->i", e1, p)
+    keep = np.abs(det) > 1e-12
+    v0, e1, e2, p, det = v0[keep], e1[keep], e2[keep], p[keep], det[keep]
+    for start in range(0, len(origins), 512):
+        o = origins[start:start + 512, None, :]  # (r, 1, 3)
+        s = o - v0  # (r, m, 3)
+        u = np.einsum("rmk,mk->rm", s, p) / det
+        q = np.cross(s, e1)
+        v = (q @ direction) / det
+        t = np.einsum("rmk,mk->rm", q, e2) / det
+        t = np.where((u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0), t, np.inf)
+        t_best[start:start + 512] = t.min(axis=1)
+    return t_best
+
+
+def test_orthographic_depth_is_the_ray_distance(rendered: pathlib.Path) -> None:
+    tris = np.load(rendered / "world_triangles.npy")
+    depth = load(rendered, "orthographic", "sr_depth").astype(np.float64)
+    pose = rigid(0.15, (-1.0, 0.4, 0.0), (0.2, 0.6, 3.6))
+    rows, cols = np.mgrid[0:H:3, 0:W:3]
+    x = ((cols + 0.5) / W * 2.0 - 1.0) * 1.6
+    y = (1.0 - (rows + 0.5) / H * 2.0) * 1.2
+    origins = pose[:3, 3] + np.c_[x.ravel(), y.ravel()] @ pose[:3, :2].T
+    t = nearest_hit(origins, -pose[:3, 2], tris)
+    got = depth[rows.ravel(), cols.ravel()]
+    hit = np.isfinite(t) & (got > 0)
+    sr_mask = load(rendered, "orthographic", "sr_mask")
+    interior = ~silhouette_band(sr_mask)[rows.ravel(), cols.ravel()]
+    pr = load(rendered, "orthographic", "pr_depth").astype(np.float64)[rows.ravel(), cols.ravel()]
+    ok = hit & interior
+    assert ok.sum() > 500
+    err = np.abs(got[ok] - t[ok]) / t[ok]
+    pr_err = np.abs(pr[ok] - t[ok]) / t[ok]
+    print(f"orthographic: softrast depth vs ray casting on {int(ok.sum())} pixels: max rel {err.max():.2e}; "
+          f"pyrender's (not asserted): max rel {pr_err.max():.2f}")
+    assert err.max() <= 1e-5
+
+
+def test_softrast_never_imports_pyrender() -> None:
+    code = ("import sys, softrast; softrast.from_pyrender; "
+            "assert 'pyrender' not in sys.modules and 'OpenGL' not in sys.modules and 'cv2' not in sys.modules")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
+                          env=dict(os.environ, PYTHONPATH=str(pathlib.Path(sr.__file__).resolve().parent.parent)))
+    assert proc.returncode == 0, proc.stderr
