@@ -69,6 +69,18 @@ inline uint32_t srgb_code(const uint32_t* table, float x) {
   return (e & 0xff) + ((bits & 0x7fff) >= (e >> 8) ? 1u : 0u);
 }
 
+// The linear encoding of whole groups of eight; returns how many pixels it packed. Always inline
+// and called with pointers only, so that it takes its caller's instruction set (clang refuses
+// vector arguments across target boundaries).
+SR_INLINE int encode_linear_groups(const float* r, const float* g, const float* b, int n,
+                                   uint32_t* out) {
+  int x = 0;
+  for (; x + kLanes <= n; x += kLanes)
+    store(out + x, to_unorm8(load<f8>(r + x)) | (to_unorm8(load<f8>(g + x)) << 8) |
+                       (to_unorm8(load<f8>(b + x)) << 16));
+  return x;
+}
+
 // Packs a row of linear radiance planes to r | g << 8 | b << 16, sRGB-encoded or linear.
 void encode_row_generic(const float* r, const float* g, const float* b, const uint32_t*, int n,
                         bool srgb, uint32_t* out) {
@@ -78,11 +90,8 @@ void encode_row_generic(const float* r, const float* g, const float* b, const ui
       out[x] = srgb_code(table, r[x]) | srgb_code(table, g[x]) << 8 | srgb_code(table, b[x]) << 16;
     return;
   }
-  int x = 0;
-  for (; x + kLanes <= n; x += kLanes)
-    store(out + x, to_unorm8(load<f8>(r + x)) | (to_unorm8(load<f8>(g + x)) << 8) |
-                       (to_unorm8(load<f8>(b + x)) << 16));
-  for (; x < n; ++x) out[x] = to_unorm8(r[x]) | to_unorm8(g[x]) << 8 | to_unorm8(b[x]) << 16;
+  const int x = encode_linear_groups(r, g, b, n, out);
+  for (int i = x; i < n; ++i) out[i] = to_unorm8(r[i]) | to_unorm8(g[i]) << 8 | to_unorm8(b[i]) << 16;
 }
 SR_TARGET_AVX2 SR_INLINE __m256i srgb_code8(const int* table, __m256 x) {
   x = _mm256_max_ps(x, _mm256_castsi256_ps(_mm256_set1_epi32(int(kSrgbLowest))));  // NaN -> lo
@@ -113,9 +122,7 @@ SR_TARGET_AVX2 void encode_row_avx2(const float* r, const float* g, const float*
                                                               _mm256_slli_epi32(cb, 16))));
     }
   } else {
-    for (; x + kLanes <= n; x += kLanes)
-      store(out + x, to_unorm8(load<f8>(r + x)) | (to_unorm8(load<f8>(g + x)) << 8) |
-                         (to_unorm8(load<f8>(b + x)) << 16));
+    x = encode_linear_groups(r, g, b, n, out);
   }
   encode_row_generic(r + x, g + x, b + x, visible + x, n - x, srgb, out + x);
 }
