@@ -11,25 +11,17 @@ SPEC.json (written by the test):
           turned into nodes by pyrender.Scene.from_trimesh_scene.
 Writes OUT_DIR/color.npy ((H, W, 3) uint8, pyrender's bytes) and OUT_DIR/depth.npy ((H, W)
 float32, 0 where nothing was drawn). Exit status 3 with a message if pyrender cannot be imported.
-Imports neither softrast nor anything of the test suite.
+Imports neither softrast nor the test suite (but its pyrender_env, the OSMesa set-up).
 """
 import json
 import os
 import sys
 
-os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
+from pyrender_env import import_pyrender  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-if not hasattr(np, "infty"):  # pyrender 0.1.45's Mesh.bounds uses np.infty (removed in NumPy 2)
-    np.infty = np.inf
-
-try:
-    import pyrender  # noqa: E402
-    import trimesh  # noqa: E402
-except Exception as exc:  # ImportError, or PyOpenGL failing to find libOSMesa
-    sys.stderr.write(f"pyrender_child: cannot import pyrender with OSMesa: {type(exc).__name__}: {exc}\n")
-    sys.exit(3)
+pyrender, trimesh = import_pyrender("pyrender_child")
 
 
 def main(spec_path: str, out_dir: str) -> None:

@@ -15,19 +15,11 @@ import json
 import os
 import sys
 
-os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
+from pyrender_env import import_pyrender  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-if not hasattr(np, "infty"):  # pyrender 0.1.45's Mesh.bounds uses np.infty (removed in NumPy 2)
-    np.infty = np.inf
-
-try:
-    import pyrender  # noqa: E402
-    import trimesh  # noqa: E402
-except Exception as exc:  # ImportError, or PyOpenGL failing to find libOSMesa
-    sys.stderr.write(f"pyrender_interop_child: cannot import pyrender with OSMesa: {type(exc).__name__}: {exc}\n")
-    sys.exit(3)
+pyrender, trimesh = import_pyrender("pyrender_interop_child")
 
 W, H = 320, 240
 

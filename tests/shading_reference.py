@@ -32,6 +32,17 @@ SPEC_EPS = 0.001      # the specular denominator is 4 * nl * nv + 0.001
 DEFAULT_METALLIC, DEFAULT_ROUGHNESS = 0.0, 0.5
 
 
+def pose_at(position=(0.0, 0.0, 0.0), travel=(0.0, 0.0, -1.0)) -> np.ndarray:
+    """A rigid light pose at ``position`` whose -z axis (the direction of travel) is ``travel``."""
+    z = -np.asarray(travel, float) / np.linalg.norm(travel)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = np.cross(helper, z)
+    x /= np.linalg.norm(x)
+    pose = np.eye(4)
+    pose[:3, 0], pose[:3, 1], pose[:3, 2], pose[:3, 3] = x, np.cross(z, x), z, position
+    return pose
+
+
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.einsum("ij,ij->i", a, b)[:, None]
 

@@ -14,15 +14,7 @@ Z = np.array([[0.0, 0.0, 1.0]])
 O = np.zeros((1, 3))
 
 
-def pose_at(position=(0.0, 0.0, 0.0), travel=(0.0, 0.0, -1.0)) -> np.ndarray:
-    """A light pose whose -z axis (the direction of travel) is ``travel``."""
-    z = -np.asarray(travel, float) / np.linalg.norm(travel)
-    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    x = np.cross(helper, z)
-    x /= np.linalg.norm(x)
-    pose = np.eye(4)
-    pose[:3, 0], pose[:3, 1], pose[:3, 2], pose[:3, 3] = x, np.cross(z, x), z, position
-    return pose
+pose_at = ref.pose_at
 
 
 def sun(travel, color=(1.0, 1.0, 1.0), intensity=1.0):

@@ -21,22 +21,13 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ._checks import choice, real, real_array
+from ._checks import choice, real, unit_rgb
 
 __all__ = ["DirectionalLight", "Light", "PointLight", "SpotLight"]
 
 FALLOFFS = ("inverse_square", "none")
 # Kinds as the core numbers them (cpp/lighting.hpp, LightKind).
 _DIRECTIONAL, _POINT, _SPOT = 0, 1, 2
-
-
-def _rgb(value: Any, name: str) -> tuple[float, float, float]:
-    arr = real_array(value, name)
-    if arr.shape != (3,):
-        raise ValueError(f"{name} must be 3 numbers (RGB) in [0, 1], got shape {arr.shape}")
-    if not (np.isfinite(arr).all() and (arr >= 0.0).all() and (arr <= 1.0).all()):
-        raise ValueError(f"{name} must be finite and in [0, 1], got {arr.tolist()}")
-    return float(arr[0]), float(arr[1]), float(arr[2])
 
 
 def _intensity(value: Any) -> float:
@@ -53,7 +44,7 @@ class Light:
     _kind = -1
 
     def __init__(self, color: Sequence[float] = (1.0, 1.0, 1.0), intensity: float = 1.0) -> None:
-        object.__setattr__(self, "color", _rgb(color, "color"))
+        object.__setattr__(self, "color", unit_rgb(color, "color"))
         object.__setattr__(self, "intensity", _intensity(intensity))
 
     def __setattr__(self, key: str, value: Any) -> None:
