@@ -211,21 +211,25 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, const simd::
 }
 
 // lit_radiance for the reflectance model `brdf` (Lambert, Phong, BlinnPhong or Pbr): one branch
-// per call on a per-triangle value.
+// per call on a per-triangle value. Without positions only Lambert can be asked for (LitModel
+// reads positions for every view-dependent term), so that is the one variant compiled for it:
+// each variant is inlined into every shading kernel, and their count is the compile time.
 template <bool kPositions>
 SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, Brdf brdf,
                             const simd::f8 (&n)[3], const simd::f8 (&p)[3],
                             const simd::f8 (&base)[3], simd::f8 (&out)[3]) {
-  const bool specular = m.ks.x > 0.0f || m.ks.y > 0.0f || m.ks.z > 0.0f;
-  switch (brdf) {
-    case Brdf::Pbr: return lit_radiance<Brdf::Pbr, false, kPositions>(in, m, n, p, base, out);
-    case Brdf::Phong:
-      if (specular) return lit_radiance<Brdf::Phong, true, kPositions>(in, m, n, p, base, out);
-      break;
-    case Brdf::BlinnPhong:
-      if (specular) return lit_radiance<Brdf::BlinnPhong, true, kPositions>(in, m, n, p, base, out);
-      break;
-    default: break;
+  if constexpr (kPositions) {
+    const bool specular = m.ks.x > 0.0f || m.ks.y > 0.0f || m.ks.z > 0.0f;
+    switch (brdf) {
+      case Brdf::Pbr: return lit_radiance<Brdf::Pbr, false, true>(in, m, n, p, base, out);
+      case Brdf::Phong:
+        if (specular) return lit_radiance<Brdf::Phong, true, true>(in, m, n, p, base, out);
+        break;
+      case Brdf::BlinnPhong:
+        if (specular) return lit_radiance<Brdf::BlinnPhong, true, true>(in, m, n, p, base, out);
+        break;
+      default: break;
+    }
   }
   lit_radiance<Brdf::Lambert, false, kPositions>(in, m, n, p, base, out);
 }

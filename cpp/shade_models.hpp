@@ -282,8 +282,10 @@ struct LitModel {
       if (in.lit.lights[k].kind != LightKind::Directional) return true;
     return false;
   }
-  // Radiance at up to eight points given per lane.
-  static void radiance_at(const ShadeInputs& in, const Material& m, Brdf brdf, const vec3* n,
+  // Radiance at up to eight points given per lane (per triangle, for the vertex and face
+  // frequencies). Out of line, so compiled once per file for the generic target: the same code,
+  // and bits, for either instruction set, and not one more inlined light loop per kernel.
+  __attribute__((noinline)) static void radiance_at(const ShadeInputs& in, const Material& m, Brdf brdf, const vec3* n,
                           const vec3* p, const vec3* base, int count, vec3* out) {
     simd::f8 nl[3] = {}, pl[3] = {}, bl[3] = {}, o[3];
     for (int i = 0; i < count; ++i)
