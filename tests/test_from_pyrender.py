@@ -36,7 +36,7 @@ from scipy import ndimage
 
 import softrast as sr
 
-from test_pbr_vs_pyrender import INSTALL_HINT, _DROP_ENV
+from test_pbr_vs_pyrender import INSTALL_HINT
 
 CHILD = pathlib.Path(__file__).resolve().parent / "pyrender_interop_child.py"
 W, H = 320, 240
@@ -51,7 +51,9 @@ def rigid(angle, axis, offset):  # as in the child
 @pytest.fixture(scope="module")
 def rendered(tmp_path_factory) -> pathlib.Path:
     out = tmp_path_factory.mktemp("pyrender_interop")
-    env = {k: v for k, v in os.environ.items() if k not in _DROP_ENV}
+    # The child imports softrast too, so it keeps the environment as it is: under the sanitizer
+    # run (.ci/sanitize) the ASan runtime must stay preloaded for softrast's sanitized core.
+    env = dict(os.environ)
     env["PYOPENGL_PLATFORM"] = "osmesa"
     parent = str(pathlib.Path(sr.__file__).resolve().parent.parent)
     try:
