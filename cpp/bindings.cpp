@@ -3,6 +3,7 @@
 #include "framebuffer.hpp"
 #include "pipeline.hpp"
 #include "renderer.hpp"
+#include "texture.hpp"
 
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -195,6 +196,9 @@ constexpr std::pair<const char*, ShadingPath> kShadingPathNames[] = {
 constexpr const char* kBrdfNames[] = {"unlit", "lambert", "phong", "blinn_phong", "pbr", "normal"};
 constexpr std::pair<const char*, Frequency> kFrequencyNames[] = {
     {"pixel", Frequency::Pixel}, {"vertex", Frequency::Vertex}, {"face", Frequency::Face}};
+// Texture filters and wrap modes, in their enums' order (texture.hpp; texture.py passes indices).
+constexpr const char* kFilterNames[] = {"nearest", "bilinear", "trilinear", "anisotropic"};
+constexpr const char* kWrapNames[] = {"repeat", "clamp", "mirror"};
 
 template <typename E, std::size_t N>
 E parse_name(const std::string& s, const std::pair<const char*, E> (&names)[N], const char* what) {
@@ -267,11 +271,19 @@ vec3 vec3_from(const py::handle& h) {
   return vec3(v[0], v[1], v[2]);
 }
 
+// A texture slot of a material record: a _core.Texture or None. The draws' records (and so the
+// textures) stay referenced by the caller for the whole render.
+const Texture* texture_from(const py::handle& h) {
+  if (h.is_none()) return nullptr;
+  return h.cast<Texture*>();
+}
+
 // A material record from render.py: (brdf index, kd_is_base, ka_is_kd, double_sided, ka, kd,
-// ks, shininess, metallic, roughness, emissive); ranges are checked by Renderer::render.
+// ks, shininess, metallic, roughness, emissive, base_color_texture, emissive_texture,
+// normal_texture, normal_scale, normal_y_down); ranges are checked by Renderer::render.
 Material material_from(const py::handle& h, const std::string& where) {
   auto t = py::reinterpret_borrow<py::tuple>(h);
-  if (py::len(t) != 11) throw py::value_error(where + " material must have 11 fields");
+  if (py::len(t) != 16) throw py::value_error(where + " material must have 16 fields");
   Material m;
   const int brdf = t[0].cast<int>();
   if (brdf < 0 || brdf >= int(std::size(kBrdfNames)))
@@ -287,6 +299,15 @@ Material material_from(const py::handle& h, const std::string& where) {
   m.metallic = t[8].cast<float>();
   m.roughness = t[9].cast<float>();
   m.emissive = vec3_from(t[10]);
+  m.base_color_texture = texture_from(t[11]);
+  m.emissive_texture = texture_from(t[12]);
+  m.normal_texture = texture_from(t[13]);
+  m.normal_scale = t[14].cast<float>();
+  m.normal_y_down = t[15].cast<bool>();
+  if (m.emissive_texture) {  // the texture carries it, per pixel
+    m.emissive_factor = m.emissive;
+    m.emissive = vec3(0.0f);
+  }
   return m;
 }
 
@@ -312,11 +333,11 @@ Light light_from(const py::handle& h) {
 // Python string per key per render: about 1 us of a 6 us call).
 enum SpecKey { k_view, k_proj, k_orthographic, k_near, k_far, k_outputs, k_cull, k_shading,
                k_shading_path, k_background, k_ambient, k_out, k_lights, k_ambient_light,
-               k_frequency, k_srgb, kNumSpecKeys };
+               k_frequency, k_srgb, k_texture_filter, kNumSpecKeys };
 constexpr const char* kSpecKeys[kNumSpecKeys] = {
     "view", "proj", "orthographic", "near", "far", "outputs", "cull", "shading",
     "shading_path", "background", "ambient", "out", "lights", "ambient_light", "frequency",
-    "srgb"};
+    "srgb", "texture_filter"};
 PyObject* spec_key(SpecKey key) {
   // Made on first use with the GIL held and never freed (they live as long as the interpreter).
   static PyObject* const* const keys = [] {
@@ -371,6 +392,19 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::dict& sp
   options.ambient_light = vec3_from(get(k_ambient_light));
   options.frequency = parse_name(get(k_frequency).cast<std::string>(), kFrequencyNames, "frequency");
   options.srgb = get(k_srgb).cast<bool>();
+  const int filter = get(k_texture_filter).cast<int>();  // -1: each texture's own
+  if (filter >= int(std::size(kFilterNames))) throw py::value_error("texture_filter: unknown filter");
+  options.texture_filter = filter < 0 ? kNoFilterOverride : uint8_t(filter);
+  // Mip chains, built once per texture, for the textures whose filter needs them.
+  std::vector<Texture*> need_mips;
+  for (const Draw& d : draws)
+    for (const Texture* t : {d.material.base_color_texture, d.material.emissive_texture,
+                             d.material.normal_texture})
+      if (t && !t->has_mips()) {
+        const TextureFilter f = filter < 0 ? t->filter : TextureFilter(filter);
+        if (f == TextureFilter::Trilinear || f == TextureFilter::Anisotropic)
+          need_mips.push_back(const_cast<Texture*>(t));
+      }
   const py::object out = get(k_out);
 
   // Caller-supplied arrays (out=) are written in place; `out` keeps them alive meanwhile.
@@ -400,6 +434,7 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::dict& sp
   std::unique_ptr<Framebuffer> fb;
   PyThreadState* const saved = PyEval_SaveThread();
   try {
+    for (Texture* t : need_mips) t->build_mips();
     fb = self.render(draws, camera, options, external);
   } catch (...) {
     take_gil_or_park(saved);
@@ -455,6 +490,91 @@ PYBIND11_MODULE(_core, m) {
   py::tuple brdfs(std::size(kBrdfNames));
   for (std::size_t i = 0; i < std::size(kBrdfNames); ++i) brdfs[i] = kBrdfNames[i];
   m.attr("REFLECTANCE_MODELS") = brdfs;
+
+  py::tuple filters(std::size(kFilterNames)), wraps(std::size(kWrapNames));
+  for (std::size_t i = 0; i < std::size(kFilterNames); ++i) filters[i] = kFilterNames[i];
+  for (std::size_t i = 0; i < std::size(kWrapNames); ++i) wraps[i] = kWrapNames[i];
+  m.attr("TEXTURE_FILTERS") = filters;
+  m.attr("TEXTURE_WRAPS") = wraps;
+
+  // A texture's level 0 views the array (kept alive by the Texture); python/softrast/texture.py
+  // checks and converts the image (uint8 as is, anything else to linear float32) and the options.
+  py::class_<Texture, std::shared_ptr<Texture>>(m, "Texture")
+      .def(py::init([](py::array_t<uint8_t, 0> image, bool srgb) {
+             if (image.ndim() != 3 || !(image.flags() & py::array::c_style))
+               throw py::value_error("image must be a C-contiguous (h, w, c) array");
+             return std::make_shared<Texture>(int(image.shape(1)), int(image.shape(0)),
+                                              int(image.shape(2)), image.data(), srgb);
+           }),
+           "image"_a, "srgb"_a, py::keep_alive<1, 2>())
+      .def(py::init([](py::array_t<float, 0> image) {
+             if (image.ndim() != 3 || !(image.flags() & py::array::c_style))
+               throw py::value_error("image must be a C-contiguous (h, w, c) array");
+             return std::make_shared<Texture>(int(image.shape(1)), int(image.shape(0)),
+                                              int(image.shape(2)), image.data());
+           }),
+           "image"_a, py::keep_alive<1, 2>())
+      .def("configure",
+           [](Texture& t, int filter, int wrap_u, int wrap_v, bool top_left, int max_anisotropy) {
+             if (filter < 0 || filter >= int(std::size(kFilterNames)) || wrap_u < 0 ||
+                 wrap_u >= int(std::size(kWrapNames)) || wrap_v < 0 ||
+                 wrap_v >= int(std::size(kWrapNames)) || max_anisotropy < 1)
+               throw py::value_error("Texture.configure: bad option");
+             t.filter = TextureFilter(filter);
+             t.wrap_u = Wrap(wrap_u);
+             t.wrap_v = Wrap(wrap_v);
+             t.top_left = top_left;
+             t.max_anisotropy = max_anisotropy;
+           },
+           "filter"_a, "wrap_u"_a, "wrap_v"_a, "top_left"_a, "max_anisotropy"_a)
+      .def("build_mips", &Texture::build_mips, py::call_guard<py::gil_scoped_release>())
+      .def_property_readonly("has_mips", &Texture::has_mips)
+      .def_property_readonly("num_levels", &Texture::num_levels)
+      .def("level_size", [](const Texture& t, int l) {
+             if (l < 0 || l >= t.num_levels()) throw py::index_error("level out of range");
+             return py::make_tuple(t.level_height(l), t.level_width(l));
+           })
+      .def("mip", [](Texture& t, int l) {
+             if (l < 0 || l >= t.num_levels()) throw py::index_error("level out of range");
+             if (l > 0) t.build_mips();
+             const int w = t.level_width(l), h = t.level_height(l);
+             py::array_t<float> out({h, w, 4});
+             float* p = out.mutable_data();
+             for (int y = 0; y < h; ++y)
+               for (int x = 0; x < w; ++x) {
+                 const vec4 v = t.texel(l, x, y);
+                 for (int c = 0; c < 4; ++c) p[(std::size_t(y) * w + x) * 4 + c] = v[c];
+               }
+             return out;
+           }, "level"_a)
+      .def("sample",
+           [](Texture& t, py::array_t<float, py::array::c_style> uv,
+              py::array_t<float, py::array::c_style> duv, int filter) {
+             if (filter < 0 || filter >= int(std::size(kFilterNames)))
+               throw py::value_error("filter: unknown filter");
+             if (uv.ndim() != 2 || uv.shape(1) != 2 || duv.ndim() != 2 || duv.shape(1) != 4 ||
+                 duv.shape(0) != uv.shape(0))
+               throw py::value_error("uv must be (n, 2) and duv (n, 4)");
+             const TextureFilter f = TextureFilter(filter);
+             const std::size_t n = std::size_t(uv.shape(0));
+             py::array_t<float> out({py::ssize_t(n), py::ssize_t(4)});
+             const float* a = uv.data();
+             const float* d = duv.data();
+             float* o = out.mutable_data();
+             {
+               py::gil_scoped_release release;
+               if (f == TextureFilter::Trilinear || f == TextureFilter::Anisotropic) t.build_mips();
+               for (std::size_t i = 0; i < n; ++i) {
+                 const vec4 s = sample_texture(t, f, a[2 * i], a[2 * i + 1], d[4 * i], d[4 * i + 1],
+                                               d[4 * i + 2], d[4 * i + 3]);
+                 for (int c = 0; c < 4; ++c) o[4 * i + c] = s[c];
+               }
+             }
+             return out;
+           },
+           "uv"_a, "duv"_a, "filter"_a,
+           "Samples at n points: (n, 2) uv, (n, 4) derivatives (du/dx, dv/dx, du/dy, dv/dy); "
+           "(n, 4) linear RGBA, exactly what a render reads.");
 
   py::class_<MeshData, std::shared_ptr<MeshData>>(m, "MeshData")
       .def(py::init(&make_mesh), "positions"_a, "faces"_a, "normals"_a = py::none(),

@@ -66,6 +66,9 @@ SR_INLINE void prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTri
   const MeshData& mesh = *d.mesh;
   bool uniform_color;
   for (int k = 0; k < 3; ++k) s.persp[k] = a.persp[k];
+  // Attributes: always for a model that reads them, or (kAttributesIfTextured) for a textured draw.
+  const bool attributes = Model::kAttributes > 0 &&
+                          (!Model::kAttributesIfTextured || d.material.textured());
   if (a.clip_ref == kNoClip) {
     const int32_t* v = a.vertex;
     if (!kNormals) {
@@ -86,7 +89,8 @@ SR_INLINE void prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTri
     if constexpr (Model::kReadsPosition)
       for (int k = 0; k < 3; ++k) s.position[k] = world_position(d, v[k]);
     if constexpr (Model::kAttributes > 0)
-      for (int k = 0; k < 3; ++k) vertex_attributes<Model::kAttributes>(mesh, v[k], s.attr[k]);
+      if (attributes)
+        for (int k = 0; k < 3; ++k) vertex_attributes<Model::kAttributes>(mesh, v[k], s.attr[k]);
   } else {
     const ivec3 f = mesh.faces[t.prim];
     vec3 normal_src[3] = {}, color_src[3];
@@ -113,7 +117,7 @@ SR_INLINE void prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTri
         s.position[k] = w.x * src[0] + w.y * src[1] + w.z * src[2];
       }
     }
-    if constexpr (Model::kAttributes > 0) {
+    if constexpr (Model::kAttributes > 0) if (attributes) {
       float src[3][Model::kAttributes];
       for (int c = 0; c < 3; ++c) vertex_attributes<Model::kAttributes>(mesh, f[c], src[c]);
       for (int k = 0; k < 3; ++k)
@@ -142,7 +146,32 @@ SR_INLINE void prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTri
   s.back_facing = a.back_facing;
   s.material = &d.material;
   s.reads = (Model::kReadsNormal ? ShadeTriangleBase::kReadNormal : 0) |
-            (Model::kReadsPosition ? ShadeTriangleBase::kReadPosition : 0);
+            (Model::kReadsPosition ? ShadeTriangleBase::kReadPosition : 0) |
+            (Model::kAttributes > 0 && !Model::kAttributesIfTextured ? ShadeTriangleBase::kReadUv : 0);
+  if constexpr (Model::kAttributesIfTextured) {
+    if (attributes) {
+      // Screen derivatives of the weights: b_k = E_k persp_k, and E_k (edge kEdgeStart[k] ->
+      // kEdgeEnd[k], the weight of vertex k) steps by -dy * one per pixel in x and dx * one in y.
+      double sx = 0.0, sy = 0.0, ax[Model::kAttributes] = {}, ay[Model::kAttributes] = {};
+      for (int k = 0; k < 3; ++k) {
+        const int i = kEdgeStart[k], j = kEdgeEnd[k];
+        const double gx = -double(int64_t(t.y[j]) - t.y[i]) * kSubpixelOne * a.persp[k];
+        const double gy = double(int64_t(t.x[j]) - t.x[i]) * kSubpixelOne * a.persp[k];
+        sx += gx;
+        sy += gy;
+        for (int c = 0; c < Model::kAttributes; ++c) {
+          ax[c] += gx * s.attr[k][c];
+          ay[c] += gy * s.attr[k][c];
+        }
+      }
+      s.sum_dx = float(sx);
+      s.sum_dy = float(sy);
+      for (int c = 0; c < Model::kAttributes; ++c) {
+        s.attr_dx[c] = float(ax[c]);
+        s.attr_dy[c] = float(ay[c]);
+      }
+    }
+  }
   if constexpr (Model::kFaceNormal) {
     if (p.in.frequency == Frequency::Face) {
       const vec3 n = a.clip_ref != kNoClip ? flat_normal(d, mesh.faces[t.prim].x, mesh.faces[t.prim].y,

@@ -16,6 +16,8 @@
 
 namespace sr {
 
+class Texture;
+
 enum class LightKind : uint8_t { Directional, Point, Spot };
 
 // One light in world space (python/softrast/light.py, Light._core).
@@ -45,7 +47,15 @@ struct Material {
   vec3 ka{0.0f}, kd{0.0f}, ks{0.0f};
   float shininess = 32.0f;
   float metallic = 0.0f, roughness = 0.5f;
-  vec3 emissive{0.0f};
+  vec3 emissive{0.0f};   // zero where an emissive texture carries it (emissive_factor)
+  // Textures (texture.hpp), null where absent; the lit model samples them per pixel.
+  const Texture* base_color_texture = nullptr;  // multiplies the base colour (rgb)
+  const Texture* emissive_texture = nullptr;    // emissive_factor * its rgb is added
+  const Texture* normal_texture = nullptr;      // tangent space, OpenGL-style unless normal_y_down
+  vec3 emissive_factor{0.0f};
+  float normal_scale = 1.0f;
+  bool normal_y_down = false;  // DirectX-style normal map (green = -v)
+  bool textured() const { return base_color_texture || emissive_texture || normal_texture; }
 };
 
 namespace simd {

@@ -146,6 +146,7 @@ struct RenderOptions {
   vec3 ambient_light{0.0f};
   Frequency frequency = Frequency::Pixel;
   bool srgb = true;  // the colour output is sRGB-encoded (IEC 61966-2-1), else linear
+  uint8_t texture_filter = 0xff;  // a TextureFilter for every texture, or 0xff: each its own
 };
 
 // Per-vertex result of the transform stage (one draw).

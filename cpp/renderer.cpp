@@ -294,6 +294,7 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   shade.in.to_light_world = vec3(to_camera);
   shade.in.ambient = options.ambient;
   shade.in.frequency = options.frequency;
+  shade.in.texture_filter = options.texture_filter;
   shade.in.lit.lights = options.lights.data();
   shade.in.lit.num_lights = int(options.lights.size());
   shade.in.lit.ambient_light = options.ambient_light;

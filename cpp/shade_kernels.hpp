@@ -80,8 +80,18 @@ SR_INLINE void shade_group(const ShadeTriangle<Model>& s, const ShadeConstants<M
           frag.position[0] = pos.x; frag.position[1] = pos.y; frag.position[2] = pos.z;
         }
       }
-      for (int j = 0; j < Model::kAttributes; ++j)
-        frag.attr[j] = b0 * s.attr[0][j] + b1 * s.attr[1][j] + b2 * s.attr[2][j];
+      if constexpr (Model::kAttributes > 0) {
+        if (s.reads & ShadeTriangleBase::kReadUv) {
+          for (int j = 0; j < Model::kAttributes; ++j)
+            frag.attr[j] = b0 * s.attr[0][j] + b1 * s.attr[1][j] + b2 * s.attr[2][j];
+          if (s.reads & ShadeTriangleBase::kReadUvDerivs)
+            for (int j = 0; j < Model::kAttributes; ++j) {
+              frag.attr_dx[j] = (s.attr_dx[j] - frag.attr[j] * s.sum_dx) * inv_sum;
+              frag.attr_dy[j] = (s.attr_dy[j] - frag.attr[j] * s.sum_dy) * inv_sum;
+            }
+        }
+      }
+      frag.mine = mine;
       Model::shade(c.model, frag, r, g, b);
       merge(out.rgb[0] + i, r);
       merge(out.rgb[1] + i, g);

@@ -9,6 +9,8 @@
 //   kReadsPosition colour depends on the world-space position (point lights, ...)
 //   kAttributes    floats per vertex it reads from the mesh's attribute array (its uvs, two
 //                  floats, are the only one so far; 0: none)
+//   kAttributesIfTextured  it reads them only for a draw whose material has textures (and sets
+//                  the kReadUv bits in classify); else for every triangle
 //   kUniformLit    it has a fast path for a triangle of one base colour whose normals vary
 //                  (ShadeTriangle::kUniformLit, shade_uniform below)
 //   Triangle       its per-triangle values, computed by classify()
@@ -29,6 +31,7 @@
 #include "lighting.hpp"
 #include "pipeline.hpp"
 #include "simd.hpp"
+#include "texture.hpp"
 
 #include <algorithm>
 #include <array>
@@ -43,6 +46,7 @@ struct ShadeInputs {
   float ambient;        // Lambert: ambient + (1 - ambient) * max(0, n . l)
   LitInputs lit;        // the lit model: lights, ambient light, eye
   Frequency frequency = Frequency::Pixel;
+  uint8_t texture_filter = kNoFilterOverride;  // a TextureFilter for every texture, or each its own
 };
 
 // std::clamp(v, 0, 1) * 255 + 0.5 truncated.
@@ -72,7 +76,9 @@ SR_INLINE simd::i8 to_unorm8(simd::f8 v) {
 //   normal  one_normal: the precomputed unit normal, else the normalised interpolated normal.
 struct ShadeTriangleBase {
   enum ColorKind : uint8_t { kVaryingColor, kUniformLit, kConstantColor };
-  enum Reads : uint8_t { kReadNormal = 1, kReadPosition = 2 };  // bits of `reads`
+  // Bits of `reads`: kReadUv interpolates the attributes, kReadUvDerivs also their screen
+  // derivatives (d/dx, d/dy per pixel, exact from the triangle's plane equations).
+  enum Reads : uint8_t { kReadNormal = 1, kReadPosition = 2, kReadUv = 4, kReadUvDerivs = 8 };
   float persp[3];   // 1 / (w_k * area2) / max_k(1 / w_k): E_k * persp[k] ~ perspective-correct
                     // weight, scaled so that the largest is about 1 (no float underflow)
   vec3 normal[3];   // world-space normal at each vertex (the face normal if flat), facing the
@@ -93,6 +99,11 @@ struct ShadeTriangle : ShadeTriangleBase {
   vec3 position[Model::kReadsPosition ? 3 : 1];  // world space at each vertex (kReadsPosition)
   vec3 face_normal;  // kFaceNormal and frequency "face": the unit face normal, visible side
   float attr[3][Model::kAttributes > 0 ? Model::kAttributes : 1];  // at each vertex (kAttributes)
+  // kReadUvDerivs: the x and y derivatives of the unnormalised weights' sum S = sum_k b_k and of
+  // sum_k b_k attr_k; an attribute's derivative is then (A_x - attr * S_x) / S at each pixel.
+  float sum_dx, sum_dy;
+  float attr_dx[Model::kAttributes > 0 ? Model::kAttributes : 1];
+  float attr_dy[Model::kAttributes > 0 ? Model::kAttributes : 1];
 };
 
 // What a model reads at eight pixels, interpolated with perspective-correct weights. Only what
@@ -102,6 +113,9 @@ struct Fragment {
   simd::f8 normal[3];    // world-space unit normal of the visible side (kReadsNormal)
   simd::f8 position[3];  // world-space position (kReadsPosition)
   simd::f8 attr[Model::kAttributes > 0 ? Model::kAttributes : 1];  // vertex attributes (kAttributes)
+  simd::f8 attr_dx[Model::kAttributes > 0 ? Model::kAttributes : 1];  // their d/dx (kReadUvDerivs)
+  simd::f8 attr_dy[Model::kAttributes > 0 ? Model::kAttributes : 1];  // and d/dy
+  simd::i8 mine;  // the lanes that are shaded
 };
 
 // "unlit": the base colour.
@@ -111,6 +125,7 @@ struct UnlitModel {
   static constexpr bool kReadsNormal = false, kReadsColor = true, kUniformLit = false;
   static constexpr bool kReadsPosition = false, kFaceNormal = false;
   static constexpr int kAttributes = 0;
+  static constexpr bool kAttributesIfTextured = false;
   struct Triangle {};
   struct Constants {
     Constants() = default;
@@ -135,6 +150,7 @@ struct LambertModel {
   static constexpr bool kReadsNormal = true, kReadsColor = true, kUniformLit = true;
   static constexpr bool kReadsPosition = false, kFaceNormal = false;
   static constexpr int kAttributes = 0;
+  static constexpr bool kAttributesIfTextured = false;
   struct Triangle {
     float light_dot[3];  // kUniformLit: dot(normal[k], to_light_world)
   };
@@ -192,6 +208,7 @@ struct NormalModel {
   static constexpr bool kReadsNormal = true, kReadsColor = false, kUniformLit = false;
   static constexpr bool kReadsPosition = false, kFaceNormal = false;
   static constexpr int kAttributes = 0;
+  static constexpr bool kAttributesIfTextured = false;
   struct Triangle {};
   struct Constants {
     Constants() = default;
@@ -221,6 +238,7 @@ struct UvModel {
   static constexpr bool kReadsNormal = false, kReadsColor = false, kUniformLit = false;
   static constexpr bool kReadsPosition = false, kFaceNormal = false;
   static constexpr int kAttributes = 2;
+  static constexpr bool kAttributesIfTextured = false;
   struct Triangle {};
   struct Constants {
     Constants() = default;
@@ -253,24 +271,44 @@ struct LitModel {
   static constexpr const char* kName = "lit";  // internal: render.py maps the public names to it
   static constexpr bool kReadsNormal = true, kReadsColor = true, kUniformLit = false;
   static constexpr bool kReadsPosition = true, kFaceNormal = true;
-  static constexpr int kAttributes = 0;
+  static constexpr int kAttributes = 2;  // uvs, for a textured material's draws only
+  static constexpr bool kAttributesIfTextured = true;
   struct Triangle {
     Brdf brdf;
     bool passthrough;  // the interpolated colour is the radiance (unlit, or Gouraud)
+    bool normal_map;   // a normal texture perturbs the pixel's normal (pixel frequency)
     float side;        // -1: a single-sided back face, lit with the normal facing away
+    vec3 tangent;      // normal_map: the world-space direction of +u on the triangle (or zero)
+    float handedness;  // normal_map: +1, or -1 where the uvs are mirrored (bitangent = -n x t)
   };
   struct Constants {
     const LitInputs* in;
     const Material* material;
     Brdf brdf;
-    bool passthrough, positions;
+    bool passthrough, positions, textured, normal_map;
+    TextureFilter base_filter, emissive_filter, normal_filter;
     simd::f8 side;
+    vec3 tangent;
+    float handedness;
     Constants() = default;
     SR_INLINE Constants(const ShadeInputs& inputs, const ShadeTriangle<LitModel>& s)
         : in(&inputs.lit), material(s.material), brdf(s.model.brdf),
           passthrough(s.model.passthrough),
           positions((s.reads & ShadeTriangleBase::kReadPosition) != 0),
-          side(simd::splat(s.model.side)) {}
+          textured((s.reads & ShadeTriangleBase::kReadUv) != 0), normal_map(s.model.normal_map),
+          side(simd::splat(s.model.side)), tangent(s.model.tangent),
+          handedness(s.model.handedness) {
+      if (textured) {
+        const Material& m = *s.material;
+        const auto pick = [&](const Texture* t) {
+          return inputs.texture_filter != kNoFilterOverride ? TextureFilter(inputs.texture_filter)
+                 : t ? t->filter : TextureFilter::Nearest;
+        };
+        base_filter = pick(m.base_color_texture);
+        emissive_filter = pick(m.emissive_texture);
+        normal_filter = pick(m.normal_texture);
+      }
+    }
   };
   // Does the radiance depend on the position (point lights, or the view vector)?
   static bool reads_position(const ShadeInputs& in, const Material& m, Brdf brdf) {
@@ -307,7 +345,12 @@ struct LitModel {
     s.model.brdf = brdf;
     s.model.passthrough = false;
     s.model.side = s.back_facing && !m.double_sided ? -1.0f : 1.0f;
+    s.model.normal_map = false;
     s.reads = 0;
+    if (m.textured()) {
+      classify_textured(in, uniform_color, s);
+      return;
+    }
     if (brdf == Brdf::Unlit) {
       if (uniform_color) {
         s.color_kind = ShadeTriangleBase::kConstantColor;
@@ -361,17 +404,126 @@ struct LitModel {
     }
     s.reads = ShadeTriangleBase::kReadNormal | (position ? ShadeTriangleBase::kReadPosition : 0);
   }
+  // A textured material's triangle: as classify below, but its colour always varies per pixel
+  // (the textures are sampled there). The vertex and face frequencies light the vertices or the
+  // face with the untextured base colour and modulate the result per pixel by the base colour
+  // texture (OpenGL's fixed-function GL_MODULATE), plus the emissive texture; a normal texture
+  // is read at the pixel frequency only.
+  static void classify_textured(const ShadeInputs& in, bool uniform_color, ShadeTriangle<LitModel>& s) {
+    const Material& m = *s.material;
+    const Brdf brdf = m.brdf;
+    s.color_kind = ShadeTriangleBase::kVaryingColor;
+    s.reads = ShadeTriangleBase::kReadUv | ShadeTriangleBase::kReadUvDerivs;
+    if (brdf == Brdf::Unlit) {
+      s.model.passthrough = true;
+      return;
+    }
+    const vec3 side(s.model.side);
+    if (brdf != Brdf::Normal && in.frequency != Frequency::Pixel) {
+      s.model.passthrough = true;
+      if (in.frequency == Frequency::Face) {
+        const vec3 p = (s.position[0] + s.position[1] + s.position[2]) * (1.0f / 3.0f);
+        const vec3 base = uniform_color ? s.color[0] : (s.color[0] + s.color[1] + s.color[2]) * (1.0f / 3.0f);
+        const vec3 ns = s.face_normal * side;
+        vec3 rgb;
+        radiance_at(in, m, brdf, &ns, &p, &base, 1, &rgb);
+        s.color[0] = s.color[1] = s.color[2] = rgb;
+      } else {
+        vec3 n[3], base[3];
+        for (int k = 0; k < 3; ++k) {
+          n[k] = unit_or_zero(s.normal[k]) * side;
+          base[k] = uniform_color ? s.color[0] : s.color[k];
+        }
+        radiance_at(in, m, brdf, n, s.position, base, 3, s.color);
+      }
+      return;
+    }
+    if (brdf == Brdf::Normal && in.frequency != Frequency::Pixel) {
+      s.model.passthrough = true;
+      for (int k = 0; k < 3; ++k)
+        s.color[k] = in.frequency == Frequency::Face ? s.face_normal * 0.5f + 0.5f
+                                                     : unit_or_zero(s.normal[k]) * 0.5f + 0.5f;
+      return;
+    }
+    s.reads |= ShadeTriangleBase::kReadNormal;
+    if (brdf != Brdf::Normal && reads_position(in, m, brdf)) s.reads |= ShadeTriangleBase::kReadPosition;
+    if (m.normal_texture) {
+      // The triangle's tangent frame from its positions and uvs (per face, in world space):
+      // dp = T du + B dv over its two edges. Mirrored uvs flip the bitangent (handedness).
+      s.model.normal_map = true;
+      const vec3 e1 = s.position[1] - s.position[0], e2 = s.position[2] - s.position[0];
+      const float du1 = s.attr[1][0] - s.attr[0][0], dv1 = s.attr[1][1] - s.attr[0][1];
+      const float du2 = s.attr[2][0] - s.attr[0][0], dv2 = s.attr[2][1] - s.attr[0][1];
+      const float det = du1 * dv2 - du2 * dv1;
+      const vec3 t = (e1 * dv2 - e2 * dv1), bt = (e2 * du1 - e1 * du2);
+      const vec3 n = s.normal[0] + s.normal[1] + s.normal[2];  // the visible side
+      const float sign = det < 0.0f ? -1.0f : 1.0f;   // t, bt above are det * (T, B)
+      s.model.tangent = det != 0.0f && std::isfinite(det) ? unit_or_zero(t * sign) : vec3(0.0f);
+      s.model.handedness = glm::dot(glm::cross(n, t * sign), bt * sign) < 0.0f ? -1.0f : 1.0f;
+    }
+  }
+  // Samples `tex` at the fragment's uvs into out[0..3] (lanes of f.mine).
+  SR_INLINE static void sample(const Texture& tex, TextureFilter filter,
+                               const Fragment<LitModel>& f, simd::f8 (&out)[4]) {
+    alignas(32) float u[8], v[8], ux[8], vx[8], uy[8], vy[8], o[4][8] = {};
+    simd::store(u, f.attr[0]); simd::store(v, f.attr[1]);
+    simd::store(ux, f.attr_dx[0]); simd::store(vx, f.attr_dx[1]);
+    simd::store(uy, f.attr_dy[0]); simd::store(vy, f.attr_dy[1]);
+    uint32_t mask = 0;
+    for (int i = 0; i < 8; ++i) mask |= uint32_t(f.mine[i] != 0) << i;
+    sample_texture8(tex, filter, u, v, ux, vx, uy, vy, mask, o);
+    for (int c = 0; c < 4; ++c) out[c] = simd::load<simd::f8>(o[c]);
+  }
+  // The normal texture's tangent-space normal (2 rgb - 1, x and y scaled by normal_scale, y
+  // negated for a DirectX-style map) in the frame (t, b, n): t the triangle's tangent made
+  // orthogonal to the pixel's normal n, b = handedness n x t. Where the frame is degenerate (no
+  // tangent, a zero normal) n is kept.
+  SR_INLINE static void normal_map(const Constants& c, const Fragment<LitModel>& f, simd::f8 (&n)[3]) {
+    using simd::f8;
+    f8 tex[4];
+    sample(*c.material->normal_texture, c.normal_filter, f, tex);
+    const float scale = c.material->normal_scale;
+    const f8 tx = (tex[0] * 2.0f - 1.0f) * scale;
+    const f8 ty = (tex[1] * 2.0f - 1.0f) * (c.material->normal_y_down ? -scale : scale);
+    const f8 tz = tex[2] * 2.0f - 1.0f;
+    const f8 nt = n[0] * c.tangent.x + n[1] * c.tangent.y + n[2] * c.tangent.z;
+    f8 t[3];
+    for (int k = 0; k < 3; ++k) t[k] = c.tangent[k] - n[k] * nt;
+    const f8 tlen2 = t[0] * t[0] + t[1] * t[1] + t[2] * t[2];
+    const f8 tr = 1.0f / simd::sqrt(tlen2);
+    for (int k = 0; k < 3; ++k) t[k] *= tr;
+    const f8 b[3] = {(n[1] * t[2] - n[2] * t[1]) * c.handedness, (n[2] * t[0] - n[0] * t[2]) * c.handedness,
+                     (n[0] * t[1] - n[1] * t[0]) * c.handedness};
+    f8 m[3];
+    for (int k = 0; k < 3; ++k) m[k] = t[k] * tx + b[k] * ty + n[k] * tz;
+    const f8 len2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2];
+    const f8 r = 1.0f / simd::sqrt(len2);
+    const simd::i8 ok = (tlen2 > 0.0f) & (len2 > 0.0f) & (r == r);
+    for (int k = 0; k < 3; ++k) n[k] = ok ? m[k] * r : n[k];
+  }
   SR_INLINE static void shade(const Constants& c, const Fragment<LitModel>& f, simd::f8& r,
                               simd::f8& g, simd::f8& b) {
     using simd::f8;
-    if (c.passthrough) return;
-    if (c.brdf == Brdf::Normal) {
-      r = f.normal[0] * 0.5f + 0.5f;
-      g = f.normal[1] * 0.5f + 0.5f;
-      b = f.normal[2] * 0.5f + 0.5f;
+    f8 n[3] = {f.normal[0], f.normal[1], f.normal[2]};
+    if (c.textured) {
+      if (c.normal_map) normal_map(c, f, n);
+      if (c.material->base_color_texture && c.brdf != Brdf::Normal) {
+        f8 tex[4];
+        sample(*c.material->base_color_texture, c.base_filter, f, tex);
+        r *= tex[0]; g *= tex[1]; b *= tex[2];
+      }
+    }
+    if (c.passthrough) {
+      if (c.textured && c.brdf != Brdf::Unlit && c.brdf != Brdf::Normal) add_emissive(c, f, r, g, b);
       return;
     }
-    const f8 n[3] = {f.normal[0] * c.side, f.normal[1] * c.side, f.normal[2] * c.side};
+    if (c.brdf == Brdf::Normal) {
+      r = n[0] * 0.5f + 0.5f;
+      g = n[1] * 0.5f + 0.5f;
+      b = n[2] * 0.5f + 0.5f;
+      return;
+    }
+    for (int k = 0; k < 3; ++k) n[k] *= c.side;
     const f8 base[3] = {r, g, b};
     f8 out[3];
     if (c.positions)
@@ -381,6 +533,15 @@ struct LitModel {
     r = out[0];
     g = out[1];
     b = out[2];
+    if (c.textured) add_emissive(c, f, r, g, b);
+  }
+  SR_INLINE static void add_emissive(const Constants& c, const Fragment<LitModel>& f, simd::f8& r,
+                                     simd::f8& g, simd::f8& b) {
+    if (!c.material->emissive_texture) return;
+    simd::f8 tex[4];
+    sample(*c.material->emissive_texture, c.emissive_filter, f, tex);
+    const vec3 e = c.material->emissive_factor;
+    r += tex[0] * e.x; g += tex[1] * e.y; b += tex[2] * e.z;
   }
 };
 

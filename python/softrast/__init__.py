@@ -15,6 +15,7 @@ from .material import Material
 from .mesh import Mesh, PrecisionWarning, load_mesh
 from .render import Frame, Renderer
 from .scene import Scene
+from .texture import Texture, load_texture
 from . import opencv  # noqa: E402 (helpers; cv2 is imported only when draw_outline runs)
 
 __version__ = "0.1.0"
@@ -39,6 +40,7 @@ __all__ = [
     "SUBPIXEL_BITS",
     "Scene",
     "SpotLight",
+    "Texture",
     "TILE_SIZE_PX",
     "from_pyrender",
     "get_memory_budget",
@@ -46,5 +48,6 @@ __all__ = [
     "imwrite",
     "load_mesh",
     "load_scene",
+    "load_texture",
     "set_memory_budget",
 ]

@@ -16,6 +16,16 @@ normal         (n + 1) / 2, the visible side's world-space unit normal
 
 ``kd`` is the base colour unless given (the per-vertex colours of a mesh that has them, else
 ``base_color``); ``ka`` is ``kd`` unless given; ``Ia`` is the scene's ambient light.
+
+Textures (``softrast.Texture``; conventions in ``softrast.texture``) are sampled per pixel at the
+mesh's uvs: ``base_color_texture`` multiplies the base colour (so ``kd`` where ``kd`` is the base
+colour, as ``map_Kd`` does in MTL files), ``emissive_texture`` multiplies ``emissive`` (then
+added per pixel), ``normal_texture`` is a tangent-space normal map (OpenGL-style, green = +v;
+``normal_map_convention="directx"`` for green = -v; x and y scaled by ``normal_scale``) in the
+tangent frame of each triangle (tangent = the direction of +u, made orthogonal to the
+interpolated normal; bitangent = n x t, flipped where the uvs are mirrored). At the vertex and
+face frequencies the lighting is computed without textures and modulated per pixel by the base
+colour texture (OpenGL's GL_MODULATE), and normal maps are not read.
 """
 from __future__ import annotations
 
@@ -25,6 +35,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ._checks import real, real_array
+from .texture import Texture
 
 __all__ = ["Material", "MODELS"]
 
@@ -74,19 +85,29 @@ class Material:
         ``softrast.material.MODELS``, or None: "blinn_phong" (the loaders set "pbr" for glTF
         materials and "blinn_phong" for MTL ones).
     name : a label (the file's material name), not used for rendering.
+    base_color_texture, emissive_texture : Texture or None; sRGB-decoded unless the texture
+        says ``srgb=False``.
+    normal_texture : Texture or None, a tangent-space normal map (linear unless the texture says
+        ``srgb=True``); ``normal_scale`` (finite) scales its x and y;
+        ``normal_map_convention``: "opengl" (default, green = +v) or "directx" (green = -v).
     """
 
     __slots__ = ("base_color", "ka", "kd", "ks", "shininess", "metallic", "roughness", "emissive",
-                 "double_sided", "model", "name", "_core")
+                 "double_sided", "model", "name", "base_color_texture", "emissive_texture",
+                 "normal_texture", "normal_scale", "normal_map_convention", "_core")
     _FIELDS = ("base_color", "ka", "kd", "ks", "shininess", "metallic", "roughness", "emissive",
-               "double_sided", "model", "name")
+               "double_sided", "model", "name", "base_color_texture", "emissive_texture",
+               "normal_texture", "normal_scale", "normal_map_convention")
 
     def __init__(self, base_color: Sequence[float] = (0.8, 0.8, 0.8, 1.0),
                  ka: Sequence[float] | None = None, kd: Sequence[float] | None = None,
                  ks: Sequence[float] | None = (0.5, 0.5, 0.5), shininess: float = 32.0,
                  metallic: float = 0.0, roughness: float = 0.5,
                  emissive: Sequence[float] = (0.0, 0.0, 0.0), double_sided: bool = False,
-                 model: str | None = None, name: str | None = None) -> None:
+                 model: str | None = None, name: str | None = None,
+                 base_color_texture: Texture | None = None,
+                 emissive_texture: Texture | None = None, normal_texture: Texture | None = None,
+                 normal_scale: float = 1.0, normal_map_convention: str = "opengl") -> None:
         s = object.__setattr__
         s(self, "base_color", _color(base_color, "base_color", 4))
         s(self, "ka", None if ka is None else _color(ka, "ka", 3))
@@ -111,12 +132,31 @@ class Material:
         if name is not None and not isinstance(name, str):
             raise TypeError(f"name must be a str or None, got {type(name).__name__}")
         s(self, "name", name)
+        for slot, tex in (("base_color_texture", base_color_texture),
+                          ("emissive_texture", emissive_texture), ("normal_texture", normal_texture)):
+            if tex is not None and not isinstance(tex, Texture):
+                raise TypeError(f"{slot} must be a softrast.Texture or None, got {type(tex).__name__}")
+            s(self, slot, tex)
+        scale = real(normal_scale, "normal_scale")
+        if not math.isfinite(scale):
+            raise ValueError(f"normal_scale must be finite, got {normal_scale!r}")
+        s(self, "normal_scale", scale)
+        if normal_map_convention not in ("opengl", "directx"):
+            raise ValueError(f"normal_map_convention must be 'opengl' or 'directx', got "
+                             f"{normal_map_convention!r:.80}")
+        s(self, "normal_map_convention", normal_map_convention)
         # The core's record less its first field (the reflectance model, chosen per render):
-        # kd_is_base, ka_is_kd, double_sided, ka, kd, ks, shininess, metallic, roughness, emissive.
+        # kd_is_base, ka_is_kd, double_sided, ka, kd, ks, shininess, metallic, roughness, emissive,
+        # then the core textures (colour slots decode sRGB unless the texture says otherwise),
+        # normal_scale, normal_y_down.
         kd_rgb = self.kd if self.kd is not None else (0.0, 0.0, 0.0)
         s(self, "_core", (self.kd is None, self.ka is None, self.double_sided,
                           self.ka if self.ka is not None else (0.0, 0.0, 0.0), kd_rgb, self.ks,
-                          p, self.metallic, self.roughness, self.emissive))
+                          p, self.metallic, self.roughness, self.emissive,
+                          base_color_texture._core(True) if base_color_texture is not None else None,
+                          emissive_texture._core(True) if emissive_texture is not None else None,
+                          normal_texture._core(False) if normal_texture is not None else None,
+                          scale, normal_map_convention == "directx"))
 
     def __setattr__(self, key: str, value: Any) -> None:
         raise AttributeError("Material is immutable: make a new one (softrast.Material(...) or "
@@ -127,7 +167,13 @@ class Material:
         """True if the material is lambert shading of its base colour, two-sided: what a mesh
         without a material gets (render's fast headlight path takes it too)."""
         return (self.ka is None and self.kd is None and self.emissive == (0.0, 0.0, 0.0)
-                and self.double_sided)
+                and self.double_sided and not self.textured)
+
+    @property
+    def textured(self) -> bool:
+        """True if the material samples a texture."""
+        return (self.base_color_texture is not None or self.emissive_texture is not None
+                or self.normal_texture is not None)
 
     def replace(self, **changes: Any) -> "Material":
         """A copy with some parameters changed (checked like the constructor's)."""
@@ -138,12 +184,14 @@ class Material:
     def __reduce__(self) -> tuple[Any, ...]:
         return (_rebuild, ({k: getattr(self, k) for k in self._FIELDS},))
 
-    def __eq__(self, other: object) -> bool:
+    def __eq__(self, other: object) -> bool:  # textures compare by identity
         return isinstance(other, Material) and all(
-            getattr(self, k) == getattr(other, k) for k in self._FIELDS)
+            getattr(self, k) is getattr(other, k) if k.endswith("_texture")
+            else getattr(self, k) == getattr(other, k) for k in self._FIELDS)
 
     def __hash__(self) -> int:
-        return hash(tuple(getattr(self, k) for k in self._FIELDS))
+        return hash(tuple(id(getattr(self, k)) if k.endswith("_texture") else getattr(self, k)
+                          for k in self._FIELDS))
 
     def __repr__(self) -> str:
         fields = ", ".join(f"{k}={getattr(self, k)!r}" for k in self._FIELDS

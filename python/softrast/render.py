@@ -11,6 +11,7 @@ from ._checks import choice, image_side, integer, real, unit_rgb
 from .camera import Camera
 from .limits import check_budget
 from .scene import Scene
+from .texture import check_filter
 
 __all__ = ["Frame", "Renderer"]
 
@@ -24,8 +25,9 @@ _SHADING = ("auto",) + _core.REFLECTANCE_MODELS + tuple(
     m for m in _core.SHADING_MODELS if m not in _core.REFLECTANCE_MODELS and m != "lit")
 # A mesh without a material: lambert of its base colour, two-sided, no specular term.
 _PLAIN_MATERIAL = (True, True, True, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 32.0, 0.0,
-                   0.5, (0.0, 0.0, 0.0))
+                   0.5, (0.0, 0.0, 0.0), None, None, None, 1.0, False)
 _LAMBERT = _REFLECTANCE["lambert"]
+_FILTERS = _core.TEXTURE_FILTERS
 # Bytes per pixel of each output (see Frame): what a render allocates for it. From the core's
 # output table, as every list of outputs here is.
 _OUTPUT_BYTES = {row["name"]: row["bytes_per_pixel"] for row in _core.OUTPUT_TABLE}
@@ -78,12 +80,13 @@ def _spec(view: Any, proj: Any, orthographic: bool, near: float, far: float, out
           background: Sequence[float] = (0.0, 0.0, 0.0), ambient: float = 0.25,
           out: dict[str, np.ndarray] | None = None, shading_path: str = "auto",
           lights: Sequence[tuple] = (), ambient_light: Sequence[float] = (0.0, 0.0, 0.0),
-          frequency: str = "pixel", srgb: bool = True) -> dict[str, Any]:
+          frequency: str = "pixel", srgb: bool = True, texture_filter: int = -1) -> dict[str, Any]:
     """The core's render spec (_core.pyi, Renderer.render): the options, already checked."""
     return {"view": view, "proj": proj, "orthographic": orthographic, "near": near, "far": far,
             "outputs": outputs, "cull": cull, "shading": shading, "shading_path": shading_path,
             "background": background, "ambient": ambient, "out": out, "lights": lights,
-            "ambient_light": ambient_light, "frequency": frequency, "srgb": srgb}
+            "ambient_light": ambient_light, "frequency": frequency, "srgb": srgb,
+            "texture_filter": texture_filter}
 
 
 def _lighting(scene: Scene, view: Any, ambient: float) -> tuple[list[tuple], tuple]:
@@ -135,7 +138,9 @@ def _make_draws(scene: Scene, shading: str, frequency: str) -> tuple[list[tuple]
     core's fast kernels where every draw allows it (a scene of plain lambert meshes under the
     headlight keeps the headlight kernel; unlit, normal and uv have their own)."""
     instances = scene._instances
-    if shading in ("unlit", "uv") or (shading == "normal" and frequency == "pixel"):
+    textured = any(i.material is not None and i.material.textured for i in instances)
+    if shading == "uv" or (not textured and (
+            shading == "unlit" or (shading == "normal" and frequency == "pixel"))):
         index = _REFLECTANCE.get(shading, _LAMBERT)
         return [(i.mesh._core_data(), i.pose, i.instance_id, i.color,
                  (index,) + (i.material._core if i.material is not None else _PLAIN_MATERIAL))
@@ -270,6 +275,7 @@ class Renderer:
         shading_path: str = "auto",
         frequency: str = "pixel",
         srgb: bool = True,
+        texture_filter: str | None = None,
     ) -> Frame:
         """Render ``scene`` seen by ``camera``; only ``outputs`` are allocated and written.
 
@@ -297,6 +303,9 @@ class Renderer:
                61966-2-1 curve, as pyrender's and glTF viewers' output and cameras' images are);
                False: linear. Either way clamped to [0, 1] and rounded to 8 bits; ``radiance``
                holds the linear, unclamped values.
+        texture_filter : None (default: each texture's own filter) or one filter for every
+               texture of this render: "nearest", "bilinear", "trilinear" or "anisotropic"
+               (``softrast.texture``).
         background : RGB in [0, 1] for pixels nothing covers, written to ``color`` as given
                (times 255, not encoded).
         out : a Frame from an earlier render, or a dict of arrays, to render into in place
@@ -325,6 +334,8 @@ class Renderer:
         choice(frequency, "frequency", _FREQUENCIES)
         if not isinstance(srgb, (bool, np.bool_)):
             raise TypeError(f"srgb must be True or False, got {srgb!r:.80}")
+        filter_index = -1 if texture_filter is None else _FILTERS.index(
+            check_filter(texture_filter, "texture_filter"))
         bg = unit_rgb(background, "background")
         ambient_f = real(ambient, "ambient")
         if not 0.0 <= ambient_f <= 1.0:  # NaN fails too
@@ -342,7 +353,7 @@ class Renderer:
         buffers = self._core.render(draws, _spec(view, proj, camera.orthographic, camera.near,
                                                  camera.far, names, cull, model, bg, ambient_f,
                                                  out_arrays, shading_path, lights, ambient_light,
-                                                 frequency, bool(srgb)))
+                                                 frequency, bool(srgb), filter_index))
         return Frame(buffers)
 
     def __repr__(self) -> str:
