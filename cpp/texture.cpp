@@ -41,14 +41,17 @@ void box_down(const float* src, int n, int src_step, float* dst, int m, int dst_
 }
 
 inline int wrap_index(int i, int n, Wrap wrap) {
+  if (unsigned(i) < unsigned(n)) return i;  // inside: the common case
   switch (wrap) {
     case Wrap::Repeat: {
+      if (i < 0 && i >= -n) return i + n;  // reduced coordinates give i in [-1, n]
+      if (i >= n && i < 2 * n) return i - n;
       const int m = i % n;
       return m < 0 ? m + n : m;
     }
-    case Wrap::Clamp: return i < 0 ? 0 : (i >= n ? n - 1 : i);
+    case Wrap::Clamp: return i < 0 ? 0 : n - 1;
     case Wrap::Mirror: {
-      int m = i % (2 * n);
+      int m = i >= 0 && i < 2 * n ? i : i % (2 * n);
       if (m < 0) m += 2 * n;
       return m < n ? m : 2 * n - 1 - m;
     }
@@ -201,7 +204,9 @@ vec4 sample_texture(const Texture& t, TextureFilter filter, float u, float v, fl
   const float pmax = x_major ? ax : ay, pmin = x_major ? ay : ax;
   if (!(pmax > 0.0f)) return trilinear(t, 0.0f, c);  // no footprint
   const int max_n = t.max_anisotropy;
-  const float ratio = pmax / pmin;  // pmin = 0: inf
+  // ceil(Pmax / Pmin - 1/64): an isotropic footprint whose derivatives round a little apart
+  // stays one probe (the 1/64 absorbs float rounding).
+  const float ratio = pmax / pmin - 0.015625f;  // pmin = 0: inf
   int n = ratio < float(max_n) ? int(std::ceil(ratio)) : max_n;
   n = n < 1 ? 1 : n;
   const float lambda = std::log2(pmax / float(n));

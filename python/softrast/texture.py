@@ -73,9 +73,10 @@ def check_filter(value: Any, name: str = "filter") -> str:
 
 
 def srgb_decode(c: np.ndarray) -> np.ndarray:
-    """IEC 61966-2-1 sRGB decode of values in [0, 1] (float64)."""
+    """IEC 61966-2-1 sRGB decode (float64); values below 0.04045 (negative ones too) take the
+    linear segment, values above 1 the power segment."""
     c = np.asarray(c, dtype=np.float64)
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    return np.where(c <= 0.04045, c / 12.92, ((np.maximum(c, 0.04045) + 0.055) / 1.055) ** 2.4)
 
 
 def _check_image(image: Any) -> np.ndarray:
