@@ -4,6 +4,7 @@ Run ``bash benchmarks/setup_baselines.sh`` once first, then::
 
     python3 benchmarks/bench_vs_pyrender.py [--quick] [--rows 0,1,4] [--json out.json]
     python3 benchmarks/bench_vs_pyrender.py --lit [--lit-only] [--png DIR]    # issue 16's lit rows
+    python3 benchmarks/bench_vs_pyrender.py --textured [--png DIR]            # issue 17's rows
     python3 benchmarks/bench_vs_pyrender.py --ab OLD_PYTHONPATH [--rows 1,2,3,4]  # Lambert A/B
 
 Scenes: trimesh icospheres (radius 1, smooth normals) seen by a 45-degree perspective camera at a
@@ -512,6 +513,131 @@ def report_lit(results: list[dict]) -> None:
         print(f"  {name}: {err}")
 
 
+# ------------------------------------------------------------------ textured rows (issue 17)
+
+TEXTURED_ROWS = [("spot", 640, 480), ("spot", 1024, 1024), ("box", 640, 480)]
+TEXTURED_GOAL = 20.0  # issue 17: textured rows >= 20x pyrender
+SHARED_ASSETS = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
+                             "shared", "assets")
+
+
+def textured_trimesh_scene(name: str) -> "trimesh.Scene":
+    """Spot with its 1024x1024 texture (assets/meshes), or ../shared/assets' BoxTextured."""
+    from PIL import Image
+
+    if name == "spot":
+        tm = trimesh.load(SPOT_PATH, force="mesh", process=False)
+        image = Image.open(os.path.join(os.path.dirname(SPOT_PATH), "spot_texture.png"))
+        tm.visual = trimesh.visual.TextureVisuals(uv=tm.visual.uv, image=image)
+        return trimesh.Scene(tm)
+    return trimesh.load(os.path.join(SHARED_ASSETS, "BoxTextured", "BoxTextured.gltf"))
+
+
+class TexturedRow:
+    """One textured row for both renderers: pyrender's standard shader with the file's base
+    colour texture, softrast's "pbr" with the same texture (trilinear), one directional light
+    along the view and an ambient light, colour+depth."""
+
+    def __init__(self, pyrender, name: str, width: int, height: int) -> None:
+        self.name, self.width, self.height = name, width, height
+        tscene = textured_trimesh_scene(name)
+        lo, hi = tscene.bounds
+        centre, radius = (lo + hi) / 2, float(np.linalg.norm(hi - lo) / 2)
+        view_dir = np.array([1.0, 0.4, 1.0]) / np.linalg.norm([1.0, 0.4, 1.0])
+        self.cam_pose = look_at(centre + radius * camera_distance() * view_dir, centre)
+        self.pr = None
+        if pyrender is not None:
+            pr = pyrender
+            scene = pr.Scene.from_trimesh_scene(tscene, ambient_light=[LIT_AMBIENT] * 3,
+                                                bg_color=[0.0, 0.0, 0.0, 0.0])
+            scene.add(pr.PerspectiveCamera(yfov=math.radians(FOV_Y_DEG), aspectRatio=width / height,
+                                           znear=NEAR, zfar=FAR), pose=self.cam_pose)
+            scene.add(pr.DirectionalLight(color=[1.0, 1.0, 1.0], intensity=3.0), pose=self.cam_pose)
+            self.pr_scene = scene
+            self.pr = pr.OffscreenRenderer(width, height)
+            self.pr.render(scene)
+        self.scene = sr.Scene(ambient_light=(LIT_AMBIENT,) * 3)
+        textures: dict[int, sr.Texture] = {}
+        for node in tscene.graph.nodes_geometry:
+            pose, geom_name = tscene.graph[node]
+            g = tscene.geometry[geom_name]
+            mat = g.visual.material
+            image = getattr(mat, "baseColorTexture", None) or getattr(mat, "image", None)
+            tex = textures.setdefault(id(image), sr.Texture(np.asarray(image.convert("RGB"))))
+            material = sr.Material(base_color=(1, 1, 1, 1), metallic=0.0, roughness=1.0,
+                                   base_color_texture=tex, model="pbr")
+            mesh = sr.Mesh(g.vertices, g.faces, normals=g.vertex_normals, uvs=g.visual.uv,
+                           material=material)
+            self.scene.add(mesh, pose=pose)
+        self.scene.add(sr.DirectionalLight(intensity=3.0), pose=self.cam_pose)
+        self.cam = sr.PerspectiveCamera(fov_y=FOV_Y_DEG, width=width, height=height, near=NEAR, far=FAR)
+        self.cam.pose = self.cam_pose
+        self.renderers = {t: sr.Renderer(width, height, threads=t) for t in (2, 1)}
+        self.kwargs = dict(outputs=("color", "depth"))
+        self.coverage = float((self.renderers[2].render(self.scene, self.cam, **self.kwargs).depth > 0).mean())
+
+    @property
+    def label(self) -> str:
+        return f"{self.name} {self.width}x{self.height}"
+
+    def cells(self) -> list[Cell]:
+        s, cam, kw = self.scene, self.cam, self.kwargs
+        cells = []
+        if self.pr is not None:
+            r, ps = self.pr, self.pr_scene
+            cells.append(Cell("pyrender color+depth", lambda r=r, ps=ps: r.render(ps)))
+        for t, r in self.renderers.items():
+            f = r.render(s, cam, **kw)
+            cells.append(Cell(f"softrast t{t} color+depth out", lambda r=r, f=f: r.render(s, cam, out=f, **kw)))
+            if t == 2:
+                for filt in ("nearest", "bilinear", "anisotropic"):
+                    cells.append(Cell(f"softrast t2 {filt}", lambda r=r, f=f, filt=filt: r.render(
+                        s, cam, out=f, texture_filter=filt, **kw)))
+        return cells
+
+
+def run_textured(pyrender, target_s, n_min, n_max, rounds, png_dir, quick) -> list[dict]:
+    results = []
+    for name, w, h in TEXTURED_ROWS:
+        if quick and w * h > 640 * 480:
+            continue
+        row = TexturedRow(pyrender, name, w, h)
+        if png_dir:
+            os.makedirs(png_dir, exist_ok=True)
+            sr.imwrite(os.path.join(png_dir, f"textured_{name}_{w}x{h}_softrast.png"),
+                       row.renderers[2].render(row.scene, row.cam, **row.kwargs).color)
+            if row.pr is not None:
+                sr.imwrite(os.path.join(png_dir, f"textured_{name}_{w}x{h}_pyrender.png"),
+                           row.pr.render(row.pr_scene)[0])
+        cells = row.cells()
+        run_interleaved(cells, target_s, n_min, n_max, rounds)
+        results.append({"row": row.label, "coverage": row.coverage,
+                        "ms": {c.name: c.median_ms for c in cells}})
+        if row.pr is not None:
+            row.pr.delete()
+        print(f"  done textured {row.label}: " + ", ".join(f"{k} {v:.2f}" for k, v in results[-1]["ms"].items()),
+              flush=True)
+    return results
+
+
+def report_textured(results: list[dict]) -> None:
+    get = lambda r, k: r["ms"].get(k, float("nan"))  # noqa: E731
+    print("\nTextured rows (issue 17): median ms per colour+depth frame; pyrender's standard shader with"
+          "\nthe base colour texture vs softrast pbr + texture (trilinear unless named), t2/t1 = threads")
+    head = (f"{'row':<18}{'cover':>6}{'pyrender':>9}{'sr t2':>8}{'sr t1':>8}{'nearest':>8}{'bilin':>8}"
+            f"{'aniso':>8}{'xpyr t2':>9}  goal >= {TEXTURED_GOAL:.0f}x")
+    print(head)
+    print("-" * len(head))
+    for r in results:
+        pyr, t2, t1 = (get(r, k) for k in ("pyrender color+depth", "softrast t2 color+depth out",
+                                            "softrast t1 color+depth out"))
+        x = ratio(pyr, t2)
+        verdict = "n/a" if x != x else ("MET" if x >= TEXTURED_GOAL else f"NOT MET (short by {TEXTURED_GOAL / x:.2f}x)")
+        print(f"{r['row']:<18}{100 * r['coverage']:>5.0f}%{fmt(pyr, 9)}{fmt(t2, 8, 2)}{fmt(t1, 8, 2)}"
+              f"{fmt(get(r, 'softrast t2 nearest'), 8, 2)}{fmt(get(r, 'softrast t2 bilinear'), 8, 2)}"
+              f"{fmt(get(r, 'softrast t2 anisotropic'), 8, 2)}{fmt(x, 9)}  {verdict}")
+
+
 # ------------------------------------------------------------------ Lambert A/B (old vs new)
 
 
@@ -669,6 +795,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--from-json", help="print the tables of an earlier --json file and exit")
     ap.add_argument("--lit", action="store_true", help="also run issue 16's lit rows (blinn_phong, pbr)")
     ap.add_argument("--lit-only", action="store_true", help="run only the lit rows")
+    ap.add_argument("--textured", action="store_true",
+                    help="only issue 17's textured rows (textured Spot, BoxTextured)")
     ap.add_argument("--png", help="write each lit row's colour image from each renderer into this directory")
     ap.add_argument("--ab", metavar="OLD_PYTHONPATH",
                     help="only the Lambert A/B: the old build (softrast importable from this path) vs "
@@ -710,7 +838,7 @@ def main(argv: list[str] | None = None) -> int:
             with open(args.json, "w") as fh:
                 json.dump({"ab": ab}, fh, indent=1)
         return 0
-    if args.lit_only:
+    if args.lit_only or args.textured:
         rows = []
 
     pyrender, pyrender_error = (None, "skipped (--no-pyrender)") if args.no_pyrender else import_pyrender()
@@ -761,6 +889,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"  done ico{sub} {w}x{h}: "
               + ", ".join(f"{k} {v:.2f}" for k, v in res["ms"].items()), flush=True)
 
+    if args.textured:
+        report_textured(run_textured(pyrender, target_s, n_min, n_max, rounds, args.png, args.quick))
+        return 0
     lit_results = []
     if args.lit or args.lit_only:
         lit_results = run_lit([r for r in LIT_ROWS if not (args.quick and r[2] * r[3] > 640 * 480)]

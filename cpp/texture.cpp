@@ -40,6 +40,12 @@ void box_down(const float* src, int n, int src_step, float* dst, int m, int dst_
   }
 }
 
+// floor for |x| < 2^31 without a libm call (the generic x86-64 target has no SSE4.1 round).
+inline float fast_floor(float x) {
+  const float t = float(int(x));
+  return t > x ? t - 1.0f : t;
+}
+
 inline int wrap_index(int i, int n, Wrap wrap) {
   if (unsigned(i) < unsigned(n)) return i;  // inside: the common case
   switch (wrap) {
@@ -63,8 +69,11 @@ inline int wrap_index(int i, int n, Wrap wrap) {
 // uvs keep their fraction; clamp only bounds it (texel indices then stay small).
 inline float reduce(float u, Wrap wrap) {
   switch (wrap) {
-    case Wrap::Repeat: return u - std::floor(u);
-    case Wrap::Mirror: return u - 2.0f * std::floor(u * 0.5f);
+    case Wrap::Repeat: return u - (std::fabs(u) < 2e9f ? fast_floor(u) : std::floor(u));
+    case Wrap::Mirror: {
+      const float h = u * 0.5f;
+      return u - 2.0f * (std::fabs(h) < 2e9f ? fast_floor(h) : std::floor(h));
+    }
     case Wrap::Clamp: return u < -1.0f ? -1.0f : (u > 2.0f ? 2.0f : u);
   }
   return u;
@@ -78,8 +87,8 @@ vec4 nearest(const Texture& t, int level, Coords c) {
   const int w = t.level_width(level), h = t.level_height(level);
   const float x = c.u * float(w);
   const float y = t.top_left ? c.v * float(h) : (1.0f - c.v) * float(h);
-  const int j = wrap_index(int(std::floor(x)), w, t.wrap_u);
-  const int r = wrap_index(int(std::floor(y)), h, t.wrap_v);
+  const int j = wrap_index(int(fast_floor(x)), w, t.wrap_u);
+  const int r = wrap_index(int(fast_floor(y)), h, t.wrap_v);
   return t.texel(level, j, r);
 }
 
@@ -87,7 +96,7 @@ vec4 bilinear(const Texture& t, int level, Coords c) {
   const int w = t.level_width(level), h = t.level_height(level);
   const float x = c.u * float(w) - 0.5f;
   const float y = (t.top_left ? c.v * float(h) : (1.0f - c.v) * float(h)) - 0.5f;
-  const float fx0 = std::floor(x), fy0 = std::floor(y);
+  const float fx0 = fast_floor(x), fy0 = fast_floor(y);
   const float fx = x - fx0, fy = y - fy0;
   const int x0 = int(fx0), y0 = int(fy0);
   const int j0 = wrap_index(x0, w, t.wrap_u), j1 = wrap_index(x0 + 1, w, t.wrap_u);
