@@ -192,8 +192,8 @@ void Texture::build_mips() {
 
 vec4 sample_texture(const Texture& t, TextureFilter filter, float u, float v, float dudx,
                     float dvdx, float dudy, float dvdy) {
-  if (std::isnan(u) || std::isnan(v)) return vec4(0.0f);
   const Coords c{reduce(u, t.wrap_u), reduce(v, t.wrap_v)};
+  if (std::isnan(c.u) || std::isnan(c.v)) return vec4(0.0f);  // an infinite uv, repeated
   switch (filter) {
     case TextureFilter::Nearest: return nearest(t, 0, c);
     case TextureFilter::Bilinear: return bilinear(t, 0, c);

@@ -106,6 +106,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--linear", action="store_true",
                    help="write linear colour values (default: sRGB-encoded, as viewers expect)")
     r.add_argument("--threads", type=_threads, default=0, help="worker threads, 0 = one per core (default)")
+    r.add_argument("--texture", metavar="IMAGE",
+                   help="base colour texture (sRGB) sampled at the mesh's uvs; replaces the file's")
+    r.add_argument("--texture-filter", choices=_core.TEXTURE_FILTERS, default=None,
+                   help="one filter for every texture (default: each texture's own, trilinear)")
     return parser
 
 
@@ -151,7 +155,21 @@ def _render(args: argparse.Namespace) -> None:
         raise CliError(f"--fov must be in (0, 180) degrees, got {args.fov}")
     mesh = load_mesh(args.mesh, up_axis=args.up_axis)
     scene = Scene()
-    scene.add(mesh)
+    material = None
+    if args.texture is not None:
+        from .material import Material
+        from .texture import load_texture
+
+        if mesh.uvs is None:
+            raise CliError(f"--texture: {args.mesh} has no uvs (texture coordinates)")
+        try:
+            texture = load_texture(args.texture)
+        except (OSError, ValueError) as e:
+            raise CliError(f"--texture: {e}") from None
+        material = (mesh.material.replace(base_color_texture=texture) if mesh.material is not None
+                    else Material(base_color=(1.0, 1.0, 1.0), base_color_texture=texture,
+                                  model="lambert"))
+    scene.add(mesh, material=material)
     eye, target, near, far = frame_camera(scene.bounds, args.fov, width, height, args.eye, args.target)
     near = args.near if args.near is not None else near
     far = args.far if args.far is not None else far
@@ -164,7 +182,8 @@ def _render(args: argparse.Namespace) -> None:
     outputs = tuple(name for name, path in files.items() if path is not None)
     renderer = sr.Renderer(width, height, threads=args.threads)
     frame = renderer.render(scene, camera, outputs=outputs, cull=args.cull, shading=args.shading,
-                            frequency=args.frequency, srgb=not args.linear)
+                            frequency=args.frequency, srgb=not args.linear,
+                            texture_filter=args.texture_filter)
     for name in outputs:
         imwrite(files[name], getattr(frame, name))
 

@@ -36,7 +36,8 @@ Conventions (``tests/texture_reference.py`` implements every rule below independ
   with an exact area-weighted box filter (an odd side's texels are split between neighbours by
   overlap), down to 1 x 1. Levels are float32 RGBA: a chain costs about 21 bytes per texel of
   level 0 (16/3 x 4), built in C++ at about 10 ns per texel.
-* **NaN uvs** sample as (0, 0, 0, 0): black and transparent, never an out-of-bounds read.
+* **NaN uvs** (and infinite ones with repeat or mirror) sample as (0, 0, 0, 0): black and
+  transparent, never an out-of-bounds read. With clamp an infinite uv reads the edge texel.
 
 The image is viewed, not copied, where its layout allows (a C-contiguous uint8 array, or a
 float32 one read as linear): do not modify it after the first render, whose mip chain stays.
