@@ -6,6 +6,7 @@ distance along the camera's viewing axis in scene units, 0 where nothing was hit
 """
 from ._core import MAX_IMAGE_SIDE, MAX_THREADS, OUTPUT_TABLE, OUTPUTS, SUBPIXEL_BITS, TILE_SIZE_PX
 from .camera import Camera, IntrinsicsCamera, OrthographicCamera, PerspectiveCamera
+from .displace import displace
 from .interop import from_pyrender
 from .io import imread, imwrite
 from .light import DirectionalLight, Light, PointLight, SpotLight
@@ -42,6 +43,7 @@ __all__ = [
     "SpotLight",
     "Texture",
     "TILE_SIZE_PX",
+    "displace",
     "from_pyrender",
     "get_memory_budget",
     "imread",
