@@ -280,10 +280,11 @@ const Texture* texture_from(const py::handle& h) {
 
 // A material record from render.py: (brdf index, kd_is_base, ka_is_kd, double_sided, ka, kd,
 // ks, shininess, metallic, roughness, emissive, base_color_texture, emissive_texture,
-// normal_texture, normal_scale, normal_y_down); ranges are checked by Renderer::render.
+// normal_texture, normal_scale, normal_y_down, metallic_roughness_texture, occlusion_texture,
+// occlusion_strength, bump_texture, bump_scale); ranges are checked by Renderer::render.
 Material material_from(const py::handle& h, const std::string& where) {
   auto t = py::reinterpret_borrow<py::tuple>(h);
-  if (py::len(t) != 16) throw py::value_error(where + " material must have 16 fields");
+  if (py::len(t) != 21) throw py::value_error(where + " material must have 21 fields");
   Material m;
   const int brdf = t[0].cast<int>();
   if (brdf < 0 || brdf >= int(std::size(kBrdfNames)))
@@ -304,6 +305,11 @@ Material material_from(const py::handle& h, const std::string& where) {
   m.normal_texture = texture_from(t[13]);
   m.normal_scale = t[14].cast<float>();
   m.normal_y_down = t[15].cast<bool>();
+  m.metallic_roughness_texture = texture_from(t[16]);
+  m.occlusion_texture = texture_from(t[17]);
+  m.occlusion_strength = t[18].cast<float>();
+  m.bump_texture = texture_from(t[19]);
+  m.bump_scale = t[20].cast<float>();
   if (m.emissive_texture) {  // the texture carries it, per pixel
     m.emissive_factor = m.emissive;
     m.emissive = vec3(0.0f);
@@ -399,7 +405,8 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::dict& sp
   std::vector<Texture*> need_mips;
   for (const Draw& d : draws)
     for (const Texture* t : {d.material.base_color_texture, d.material.emissive_texture,
-                             d.material.normal_texture})
+                             d.material.normal_texture, d.material.metallic_roughness_texture,
+                             d.material.occlusion_texture, d.material.bump_texture})
       if (t && !t->has_mips()) {
         const TextureFilter f = filter < 0 ? t->filter : TextureFilter(filter);
         if (f == TextureFilter::Trilinear || f == TextureFilter::Anisotropic)

@@ -52,10 +52,25 @@ struct Material {
   const Texture* base_color_texture = nullptr;  // multiplies the base colour (rgb)
   const Texture* emissive_texture = nullptr;    // emissive_factor * its rgb is added
   const Texture* normal_texture = nullptr;      // tangent space, OpenGL-style unless normal_y_down
+  const Texture* metallic_roughness_texture = nullptr;  // glTF: green * roughness, blue * metallic
+  const Texture* occlusion_texture = nullptr;   // red: ambient *= 1 + strength (red - 1)
+  const Texture* bump_texture = nullptr;        // a height map (first channel), bump_scale
   vec3 emissive_factor{0.0f};
   float normal_scale = 1.0f;
+  float occlusion_strength = 1.0f;
+  float bump_scale = 1.0f;
   bool normal_y_down = false;  // DirectX-style normal map (green = -v)
-  bool textured() const { return base_color_texture || emissive_texture || normal_texture; }
+  bool textured() const {
+    return base_color_texture || emissive_texture || normal_texture || metallic_roughness_texture ||
+           occlusion_texture || bump_texture;
+  }
+  // Per-pixel material values (MaterialLanes) replace the scalar ones.
+  bool material_maps() const { return metallic_roughness_texture || occlusion_texture; }
+};
+
+// Per-pixel material values from textures (metallic-roughness, occlusion), eight lanes.
+struct MaterialLanes {
+  simd::f8 metallic, roughness, occlusion;
 };
 
 namespace simd {
@@ -123,10 +138,12 @@ struct LitInputs {
 // Compiled per reflectance model B (Lambert, Phong, BlinnPhong or Pbr) and per whether it has a
 // specular term, so that only that model's values are live in the light loop (one loop for all
 // models kept some 27 vectors live, and spilled). kPositions: a light or term reads p.
-template <Brdf B, bool kSpecular, bool kPositions>
+// kLanes: per-pixel metallic, roughness and ambient occlusion from `lanes` (textures; compiled
+// out of line only, material_maps.cpp), else the material's scalars.
+template <Brdf B, bool kSpecular, bool kPositions, bool kLanes = false>
 SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, const simd::f8 (&n)[3],
                             const simd::f8 (&p)[3], const simd::f8 (&base)[3],
-                            simd::f8 (&out)[3]) {
+                            simd::f8 (&out)[3], const MaterialLanes* lanes = nullptr) {
   using namespace simd;
   constexpr bool kPbr = B == Brdf::Pbr;
   constexpr bool kView = kPositions && (kSpecular || kPbr);  // reads the view vector
@@ -135,7 +152,10 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, const simd::
     kd[c] = m.kd_is_base ? base[c] : splat(m.kd[c]);
     // pbr: the base colour times the ambient light, as pyrender (ka is not read).
     const f8 ka = kPbr ? base[c] : (m.ka_is_kd ? kd[c] : splat(m.ka[c]));
-    out[c] = ka * in.ambient_light[c] + m.emissive[c];
+    if constexpr (kLanes)
+      out[c] = ka * in.ambient_light[c] * lanes->occlusion + m.emissive[c];
+    else
+      out[c] = ka * in.ambient_light[c] + m.emissive[c];
   }
   f8 v[3] = {};
   if constexpr (kView) {  // unit vector toward the eye
@@ -180,18 +200,32 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, const simd::
       nv = nv > lo ? (one < nv ? one : nv) : lo;
       const f8 nh = clamp01(n[0] * h[0] + n[1] * h[1] + n[2] * h[2]);
       const f8 vh = clamp01(v[0] * h[0] + v[1] * h[1] + v[2] * h[2]);
-      const float rough = m.roughness > 0.04f ? m.roughness : 0.04f;
-      const float kk = (rough + 1.0f) * (rough + 1.0f) * 0.125f;
-      const float a2 = rough * rough * (rough * rough);
-      const f8 g = nl * nv / ((nl * (1.0f - kk) + kk) * (nv * (1.0f - kk) + kk));
-      const f8 f = nh * nh * (a2 - 1.0f) + 1.0f;
-      const f8 d = a2 / (3.14159265f * f * f);
+      f8 g, d, diffuse_scale, metallic;
+      if constexpr (kLanes) {  // the same formulas per lane
+        const f8 r0 = lanes->roughness, floor = splat(0.04f);
+        const f8 rough = r0 > floor ? r0 : floor;  // NaN -> 0.04
+        const f8 kk = (rough + 1.0f) * (rough + 1.0f) * 0.125f;
+        const f8 a2 = rough * rough * (rough * rough);
+        g = nl * nv / ((nl * (1.0f - kk) + kk) * (nv * (1.0f - kk) + kk));
+        const f8 f = nh * nh * (a2 - 1.0f) + 1.0f;
+        d = a2 / (3.14159265f * f * f);
+        metallic = lanes->metallic;
+        diffuse_scale = 0.96f * (1.0f - metallic) * 0.318309886f;
+      } else {
+        const float rough = m.roughness > 0.04f ? m.roughness : 0.04f;
+        const float kk = (rough + 1.0f) * (rough + 1.0f) * 0.125f;
+        const float a2 = rough * rough * (rough * rough);
+        g = nl * nv / ((nl * (1.0f - kk) + kk) * (nv * (1.0f - kk) + kk));
+        const f8 f = nh * nh * (a2 - 1.0f) + 1.0f;
+        d = a2 / (3.14159265f * f * f);
+        metallic = splat(m.metallic);
+        diffuse_scale = splat(0.96f * (1.0f - m.metallic) * 0.318309886f);
+      }
       const f8 s = one - vh, s2 = s * s, s5 = s2 * s2 * s;
       const f8 lit = nl * att;
       const f8 spec_common = g * d / (4.0f * nl * nv + 0.001f);
-      const float diffuse_scale = 0.96f * (1.0f - m.metallic) * 0.318309886f;
       for (int c = 0; c < 3; ++c) {
-        const f8 f0 = 0.04f + (base[c] - 0.04f) * m.metallic;
+        const f8 f0 = 0.04f + (base[c] - 0.04f) * metallic;
         const f8 fr = f0 + (1.0f - f0) * s5;
         out[c] += lit * light.radiance[c] * ((1.0f - fr) * (base[c] * diffuse_scale) + fr * spec_common);
       }
@@ -243,5 +277,13 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, Brdf brdf,
   }
   lit_radiance<Brdf::Lambert, false, kPositions>(in, m, n, p, base, out);
 }
+
+// lit_radiance with per-pixel material values (kLanes), every model, positions read; out of
+// line and compiled for the generic target once (material_maps.cpp): the same bits for either
+// instruction set's kernels, and no more inlined light loops. Arrays, not vectors, cross the
+// call (the callers are compiled for AVX2 or not).
+void lit_radiance_lanes(const LitInputs& in, const Material& m, Brdf brdf, const simd::f8* n,
+                        const simd::f8* p, const simd::f8* base, const MaterialLanes& lanes,
+                        simd::f8* out);
 
 }  // namespace sr

@@ -276,7 +276,7 @@ struct LitModel {
   struct Triangle {
     Brdf brdf;
     bool passthrough;  // the interpolated colour is the radiance (unlit, or Gouraud)
-    bool normal_map;   // a normal texture perturbs the pixel's normal (pixel frequency)
+    bool normal_map;   // a normal or bump texture perturbs the pixel's normal (pixel frequency)
     float side;        // -1: a single-sided back face, lit with the normal facing away
     vec3 tangent;      // normal_map: the world-space direction of +u on the triangle (or zero)
     float handedness;  // normal_map: +1, or -1 where the uvs are mirrored (bitangent = -n x t)
@@ -286,7 +286,8 @@ struct LitModel {
     const Material* material;
     Brdf brdf;
     bool passthrough, positions, textured, normal_map;
-    TextureFilter base_filter, emissive_filter, normal_filter;
+    TextureFilter base_filter, emissive_filter, normal_filter, mr_filter, occlusion_filter,
+        bump_filter;
     simd::f8 side;
     vec3 tangent;
     float handedness;
@@ -307,6 +308,9 @@ struct LitModel {
         base_filter = pick(m.base_color_texture);
         emissive_filter = pick(m.emissive_texture);
         normal_filter = pick(m.normal_texture);
+        mr_filter = pick(m.metallic_roughness_texture);
+        occlusion_filter = pick(m.occlusion_texture);
+        bump_filter = pick(m.bump_texture);
       }
     }
   };
@@ -446,8 +450,9 @@ struct LitModel {
       return;
     }
     s.reads |= ShadeTriangleBase::kReadNormal;
-    if (brdf != Brdf::Normal && reads_position(in, m, brdf)) s.reads |= ShadeTriangleBase::kReadPosition;
-    if (m.normal_texture) {
+    if (brdf != Brdf::Normal && (reads_position(in, m, brdf) || m.material_maps()))
+      s.reads |= ShadeTriangleBase::kReadPosition;
+    if (m.normal_texture || m.bump_texture) {
       // The triangle's tangent frame from its positions and uvs (per face, in world space):
       // dp = T du + B dv over its two edges. Mirrored uvs flip the bitangent (handedness).
       s.model.normal_map = true;
@@ -462,11 +467,12 @@ struct LitModel {
       s.model.handedness = glm::dot(glm::cross(n, t * sign), bt * sign) < 0.0f ? -1.0f : 1.0f;
     }
   }
-  // Samples `tex` at the fragment's uvs into out[0..3] (lanes of f.mine).
+  // Samples `tex` at the fragment's uvs (plus du, dv) into out[0..3] (lanes of f.mine).
   SR_INLINE static void sample(const Texture& tex, TextureFilter filter,
-                               const Fragment<LitModel>& f, simd::f8 (&out)[4]) {
+                               const Fragment<LitModel>& f, simd::f8 (&out)[4], float du = 0.0f,
+                               float dv = 0.0f) {
     alignas(32) float u[8], v[8], ux[8], vx[8], uy[8], vy[8], o[4][8] = {};
-    simd::store(u, f.attr[0]); simd::store(v, f.attr[1]);
+    simd::store(u, f.attr[0] + du); simd::store(v, f.attr[1] + dv);
     simd::store(ux, f.attr_dx[0]); simd::store(vx, f.attr_dx[1]);
     simd::store(uy, f.attr_dy[0]); simd::store(vy, f.attr_dy[1]);
     uint32_t mask = 0;
@@ -478,14 +484,30 @@ struct LitModel {
   // negated for a DirectX-style map) in the frame (t, b, n): t the triangle's tangent made
   // orthogonal to the pixel's normal n, b = handedness n x t. Where the frame is degenerate (no
   // tangent, a zero normal) n is kept.
+  // A bump texture instead (the course notes): heights h at the pixel's uv and one texel
+  // further along u and along v, dU = bump_scale (h(u + 1/w) - h), dV = bump_scale (h(v + 1/h) - h),
+  // and the tangent-space normal (-dU, -dV, 1) in the same frame.
   SR_INLINE static void normal_map(const Constants& c, const Fragment<LitModel>& f, simd::f8 (&n)[3]) {
     using simd::f8;
-    f8 tex[4];
-    sample(*c.material->normal_texture, c.normal_filter, f, tex);
-    const float scale = c.material->normal_scale;
-    const f8 tx = (tex[0] * 2.0f - 1.0f) * scale;
-    const f8 ty = (tex[1] * 2.0f - 1.0f) * (c.material->normal_y_down ? -scale : scale);
-    const f8 tz = tex[2] * 2.0f - 1.0f;
+    f8 tx, ty, tz;
+    if (c.material->normal_texture) {
+      f8 tex[4];
+      sample(*c.material->normal_texture, c.normal_filter, f, tex);
+      const float scale = c.material->normal_scale;
+      tx = (tex[0] * 2.0f - 1.0f) * scale;
+      ty = (tex[1] * 2.0f - 1.0f) * (c.material->normal_y_down ? -scale : scale);
+      tz = tex[2] * 2.0f - 1.0f;
+    } else {
+      const Texture& bump = *c.material->bump_texture;
+      f8 h0[4], hu[4], hv[4];
+      sample(bump, c.bump_filter, f, h0);
+      sample(bump, c.bump_filter, f, hu, 1.0f / float(bump.width()), 0.0f);
+      sample(bump, c.bump_filter, f, hv, 0.0f, 1.0f / float(bump.height()));
+      const float k = c.material->bump_scale;
+      tx = (h0[0] - hu[0]) * k;
+      ty = (h0[0] - hv[0]) * k;
+      tz = simd::splat(1.0f);
+    }
     const f8 nt = n[0] * c.tangent.x + n[1] * c.tangent.y + n[2] * c.tangent.z;
     f8 t[3];
     for (int k = 0; k < 3; ++k) t[k] = c.tangent[k] - n[k] * nt;
@@ -526,7 +548,9 @@ struct LitModel {
     for (int k = 0; k < 3; ++k) n[k] *= c.side;
     const f8 base[3] = {r, g, b};
     f8 out[3];
-    if (c.positions)
+    if (c.textured && c.material->material_maps())
+      material_maps(c, f, n, base, out);
+    else if (c.positions)
       lit_radiance<true>(*c.in, *c.material, c.brdf, n, f.position, base, out);
     else
       lit_radiance<false>(*c.in, *c.material, c.brdf, n, f.position, base, out);
@@ -534,6 +558,26 @@ struct LitModel {
     g = out[1];
     b = out[2];
     if (c.textured) add_emissive(c, f, r, g, b);
+  }
+  // Radiance with per-pixel metallic, roughness (glTF: the factors times the texture's blue and
+  // green) and ambient occlusion (ambient times 1 + strength (red - 1)), out of line.
+  __attribute__((noinline)) static void material_maps(const Constants& c, const Fragment<LitModel>& f,
+                                                      const simd::f8 (&n)[3], const simd::f8 (&base)[3],
+                                                      simd::f8 (&out)[3]) {
+    const Material& m = *c.material;
+    MaterialLanes lanes{simd::splat(m.metallic), simd::splat(m.roughness), simd::splat(1.0f)};
+    if (m.metallic_roughness_texture) {
+      simd::f8 tex[4];
+      sample(*m.metallic_roughness_texture, c.mr_filter, f, tex);
+      lanes.roughness = tex[1] * m.roughness;
+      lanes.metallic = tex[2] * m.metallic;
+    }
+    if (m.occlusion_texture) {
+      simd::f8 tex[4];
+      sample(*m.occlusion_texture, c.occlusion_filter, f, tex);
+      lanes.occlusion = 1.0f + (tex[0] - 1.0f) * m.occlusion_strength;
+    }
+    lit_radiance_lanes(*c.in, m, c.brdf, n, f.position, base, lanes, out);
   }
   SR_INLINE static void add_emissive(const Constants& c, const Fragment<LitModel>& f, simd::f8& r,
                                      simd::f8& g, simd::f8& b) {

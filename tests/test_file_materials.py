@@ -203,21 +203,19 @@ def test_obj_without_mtllib_has_no_material_and_no_warning(no_warnings):
     assert mesh.material is None and mesh.uvs is not None
 
 
-def test_obj_mtl_texture_is_dropped_with_a_warning_naming_it(tmp_path):
-    # spot.obj with an MTL that maps its texture: the texture is dropped, Kd is kept.
+def test_obj_mtl_texture_is_drawn_multiplying_kd(tmp_path, no_warnings):
+    # spot.obj with an MTL that maps its texture: the texture multiplies Kd (kd is the base colour;
+    # tests/test_file_textures.py checks the pixels).
     shutil.copy(SPOT_TEXTURE, tmp_path / "spot_texture.png")
     (tmp_path / "spot.mtl").write_text("newmtl cow\nKd 0.9 0.5 0.25\nmap_Kd spot_texture.png\n")
     text = SPOT.read_text()
     (tmp_path / "spot.obj").write_text("mtllib spot.mtl\nusemtl cow\n" + text)
-    with pytest.warns(UserWarning, match=r"spot\.obj: material 'cow': map_Kd 'spot_texture.png' is not "
-                                         r"drawn yet \(textures: issue 17\)") as record:
-        mesh = sr.load_mesh(tmp_path / "spot.obj")
-    assert len(record) == 1
-    assert mesh.material == sr.Material(base_color=(0.9, 0.5, 0.25, 1.0), kd=(0.9, 0.5, 0.25), ks=None,
-                                        model="blinn_phong", name="cow")
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        plain = sr.load_mesh(SPOT)
+    mesh = sr.load_mesh(tmp_path / "spot.obj")
+    texture = mesh.material.base_color_texture
+    assert texture is not None and texture.image.shape == (1024, 1024, 3) and texture.name == "spot_texture.png"
+    assert mesh.material == sr.Material(base_color=(0.9, 0.5, 0.25, 1.0), kd=None, ks=None, model="blinn_phong",
+                                        name="cow", base_color_texture=texture)
+    plain = sr.load_mesh(SPOT)
     assert mesh.num_faces == plain.num_faces and mesh.num_vertices == plain.num_vertices
     np.testing.assert_array_equal(mesh.faces, plain.faces)
 
@@ -316,7 +314,7 @@ def test_glb_alpha_mode_textures_and_extensions_warn(tmp_path):
     def edit(doc):
         paint = next(m for m in doc["materials"] if m["name"] == "paint")
         paint["alphaMode"] = "BLEND"
-        paint["normalTexture"] = {"index": 0}
+        paint["occlusionTexture"] = {"index": 0}
         chrome = next(m for m in doc["materials"] if m["name"] == "chrome")
         chrome["extensions"] = {"KHR_materials_unlit": {}, "KHR_materials_sheen": {}}
 
@@ -326,23 +324,23 @@ def test_glb_alpha_mode_textures_and_extensions_warn(tmp_path):
     texts = sorted(str(w.message) for w in record)
     assert len(texts) == 2
     assert texts[0].startswith(f"{path}: material 'chrome': extension KHR_materials_sheen is ignored")
-    assert texts[1].startswith(f"{path}: material 'paint': normalTexture is not drawn yet (textures: issue 17)")
+    assert texts[1].startswith(f"{path}: material 'paint': occlusionTexture is not drawn yet")
     assert "alphaMode 'BLEND' is not drawn yet" in texts[1]
     by_name = {inst.material.name: inst.material for inst in scene}
     assert by_name["chrome"] == CHROME.replace(model="unlit")
     assert by_name["paint"] == PAINT
 
 
-def test_box_textured_warns_about_its_texture():
-    with pytest.warns(UserWarning, match=r"BoxTextured\.gltf: material 0: baseColorTexture is not drawn "
-                                         r"yet \(textures: issue 17\); rendering its base colour factor"):
-        mesh = sr.load_mesh(BOX_TEXTURED)
-    # no factors in the file: glTF's defaults
+def test_box_textured_draws_its_texture(no_warnings):
+    mesh = sr.load_mesh(BOX_TEXTURED)
+    # no factors in the file: glTF's defaults; the base colour texture (tests/test_file_textures.py
+    # checks its pixels)
+    texture = mesh.material.base_color_texture
+    assert texture is not None and texture.image.shape == (211, 211, 3)
     assert mesh.material == sr.Material(base_color=(1.0, 1.0, 1.0, 1.0), metallic=1.0, roughness=1.0,
-                                        model="pbr")
+                                        model="pbr", base_color_texture=texture)
     assert mesh.num_faces == 12 and mesh.num_vertices == 24 and mesh.uvs is not None
-    with pytest.warns(UserWarning, match="baseColorTexture"):
-        scene = sr.load_scene(BOX_TEXTURED)
+    scene = sr.load_scene(BOX_TEXTURED)
     (inst,) = scene.instances
     # the root node's column-major matrix: z up -> y up
     np.testing.assert_array_equal(inst.pose, [[1, 0, 0, 0], [0, 0, 1, 0], [0, -1, 0, 0], [0, 0, 0, 1]])

@@ -392,3 +392,70 @@ def test_texture_and_material_pickle_and_render_the_same() -> None:
     cam.look_at(eye=(1.8, 0.6, 1.6), target=(0, 0, 0.3))
     r = sr.Renderer(64, 48)
     np.testing.assert_array_equal(r.render(scene, cam).color, r.render(other, cam).color)
+
+
+def _pbr_quad_scene(material: sr.Material) -> sr.Scene:
+    scene = sr.Scene(ambient_light=(0.2, 0.2, 0.2))
+    scene.add(quad(material))
+    scene.add(sr.PointLight(intensity=3.0), pose=np.array([[1, 0, 0, 0.7], [0, 1, 0, 0.4],
+                                                         [0, 0, 1, 1.5], [0, 0, 0, 1.0]]))
+    return scene
+
+
+def test_metallic_roughness_texture_per_pixel() -> None:
+    """Left half (g, b) = (0.25, 1.0), right half (1.0, 0.5): each half renders as the untextured
+    material with roughness x g and metallic x b (the same formulas, per pixel)."""
+    w = h = 16
+    img = np.zeros((h, w, 3), np.float32)
+    img[:, : w // 2] = (0, 0.25, 1.0)
+    img[:, w // 2:] = (0, 1.0, 0.5)
+    base = sr.Material(base_color=(0.8, 0.5, 0.3), metallic=0.8, roughness=0.6, model="pbr")
+    textured = base.replace(metallic_roughness_texture=sr.Texture(img, filter="nearest"))
+    r = sr.Renderer(w, h)
+    cam = ortho_camera(w, h)
+    got = r.render(_pbr_quad_scene(textured), cam, outputs=("radiance",)).radiance
+    left = r.render(_pbr_quad_scene(base.replace(roughness=0.15, metallic=0.8)), cam, outputs=("radiance",)).radiance
+    right = r.render(_pbr_quad_scene(base.replace(roughness=0.6, metallic=0.4)), cam, outputs=("radiance",)).radiance
+    np.testing.assert_allclose(got[:, : w // 2], left[:, : w // 2], rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(got[:, w // 2:], right[:, w // 2:], rtol=1e-5, atol=1e-6)
+    assert np.abs(left - right).max() > 0.05  # the halves really differ
+
+
+@pytest.mark.parametrize("model", ["lambert", "blinn_phong", "pbr"])
+def test_occlusion_texture_scales_only_the_ambient_term(model: str) -> None:
+    w = h = 8
+    ao = np.random.default_rng(5).random((h, w, 1)).astype(np.float32)
+    base = sr.Material(base_color=(0.8, 0.5, 0.3), model=model)
+    occluded = base.replace(occlusion_texture=sr.Texture(ao, filter="nearest"), occlusion_strength=0.75)
+    r = sr.Renderer(w, h)
+    cam = ortho_camera(w, h)
+    got = r.render(_pbr_quad_scene(occluded), cam, outputs=("radiance",)).radiance
+    plain = r.render(_pbr_quad_scene(base), cam, outputs=("radiance",)).radiance
+    ambient = np.array([0.8, 0.5, 0.3]) * 0.2  # ka = kd = base colour (pbr: base) times Ia
+    expected = plain + ambient * (0.75 * (ao - 1.0))
+    np.testing.assert_allclose(got, expected, rtol=1e-5, atol=1e-6)
+
+
+def test_bump_map_of_a_ramp_tilts_the_normal() -> None:
+    """h(u) = a u (float texture, exact under bilinear between texel centres): dU = k a / w,
+    the tangent-space normal (-dU, 0, 1) normalised, radiance max(0, n.l) (lambert, no ambient)."""
+    w = h = 32
+    a, k = 4.0, 2.0
+    ramp = (a * (np.arange(w) + 0.5) / w).astype(np.float32)
+    img = np.tile(ramp, (h, 1))[:, :, None]
+    m = sr.Material(base_color=(1, 1, 1), ka=(0, 0, 0), model="lambert",
+                    bump_texture=sr.Texture(img, filter="bilinear", wrap="clamp"), bump_scale=k)
+    scene = sr.Scene()
+    scene.add(quad(m))
+    l = np.array([1.0, 0.5, 1.0]) / 1.5
+    light = np.eye(4)
+    xax = np.cross([0, 1.0, 0], l)
+    xax /= np.linalg.norm(xax)
+    light[:3, 0], light[:3, 1], light[:3, 2] = xax, np.cross(l, xax), l
+    scene.add(sr.DirectionalLight(intensity=1.0), pose=light)
+    frame = sr.Renderer(w, h).render(scene, ortho_camera(w, h), outputs=("radiance",))
+    du = k * a / w
+    n = np.array([-du, 0.0, 1.0]) / np.hypot(du, 1.0)
+    inner = frame.radiance[:, 1:-2, 0]  # away from the clamped edge texels
+    np.testing.assert_allclose(inner, max(0.0, n @ l), rtol=0, atol=1e-5)
+    assert abs(n @ l - l[2]) > 0.1

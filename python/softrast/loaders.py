@@ -23,12 +23,44 @@ read files with trimesh and keep, with these conventions:
   model="pbr", name=)``, read exactly from the file's JSON; ``KHR_materials_unlit`` -> model
   "unlit". A primitive without a material gets none (softrast's default look).
 
-Whatever a file carries that softrast cannot draw yet (textures, normal maps, alpha blending or
-masking, transparency, unknown material extensions) is dropped with a ``UserWarning`` naming
-the file, the material and what was dropped: never silently.
+Textures (``softrast.Texture``, see ``softrast.texture``):
+
+* uvs. trimesh flips glTF's v on load (``v = 1 - v``: glTF puts image row 0 at v = 0), so the
+  uvs of every loaded mesh are OpenGL-style, as OBJ ``vt`` are: v up, image row 0 at v = 1.
+  Every texture is therefore made with ``uv_origin="bottom_left"``, and normal maps are
+  OpenGL-style (green = +v = towards the image's top, which is glTF's convention too).
+* glTF: ``baseColorTexture`` -> ``base_color_texture`` (multiplying ``baseColorFactor`` and
+  ``COLOR_0``), ``emissiveTexture`` -> ``emissive_texture`` (multiplying ``emissiveFactor``,
+  default 0 as glTF says), ``normalTexture`` -> ``normal_texture`` with its ``scale`` ->
+  ``normal_scale``. The images are the ones trimesh decodes with Pillow (a dependency: without
+  it trimesh drops every image, with a warning naming the file), 1 to 4 channels of uint8 as
+  stored (L, LA, RGB, RGBA; palette images become RGB, or RGBA if they have transparency;
+  16-bit grey stays uint16). The texture's sampler: ``wrapS`` / ``wrapT`` 10497 -> "repeat"
+  (the default), 33071 -> "clamp", 33648 -> "mirror"; the filter from ``minFilter`` (NEAREST ->
+  "nearest", LINEAR -> "bilinear", the mipmapped ones and none -> "trilinear", except
+  NEAREST_MIPMAP_NEAREST, or no minFilter, with magFilter NEAREST -> "nearest"). A texture read
+  through ``texCoord`` other than 0 is not drawn (trimesh reads only TEXCOORD_0);
+  ``KHR_texture_transform`` is ignored (with a warning).
+* MTL: ``map_Kd`` -> ``base_color_texture`` (the material then has ``kd=None``, so the texture
+  multiplies Kd, as MTL prescribes; without Kd, white), ``map_Ke`` -> ``emissive_texture``
+  (multiplying Ke; without Ke, white), ``norm`` -> ``normal_texture`` (a tangent-space normal
+  map; ``-bm`` -> ``normal_scale``). ``map_Bump`` / ``bump`` are height maps, not drawn yet,
+  except that an RGB image that is plainly a tangent-space normal map (mean colour near
+  (0.5, 0.5, 1): what Blender writes there) is drawn as one, with a warning saying so. File
+  names are relative to the MTL file (backslashes are read as separators); images are read with
+  ``softrast.load_texture``; ``-clamp on`` -> wrap "clamp", other options are ignored with a
+  warning. ``Mesh.from_trimesh``: a SimpleMaterial's image -> ``base_color_texture``.
+* Within one load, an image is one Texture however many materials and instances use it.
+* A textured material on a mesh without uvs loses its textures, with a warning.
+
+Whatever a file carries that softrast cannot draw yet (metallic-roughness, occlusion, height,
+specular and other maps, alpha blending or masking, transparency, unknown material extensions)
+is dropped with a ``UserWarning`` naming the file, the material and what was dropped: never
+silently; so is a texture that cannot be read.
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -41,14 +73,27 @@ from typing import Any, Sequence
 import numpy as np
 
 from .material import Material
+from .texture import Texture
 
 __all__ = ["load_scene", "srgb_to_linear"]
 
-_GLTF_TEXTURES = ("baseColorTexture", "metallicRoughnessTexture")
-_GLTF_MATERIAL_TEXTURES = ("normalTexture", "occlusionTexture", "emissiveTexture")
-# MTL statements naming texture maps (lower case), all dropped with a warning.
+# glTF texture slots: (where, key, Material field or None if not drawn yet)
+_GLTF_SLOTS = (("pbr", "baseColorTexture", "base_color_texture"),
+               ("pbr", "metallicRoughnessTexture", None),
+               ("material", "normalTexture", "normal_texture"),
+               ("material", "occlusionTexture", None),
+               ("material", "emissiveTexture", "emissive_texture"))
+_GLTF_WRAPS = {10497: "repeat", 33071: "clamp", 33648: "mirror"}
+_GL_NEAREST, _GL_LINEAR, _GL_NEAREST_MIPMAP_NEAREST = 9728, 9729, 9984
+# MTL statements naming texture maps (lower case). map_Kd, map_Ke and norm are drawn, map_Bump /
+# bump when they hold a normal map; the others are dropped with a warning.
 _MTL_MAPS = ("map_ka", "map_kd", "map_ks", "map_ns", "map_d", "map_ke", "map_bump", "bump",
              "disp", "decal", "refl", "norm", "map_pr", "map_pm", "map_ps", "map_rma", "map_orm")
+_MTL_SLOTS = {"map_kd": "base_color_texture", "map_ke": "emissive_texture", "norm": "normal_texture"}
+# MTL map options and how many arguments each takes ((1, 3): one to three numbers)
+_MTL_OPTIONS = {"-blendu": 1, "-blendv": 1, "-bm": 1, "-boost": 1, "-cc": 1, "-clamp": 1,
+                "-imfchan": 1, "-mm": 2, "-o": (1, 3), "-s": (1, 3), "-t": (1, 3), "-texres": 1,
+                "-type": 1}
 
 
 def srgb_to_linear(c: Any) -> np.ndarray:
@@ -93,9 +138,14 @@ class _FileInfo:
     source: str | None  # the path as given; None for Mesh.from_trimesh
     srgb: bool  # 8-bit colours are sRGB-encoded (PLY / OBJ / OFF / STL); False for glTF
     gltf: list[Any] | None = None  # the glTF JSON "materials" list
-    mtl: dict[str, tuple[Material, list[str]]] | None = None  # newmtl name -> (material, dropped)
+    mtl: dict[str, _MtlEntry] | None = None  # newmtl name -> its material, read from the MTL
     soup: bool = False  # the format stores no shared vertices (STL): smooth=True merges them
     warned: set[Any] = field(default_factory=set)
+    gltf_doc: dict[str, Any] | None = None  # the whole glTF JSON (textures, samplers, images)
+    # One Texture per image (and sampler) within one load: key -> (what keeps the key's id
+    # alive, Texture or None, why not)
+    textures: dict[Any, tuple[Any, Texture | None, str | None]] = field(default_factory=dict)
+    materials: dict[Any, tuple[Material | None, list[str]]] = field(default_factory=dict)
 
     def warn(self, key: Any, text: str) -> None:
         if key in self.warned:
@@ -103,6 +153,23 @@ class _FileInfo:
         self.warned.add(key)
         warnings.warn((f"{self.source}: " if self.source else "") + text, UserWarning,
                       stacklevel=_caller_level())
+
+
+@dataclass
+class _MtlMap:
+    statement: str  # as written (map_Kd, norm, ...)
+    file: str  # the file name as written
+    options: dict[str, list[str]]  # option -> its arguments
+
+
+@dataclass
+class _MtlEntry:
+    material: Material  # without textures
+    dropped: list[str]
+    maps: list[_MtlMap]
+    folder: str  # the MTL file's folder: map file names are relative to it
+    ke_given: bool  # the material states Ke (else map_Ke multiplies white)
+    resolved: tuple[Material, list[str]] | None = None
 
 
 _PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__))
@@ -121,15 +188,130 @@ def _file_info(path_str: str) -> _FileInfo:
     if ext in (".gltf", ".glb"):
         info = _FileInfo(path_str, srgb=False)
         try:
-            mats = _gltf_doc(path_str).get("materials", [])
+            doc = _gltf_doc(path_str)
+            mats = doc.get("materials", [])
             info.gltf = mats if isinstance(mats, list) else []
+            info.gltf_doc = doc
         except (OSError, ValueError, UnicodeDecodeError, struct.error):
             info.gltf = []  # check_mesh_file has refused broken JSON already
+        images = (info.gltf_doc or {}).get("images")
+        if isinstance(images, list) and images and not _have_pillow():
+            info.warn("pillow", f"Pillow is not installed, so trimesh drops this file's {len(images)} "
+                                "image(s): its textures are not drawn (Pillow is a softrast "
+                                "dependency: pip install pillow)")
         return info
     info = _FileInfo(path_str, srgb=True, soup=ext == ".stl")
     if ext == ".obj":
         info.mtl = _obj_materials(path_str, info)
     return info
+
+
+def _have_pillow() -> bool:
+    try:
+        import PIL.Image  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+# -- textures -------------------------------------------------------------------------------------
+def _pil_array(image: Any) -> np.ndarray:
+    """A PIL image's texels as an (h, w, c) array, c in 1..4, as stored where a Texture can take
+    them: L, LA, RGB, RGBA -> uint8; 16-bit grey -> uint16; F -> float32; palette images -> RGB
+    (RGBA with transparency); other modes (1, CMYK, YCbCr, premultiplied, ...) converted."""
+    from .limits import check_budget
+
+    mode = image.mode
+    width, height = image.size
+    check_budget(width * height * 4 * 4, f"texture image ({width}x{height} {mode})")
+    if mode == "P" or mode == "PA":
+        palette = getattr(image, "palette", None)
+        alpha = (mode == "PA" or "transparency" in image.info
+                 or getattr(palette, "mode", "RGB") in ("RGBA", "LA"))
+        image = image.convert("RGBA" if alpha else "RGB")
+    elif mode == "1":
+        image = image.convert("L")
+    elif mode == "La":
+        image = image.convert("LA")
+    elif mode == "RGBa":
+        image = image.convert("RGBA")
+    elif mode not in ("L", "LA", "RGB", "RGBA", "F", "I") and not mode.startswith("I;16"):
+        image = image.convert("RGBA" if "A" in image.getbands() else "RGB")
+    arr = np.asarray(image)
+    if image.mode == "I":  # 32-bit integers: how some Pillow versions hold 16-bit PNGs
+        arr = np.clip(arr, 0, 65535).astype(np.uint16)
+    elif image.mode.startswith("I;16"):
+        arr = arr.astype(np.uint16)  # native byte order
+    elif image.mode == "F":
+        arr = arr.astype(np.float32)
+    return np.ascontiguousarray(arr)
+
+
+def _pil_texture(image: Any, info: _FileInfo, filter: str = "trilinear",
+                 wrap: tuple[str, str] = ("repeat", "repeat"),
+                 name: str | None = None) -> tuple[Texture | None, str | None]:
+    """(Texture, None) for a PIL image trimesh decoded, or (None, why not); one Texture per image
+    and sampler within a load."""
+    key = ("pil", id(image), filter, wrap)
+    cached = info.textures.get(key)
+    if cached is None:
+        if name is None:
+            path = getattr(image, "info", {}).get("file_path")
+            name = os.path.basename(str(path).replace("\\", "/")) if path else None
+        try:
+            arr = _pil_array(image)
+            # the same texels (a file storing one image twice, as trimesh's exporter does) are
+            # one Texture too
+            digest = ("texels", hashlib.blake2b(arr.tobytes(), digest_size=16).digest(),
+                      arr.shape, arr.dtype.str, filter, wrap)
+            same = info.textures.get(digest)
+            if same is not None and same[1] is not None:
+                tex: Texture | None = same[1]
+            else:
+                tex = Texture(arr, filter=filter, wrap=wrap, name=name)
+                info.textures[digest] = (None, tex, None)
+            why = None
+        except UserWarning:
+            raise
+        except Exception as exc:  # a truncated image, a mode Pillow cannot convert, too large
+            tex, why = None, f"its image could not be read ({type(exc).__name__}: {exc})"
+        cached = info.textures[key] = (image, tex, why)  # the image keeps its id unique
+    return cached[1], cached[2]
+
+
+def _file_texture(path: str, info: _FileInfo, wrap: str) -> tuple[Texture | None, str | None]:
+    """(Texture, None) for an image file (softrast.load_texture), or (None, why not); one Texture
+    per file and wrap within a load."""
+    from .texture import load_texture
+
+    key = ("file", os.path.realpath(path), wrap)
+    cached = info.textures.get(key)
+    if cached is None:
+        try:
+            tex: Texture | None = load_texture(path, wrap=wrap)
+            why = None
+        except UserWarning:
+            raise
+        except Exception as exc:
+            tex, why = None, f"could not be read ({exc})"
+        cached = info.textures[key] = (None, tex, why)
+    return cached[1], cached[2]
+
+
+def _looks_like_normal_map(tex: Texture) -> bool:
+    """An RGB(A) image whose mean colour is near (0.5, 0.5, 1): a tangent-space normal map,
+    not a (grey) height map."""
+    if tex.channels < 3:
+        return False
+    img = tex.image
+    step = max(1, int(math.sqrt(img.shape[0] * img.shape[1] / 65536.0)))
+    sample = np.asarray(img[::step, ::step, :3], dtype=np.float64)
+    if img.dtype == np.uint8:
+        sample = sample / 255.0
+    elif img.dtype == np.uint16:
+        sample = sample / 65535.0
+    r, g, b = sample.reshape(-1, 3).mean(axis=0)
+    return abs(r - 0.5) < 0.15 and abs(g - 0.5) < 0.15 and b > 0.75
 
 
 def _gltf_doc(path_str: str) -> dict[str, Any]:
@@ -168,7 +350,7 @@ def _first_mtllib(path_str: str) -> str | None:
     return None
 
 
-def _obj_materials(path_str: str, info: _FileInfo) -> dict[str, tuple[Material, list[str]]]:
+def _obj_materials(path_str: str, info: _FileInfo) -> dict[str, _MtlEntry]:
     name = _first_mtllib(path_str)
     if name is None:
         return {}
@@ -182,7 +364,7 @@ def _obj_materials(path_str: str, info: _FileInfo) -> dict[str, tuple[Material, 
                 info.warn("mtllib", f"mtllib {name!r} could not be read ({exc}): its materials are "
                                     "dropped, faces render in the default grey")
                 return {}
-            return _parse_mtl(text, name, info)
+            return _parse_mtl(text, name, info, os.path.dirname(candidate))
     info.warn("mtllib", f"mtllib {name!r} not found next to the OBJ: its materials are dropped, "
                         "faces render in the default grey")
     return {}
@@ -209,9 +391,36 @@ def _mtl_color(words: list[str], key: str, where: str, info: _FileInfo) -> tuple
     return clipped
 
 
-def _parse_mtl(text: str, mtl_name: str, info: _FileInfo) -> dict[str, tuple[Material, list[str]]]:
-    """newmtl name -> (Material, what is dropped) from MTL text."""
-    found: dict[str, tuple[Material, list[str]]] = {}
+def _mtl_map(words: list[str], where: str, info: _FileInfo) -> _MtlMap | None:
+    """A map statement's options and file name (the words after the options, joined)."""
+    options: dict[str, list[str]] = {}
+    i = 1
+    while i < len(words) - 1 and words[i].lower() in _MTL_OPTIONS:
+        option, count = words[i].lower(), _MTL_OPTIONS[words[i].lower()]
+        i += 1
+        if isinstance(count, tuple):  # -o / -s / -t: one to three numbers
+            args = []
+            while len(args) < count[1] and i < len(words) - 1:
+                try:
+                    float(words[i])
+                except ValueError:
+                    break
+                args.append(words[i])
+                i += 1
+        else:
+            args = words[i:i + count]
+            i += count
+        options[option] = args
+    if i >= len(words):
+        info.warn((where, words[0], "file"), f"{where}: {' '.join(words)!r} names no file; dropped")
+        return None
+    return _MtlMap(words[0], " ".join(words[i:]), options)
+
+
+def _parse_mtl(text: str, mtl_name: str, info: _FileInfo, folder: str = "") -> dict[str, _MtlEntry]:
+    """newmtl name -> its entry (Material without textures, what is dropped, its maps) from MTL
+    text; ``folder`` is where the MTL's map file names are relative to."""
+    found: dict[str, _MtlEntry] = {}
     current: dict[str, Any] | None = None
 
     def finish() -> None:
@@ -224,6 +433,7 @@ def _parse_mtl(text: str, mtl_name: str, info: _FileInfo) -> dict[str, tuple[Mat
         dropped = list(current["dropped"])
         if d < 1.0:
             dropped.append(f"transparency (d {d:g}, kept as base_color alpha) is not drawn yet")
+        maps = current["maps"]
         kwargs: dict[str, Any] = {
             "base_color": (*kd, d) if kd is not None else (0.8, 0.8, 0.8, d),
             "ka": current.get("ka"), "kd": kd, "ks": current.get("ks"),
@@ -234,7 +444,7 @@ def _parse_mtl(text: str, mtl_name: str, info: _FileInfo) -> dict[str, tuple[Mat
         if "ke" in current:
             kwargs["emissive"] = current["ke"]
         try:
-            found[name] = (Material(**kwargs), dropped)
+            found[name] = _MtlEntry(Material(**kwargs), dropped, maps, folder, "ke" in current)
         except (TypeError, ValueError) as exc:  # cannot happen after the clipping above
             info.warn((where, "bad"), f"{where} in {mtl_name!r} is invalid ({exc}); dropped")
 
@@ -245,7 +455,7 @@ def _parse_mtl(text: str, mtl_name: str, info: _FileInfo) -> dict[str, tuple[Mat
         key = words[0].lower()
         if key == "newmtl":
             finish()
-            current = {"name": " ".join(words[1:]), "dropped": []}
+            current = {"name": " ".join(words[1:]), "dropped": [], "maps": []}
             continue
         if current is None:
             continue
@@ -267,14 +477,98 @@ def _parse_mtl(text: str, mtl_name: str, info: _FileInfo) -> dict[str, tuple[Mat
             else:
                 current["d"] = min(max(v, 0.0), 1.0)
         elif key in _MTL_MAPS:
-            current["dropped"].append(f"{words[0]} {words[-1]!r} is not drawn yet (textures: issue 17)")
+            if key in _MTL_SLOTS or key in ("map_bump", "bump"):
+                entry = _mtl_map(words, where, info)
+                if entry is not None:
+                    current["maps"].append(entry)
+            else:
+                current["dropped"].append(f"{words[0]} {words[-1]!r} is not drawn yet")
         # other statements (illum, Ni, Tf, ...) are not read
     finish()
     return found
 
 
-def _gltf_material(index: int, entry: Any, info: _FileInfo) -> tuple[Material, list[str]]:
-    """The exact Material of glTF material ``index`` and the list of what is dropped."""
+def _mtl_path(folder: str, name: str) -> str | None:
+    """The file a map names: relative to the MTL's folder, backslashes read as separators, else
+    the bare file name in that folder."""
+    slashed = name.replace("\\", "/")
+    for candidate in (name, slashed, os.path.basename(slashed)):
+        path = os.path.join(folder, candidate)
+        if candidate and os.path.isfile(path):
+            return path
+    return None
+
+
+def _mtl_resolve(entry: _MtlEntry, info: _FileInfo) -> tuple[Material, list[str]]:
+    """The MTL material with its textures (read on first use, shared within the load)."""
+    if entry.resolved is not None:
+        return entry.resolved
+    dropped = list(entry.dropped)
+    textures: dict[str, Any] = {}
+    has_norm = any(m.statement.lower() == "norm" for m in entry.maps)
+    for m in entry.maps:
+        statement = m.statement.lower()
+        what = f"{m.statement} {m.file!r}"
+        ignored = []
+        for option, args in m.options.items():
+            identity = ((option == "-o" and all(float(a) == 0.0 for a in args))
+                        or (option == "-s" and all(float(a) == 1.0 for a in args)))
+            if option == "-clamp" or identity or (option == "-bm" and statement != "map_kd"
+                                                  and statement != "map_ke"):
+                continue
+            ignored.append(" ".join([option] + args))
+        if ignored:
+            dropped.append(f"{what}: option(s) {', '.join(ignored)} ignored")
+        if statement in ("map_bump", "bump") and has_norm:
+            dropped.append(f"{what} (a height map) is not drawn yet")
+            continue
+        path = _mtl_path(entry.folder, m.file)
+        if path is None:
+            dropped.append(f"{what} not found next to the MTL file: not drawn")
+            continue
+        clamp = [a.lower() for a in m.options.get("-clamp", ["off"])[:1]] == ["on"]
+        tex, why = _file_texture(path, info, "clamp" if clamp else "repeat")
+        if tex is None:
+            dropped.append(f"{what} {why}: not drawn")
+            continue
+        if statement in ("map_bump", "bump"):
+            if not _looks_like_normal_map(tex):
+                dropped.append(f"{what} (a height map) is not drawn yet")
+                continue
+            dropped.append(f"{what} looks like a tangent-space normal map (RGB, mean colour near "
+                           "(0.5, 0.5, 1)): drawn as one (name it with 'norm' to say so)")
+            slot = "normal_texture"
+        else:
+            slot = _MTL_SLOTS[statement]
+        if slot in textures:
+            dropped.append(f"{what}: a second {slot} is ignored")
+            continue
+        textures[slot] = tex
+        if slot == "normal_texture" and "-bm" in m.options:
+            try:
+                scale = float(m.options["-bm"][0])
+                if not math.isfinite(scale):
+                    raise ValueError
+                textures["normal_scale"] = scale
+            except (ValueError, IndexError):
+                dropped.append(f"{what}: -bm {' '.join(m.options['-bm'])!r} is not a number; ignored")
+    material = entry.material
+    if "base_color_texture" in textures:
+        # map_Kd multiplies Kd (white without Kd): kd is the base colour, which the texture
+        # multiplies; Ka, if given, stays
+        rgb = material.kd if material.kd is not None else (1.0, 1.0, 1.0)
+        textures.update(kd=None, base_color=(*rgb, material.base_color[3]))
+    if "emissive_texture" in textures and not entry.ke_given:
+        textures["emissive"] = (1.0, 1.0, 1.0)  # map_Ke multiplies Ke, white without it
+    if textures:
+        material = material.replace(**textures)
+    entry.resolved = (material, dropped)
+    return entry.resolved
+
+
+def _gltf_material(index: int, entry: Any, info: _FileInfo, mat: Any = None) -> tuple[Material, list[str]]:
+    """The exact Material of glTF material ``index`` and the list of what is dropped; its
+    textures are the images trimesh decoded into its PBRMaterial ``mat``."""
     entry = entry if isinstance(entry, dict) else {}
     name = entry.get("name") if isinstance(entry.get("name"), str) else None
     where = f"material {name!r}" if name is not None else f"material {index}"
@@ -302,13 +596,7 @@ def _gltf_material(index: int, entry: Any, info: _FileInfo) -> tuple[Material, l
     metallic = factor(pbr, "metallicFactor", 1.0, 0)
     roughness = factor(pbr, "roughnessFactor", 1.0, 0)
     emissive = factor(entry, "emissiveFactor", (0.0, 0.0, 0.0), 3)
-    for key in _GLTF_TEXTURES:
-        if key in pbr:
-            extra = "; rendering its base colour factor" if key == "baseColorTexture" else ""
-            dropped.append(f"{key} is not drawn yet (textures: issue 17){extra}")
-    for key in _GLTF_MATERIAL_TEXTURES:
-        if key in entry:
-            dropped.append(f"{key} is not drawn yet (textures: issue 17)")
+    textures = _gltf_textures(entry, pbr, info, mat, dropped)
     mode = entry.get("alphaMode", "OPAQUE")
     if mode != "OPAQUE":
         dropped.append(f"alphaMode {mode!r} is not drawn yet: rendered opaque")
@@ -322,7 +610,97 @@ def _gltf_material(index: int, entry: Any, info: _FileInfo) -> tuple[Material, l
     double = entry.get("doubleSided", False)
     return Material(base_color=base, metallic=metallic, roughness=roughness, emissive=emissive,
                     double_sided=bool(double) if isinstance(double, bool) else False,
-                    model=model, name=name), dropped
+                    model=model, name=name, **textures), dropped
+
+
+def _gltf_list(doc: dict[str, Any], key: str, index: Any) -> dict[str, Any] | None:
+    """doc[key][index] if it is there (and a dict), else None."""
+    items = doc.get(key)
+    if (isinstance(index, int) and not isinstance(index, bool) and isinstance(items, list)
+            and 0 <= index < len(items) and isinstance(items[index], dict)):
+        return items[index]
+    return None
+
+
+def _gltf_sampler(sampler: dict[str, Any] | None) -> tuple[str, tuple[str, str]]:
+    """(filter, (wrap_u, wrap_v)) of a glTF sampler (None: the defaults, trilinear and repeat)."""
+    sampler = sampler or {}
+    wrap = tuple(_GLTF_WRAPS.get(sampler.get(k, 10497), "repeat") for k in ("wrapS", "wrapT"))
+    mag, minify = sampler.get("magFilter"), sampler.get("minFilter")
+    if minify == _GL_NEAREST or (mag == _GL_NEAREST and minify in (None, _GL_NEAREST_MIPMAP_NEAREST)):
+        filt = "nearest"
+    elif minify == _GL_LINEAR:
+        filt = "bilinear"
+    else:
+        filt = "trilinear"
+    return filt, wrap  # type: ignore[return-value]
+
+
+def _gltf_textures(entry: dict[str, Any], pbr: dict[str, Any], info: _FileInfo, mat: Any,
+                   dropped: list[str]) -> dict[str, Any]:
+    """The Material texture arguments of a glTF material (entry, its pbrMetallicRoughness):
+    the images trimesh decoded into ``mat``, each with its texture's sampler; what is not drawn
+    goes to ``dropped``."""
+    doc = info.gltf_doc or {}
+    out: dict[str, Any] = {}
+    for where, key, slot in _GLTF_SLOTS:
+        ref = (pbr if where == "pbr" else entry).get(key)
+        if ref is None:
+            continue
+        if slot is None:
+            extra = {"metallicRoughnessTexture": "; rendering its metallic and roughness factors",
+                     "occlusionTexture": ""}[key]
+            dropped.append(f"{key} is not drawn yet{extra}")
+            continue
+        fallback = {"baseColorTexture": "; rendering its base colour factor",
+                    "emissiveTexture": "; rendering its emissive factor",
+                    "normalTexture": ""}[key]
+        if not isinstance(ref, dict) or "index" not in ref:
+            dropped.append(f"{key} {ref!r:.60} is not a texture reference: not drawn{fallback}")
+            continue
+        index = ref["index"]
+        tex_entry = _gltf_list(doc, "textures", index)
+        coord = ref.get("texCoord", 0)
+        if coord != 0:
+            dropped.append(f"{key} uses texCoord {coord!r:.20} and only TEXCOORD_0 is read: not "
+                           f"drawn{fallback}")
+            continue
+        for ext in (ref.get("extensions") or {}) if isinstance(ref.get("extensions"), dict) else ():
+            dropped.append(f"{key}: extension {ext} is ignored")
+        image = getattr(mat, key, None) if mat is not None else None
+        if image is None:
+            if not _have_pillow():
+                continue  # said once for the file
+            if tex_entry is None:
+                why = f"refers to texture {index!r:.20}, which the file does not have"
+            else:
+                source = _gltf_list(doc, "images", tex_entry.get("source"))
+                if source is not None and source.get("mimeType") == "image/ktx2":
+                    why = "is a KTX2 image, which trimesh does not read"
+                else:
+                    why = f"(texture {index}): its image could not be read"
+            dropped.append(f"{key} {why}: not drawn{fallback}")
+            continue
+        tex_entry = tex_entry or {}
+        filt, wrap = _gltf_sampler(_gltf_list(doc, "samplers", tex_entry.get("sampler")))
+        source = _gltf_list(doc, "images", tex_entry.get("source")) or {}
+        name = source.get("name") if isinstance(source.get("name"), str) else None
+        uri = source.get("uri")
+        if name is None and isinstance(uri, str) and not uri.startswith("data:"):
+            name = os.path.basename(uri)
+        texture, why = _pil_texture(image, info, filt, wrap, name)
+        if texture is None:
+            dropped.append(f"{key} (texture {index}) {why}: not drawn{fallback}")
+            continue
+        out[slot] = texture
+        if key == "normalTexture" and "scale" in ref:
+            scale = ref["scale"]
+            if (isinstance(scale, (int, float)) and not isinstance(scale, bool)
+                    and math.isfinite(scale)):
+                out["normal_scale"] = float(scale)
+            else:
+                dropped.append(f"normalTexture scale {scale!r:.40} is not a number (using 1)")
+    return out
 
 
 def _u8(value: Any) -> tuple[int, ...] | None:
@@ -360,6 +738,9 @@ def _gltf_index(mat: Any, info: _FileInfo) -> int | None:
                     return False
         except (TypeError, ValueError):
             return False
+        for where, key, _ in _GLTF_SLOTS:  # a texture trimesh read is one the entry names
+            if getattr(mat, key, None) is not None and key not in (pbr if where == "pbr" else entry):
+                return False
         return bool(entry.get("doubleSided", False)) == bool(mat.doubleSided)
 
     for strict in (True, False):
@@ -379,13 +760,25 @@ def _trimesh_material(mat: Any, info: _FileInfo) -> tuple[Material | None, list[
         if info.gltf is not None:
             index = _gltf_index(mat, info)
             if index is not None:
-                m, dropped = _gltf_material(index, info.gltf[index], info)
-                return m, dropped, ("gltf", index)
+                key = ("gltf", index)
+                cached = info.materials.get((key, id(mat)))
+                if cached is None:
+                    cached = info.materials[(key, id(mat))] = _gltf_material(
+                        index, info.gltf[index], info, mat)
+                return cached[0], cached[1], key
         # from trimesh's values (8-bit base colour): Mesh.from_trimesh, or no match in the file
-        dropped = [f"{k} is not drawn yet (textures: issue 17)"
-                   + ("; rendering its base colour factor" if k == "baseColorTexture" else "")
-                   for k in ("baseColorTexture", "metallicRoughnessTexture", "normalTexture",
-                             "occlusionTexture", "emissiveTexture") if getattr(mat, k, None) is not None]
+        dropped = [f"{k} is not drawn yet" + extra for k, extra in (
+            ("metallicRoughnessTexture", "; rendering its metallic and roughness factors"),
+            ("occlusionTexture", "")) if getattr(mat, k, None) is not None]
+        textures: dict[str, Any] = {}
+        for _, k, slot in _GLTF_SLOTS:
+            image = getattr(mat, k, None)
+            if slot is not None and image is not None:
+                texture, why = _pil_texture(image, info)
+                if texture is None:
+                    dropped.append(f"{k} {why}: not drawn")
+                else:
+                    textures[slot] = texture
         if mat.alphaMode not in (None, "OPAQUE"):
             dropped.append(f"alphaMode {mat.alphaMode!r} is not drawn yet: rendered opaque")
         base = (1.0, 1.0, 1.0, 1.0) if mat.baseColorFactor is None else tuple(
@@ -396,13 +789,13 @@ def _trimesh_material(mat: Any, info: _FileInfo) -> tuple[Material | None, list[
                      metallic=1.0 if mat.metallicFactor is None else min(max(mat.metallicFactor, 0.0), 1.0),
                      roughness=1.0 if mat.roughnessFactor is None else min(max(mat.roughnessFactor, 0.0), 1.0),
                      emissive=emissive, double_sided=bool(mat.doubleSided), model="pbr",
-                     name=mat.name if isinstance(mat.name, str) else None)
+                     name=mat.name if isinstance(mat.name, str) else None, **textures)
         return m, dropped, ("pbr", id(mat))
     if isinstance(mat, tmat.SimpleMaterial):
         name = getattr(mat, "_name", None)
         if info.mtl is not None:  # an OBJ: the MTL file's own values, or none
             if name in info.mtl:
-                m, dropped = info.mtl[name]
+                m, dropped = _mtl_resolve(info.mtl[name], info)
                 return m, dropped, ("mtl", name)
             return None, [], None
         if name is None and _is_empty(mat):
@@ -411,13 +804,30 @@ def _trimesh_material(mat: Any, info: _FileInfo) -> tuple[Material | None, list[
                for c in (mat.ambient, mat.diffuse, mat.specular)]
         alpha = float(np.asarray(mat.diffuse)[3]) / 255.0
         dropped = []
+        texture = None
         if mat.image is not None and not _is_empty(mat):
-            dropped.append("its texture image is not drawn yet (textures: issue 17)")
-        m = Material(base_color=(*rgb[1], alpha), ka=rgb[0], kd=rgb[1], ks=rgb[2],
-                     shininess=max(float(mat.glossiness), 0.0), model="blinn_phong",
-                     name=name if isinstance(name, str) else None)
+            texture, why = _pil_texture(mat.image, info)
+            if texture is None:
+                dropped.append(f"its texture image {why}: not drawn")
+        # a texture multiplies the diffuse colour: kd is the base colour then
+        m = Material(base_color=(*rgb[1], alpha), ka=rgb[0], kd=None if texture is not None else rgb[1],
+                     ks=rgb[2], shininess=max(float(mat.glossiness), 0.0), model="blinn_phong",
+                     name=name if isinstance(name, str) else None, base_color_texture=texture)
         return m, dropped, ("simple", id(mat))
     return None, [f"a {type(mat).__name__} is not supported"], ("other", id(mat))
+
+
+def _without_textures(material: Material | None, uvs: Any, where: str, key: Any, info: _FileInfo,
+                      plain: Material | None = None) -> Material | None:
+    """``material`` without its textures (or ``plain``, the file's material without them) if the
+    mesh has no uvs to sample them at, with a warning."""
+    if material is None or uvs is not None or not material.textured:
+        return material
+    slots = [k for k in ("base_color_texture", "emissive_texture", "normal_texture")
+             if getattr(material, k) is not None]
+    info.warn(("no uvs", key), f"{where}: the mesh has no uvs, so its {', '.join(slots)} "
+                               "cannot be drawn: dropped")
+    return plain if plain is not None else material.replace(**{k: None for k in slots})
 
 
 def _is_empty(mat: Any) -> bool:
@@ -505,12 +915,15 @@ def _part(tm: Any, smooth: bool | str, info: _FileInfo) -> _Part:
         if visual.uv is not None and len(visual.uv) == len(positions):
             uvs = np.asarray(visual.uv)[:, :2]
         material, dropped, key = _trimesh_material(visual.material, info)
+        if material is not None and material.name:
+            where = f"material {material.name!r}"
+        else:
+            where = f"material {key[1]}" if key is not None and key[0] == "gltf" else "material"
         if dropped and key is not None:
-            if material is not None and material.name:
-                where = f"material {material.name!r}"
-            else:
-                where = f"material {key[1]}" if key[0] == "gltf" else "material"
             info.warn(key, f"{where}: " + "; ".join(dropped))
+        if key is not None and key[0] == "mtl" and uvs is None and material is not None and material.textured:
+            material = _without_textures(material, uvs, where, key, info, info.mtl[key[1]].material)
+        material = _without_textures(material, uvs, where, key, info)
         raw = getattr(visual, "vertex_attributes", {}).get("color")  # glTF COLOR_0 with a material
         if raw is not None and len(raw) == len(positions):
             colors = _normalized(raw)
@@ -551,6 +964,8 @@ def _merge(parts: list[_Part], info: _FileInfo) -> _Part:
         info.warn("merged", f"{len(parts)} parts with {len(materials)} different materials were merged "
                             "into one mesh with the first part's material; use softrast.load_scene "
                             "to keep each part's material")
+    if not all(p.uvs is not None for p in parts):
+        material = _without_textures(material, None, "the merged mesh", "merged uvs", info)
     offsets = np.cumsum([0] + [len(p.positions) for p in parts[:-1]])
     faces = np.concatenate([p.faces + o for p, o in zip(parts, offsets)])
     positions = np.concatenate([p.positions for p in parts])

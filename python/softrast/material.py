@@ -26,6 +26,13 @@ tangent frame of each triangle (tangent = the direction of +u, made orthogonal t
 interpolated normal; bitangent = n x t, flipped where the uvs are mirrored). At the vertex and
 face frequencies the lighting is computed without textures and modulated per pixel by the base
 colour texture (OpenGL's GL_MODULATE), and normal maps are not read.
+``metallic_roughness_texture`` (glTF: blue x ``metallic``, green x ``roughness``, per pixel),
+``occlusion_texture`` (red: the ambient term times 1 + ``occlusion_strength`` (red - 1), as glTF
+defines it: only indirect light is occluded) and ``bump_texture`` (a height map, first channel:
+the course notes' bump mapping, dU = ``bump_scale`` (h(u + 1/w) - h(u)), dV likewise along v,
+tangent-space normal (-dU, -dV, 1); used where there is no ``normal_texture``) are read at the
+pixel frequency. Data slots (normal, metallic-roughness, occlusion, bump) read linear values
+unless their texture says ``srgb=True``.
 """
 from __future__ import annotations
 
@@ -90,14 +97,22 @@ class Material:
     normal_texture : Texture or None, a tangent-space normal map (linear unless the texture says
         ``srgb=True``); ``normal_scale`` (finite) scales its x and y;
         ``normal_map_convention``: "opengl" (default, green = +v) or "directx" (green = -v).
+    metallic_roughness_texture, occlusion_texture, bump_texture : Texture or None (see the
+        module docstring); ``occlusion_strength`` in [0, 1], ``bump_scale`` finite.
     """
 
     __slots__ = ("base_color", "ka", "kd", "ks", "shininess", "metallic", "roughness", "emissive",
                  "double_sided", "model", "name", "base_color_texture", "emissive_texture",
-                 "normal_texture", "normal_scale", "normal_map_convention", "_core")
+                 "normal_texture", "normal_scale", "normal_map_convention",
+                 "metallic_roughness_texture", "occlusion_texture", "occlusion_strength",
+                 "bump_texture", "bump_scale", "_core")
     _FIELDS = ("base_color", "ka", "kd", "ks", "shininess", "metallic", "roughness", "emissive",
                "double_sided", "model", "name", "base_color_texture", "emissive_texture",
-               "normal_texture", "normal_scale", "normal_map_convention")
+               "normal_texture", "normal_scale", "normal_map_convention",
+               "metallic_roughness_texture", "occlusion_texture", "occlusion_strength",
+               "bump_texture", "bump_scale")
+    _TEXTURE_SLOTS = ("base_color_texture", "emissive_texture", "normal_texture",
+                      "metallic_roughness_texture", "occlusion_texture", "bump_texture")
 
     def __init__(self, base_color: Sequence[float] = (0.8, 0.8, 0.8, 1.0),
                  ka: Sequence[float] | None = None, kd: Sequence[float] | None = None,
@@ -107,7 +122,10 @@ class Material:
                  model: str | None = None, name: str | None = None,
                  base_color_texture: Texture | None = None,
                  emissive_texture: Texture | None = None, normal_texture: Texture | None = None,
-                 normal_scale: float = 1.0, normal_map_convention: str = "opengl") -> None:
+                 normal_scale: float = 1.0, normal_map_convention: str = "opengl",
+                 metallic_roughness_texture: Texture | None = None,
+                 occlusion_texture: Texture | None = None, occlusion_strength: float = 1.0,
+                 bump_texture: Texture | None = None, bump_scale: float = 1.0) -> None:
         s = object.__setattr__
         s(self, "base_color", _color(base_color, "base_color", 4))
         s(self, "ka", None if ka is None else _color(ka, "ka", 3))
@@ -133,7 +151,9 @@ class Material:
             raise TypeError(f"name must be a str or None, got {type(name).__name__}")
         s(self, "name", name)
         for slot, tex in (("base_color_texture", base_color_texture),
-                          ("emissive_texture", emissive_texture), ("normal_texture", normal_texture)):
+                          ("emissive_texture", emissive_texture), ("normal_texture", normal_texture),
+                          ("metallic_roughness_texture", metallic_roughness_texture),
+                          ("occlusion_texture", occlusion_texture), ("bump_texture", bump_texture)):
             if tex is not None and not isinstance(tex, Texture):
                 raise TypeError(f"{slot} must be a softrast.Texture or None, got {type(tex).__name__}")
             s(self, slot, tex)
@@ -145,6 +165,12 @@ class Material:
             raise ValueError(f"normal_map_convention must be 'opengl' or 'directx', got "
                              f"{normal_map_convention!r:.80}")
         s(self, "normal_map_convention", normal_map_convention)
+        s(self, "occlusion_strength", _unit_real(occlusion_strength, "occlusion_strength"))
+        bump = real(bump_scale, "bump_scale")
+        if not math.isfinite(bump):
+            raise ValueError(f"bump_scale must be finite, got {bump_scale!r}")
+        s(self, "bump_scale", bump)
+        core = lambda tex, srgb: tex._core(srgb) if tex is not None else None  # noqa: E731
         # The core's record less its first field (the reflectance model, chosen per render):
         # kd_is_base, ka_is_kd, double_sided, ka, kd, ks, shininess, metallic, roughness, emissive,
         # then the core textures (colour slots decode sRGB unless the texture says otherwise),
@@ -153,10 +179,10 @@ class Material:
         s(self, "_core", (self.kd is None, self.ka is None, self.double_sided,
                           self.ka if self.ka is not None else (0.0, 0.0, 0.0), kd_rgb, self.ks,
                           p, self.metallic, self.roughness, self.emissive,
-                          base_color_texture._core(True) if base_color_texture is not None else None,
-                          emissive_texture._core(True) if emissive_texture is not None else None,
-                          normal_texture._core(False) if normal_texture is not None else None,
-                          scale, normal_map_convention == "directx"))
+                          core(base_color_texture, True), core(emissive_texture, True),
+                          core(normal_texture, False), scale, normal_map_convention == "directx",
+                          core(metallic_roughness_texture, False), core(occlusion_texture, False),
+                          self.occlusion_strength, core(bump_texture, False), bump))
 
     def __setattr__(self, key: str, value: Any) -> None:
         raise AttributeError("Material is immutable: make a new one (softrast.Material(...) or "
@@ -172,8 +198,7 @@ class Material:
     @property
     def textured(self) -> bool:
         """True if the material samples a texture."""
-        return (self.base_color_texture is not None or self.emissive_texture is not None
-                or self.normal_texture is not None)
+        return any(getattr(self, slot) is not None for slot in self._TEXTURE_SLOTS)
 
     def replace(self, **changes: Any) -> "Material":
         """A copy with some parameters changed (checked like the constructor's)."""

@@ -15,13 +15,21 @@
 //   3 x F radiance, 3 x F position, 3 x F direction, u8 inverse_square, F cone scale,
 //   F cone offset; 3 x F ambient light; u8 frequency % 3; u8 srgb; per draw: u8 brdf % 6,
 //   u8 flags (kd_is_base, ka_is_kd, double_sided), 3 x F ka, kd, ks, emissive, F shininess,
-//   metallic, roughness.
+//   metallic, roughness;
+//   then textures (an input that ends before them has none): u8 texture_filter (0xff: each
+//   texture's own, else % 4), one texture: u8 width-1 % 64, u8 height-1 % 64, u8 channels
+//   (1 + c % 4), u8 format (bit 0: float32 texels as F values, else raw u8; bit 1 sRGB; bit 2
+//   top_left; bit 3 build mips), u8 filter % 4, u8 wrap_u % 3, u8 wrap_v % 3, u8 max
+//   anisotropy (1 + a % 32), the texels, then per draw u8 slots (bit 0 base colour, 1 emissive,
+//   2 normal, 3 metallic-roughness, 4 occlusion, 5 bump) and F normal_scale, u8 normal_y_down
+//   (then, for the later slots: F occlusion_strength, F bump_scale).
 // F (float) / D (double) values: u8 selector, then for some selectors a payload (see value()).
 // I (face index): u8 < 0xf0 => that byte % vertices, else a special value (see index()).
 // M (matrix): u8 mode: identity, translation, scale + translation, 16 raw values, mirror.
 // P (projection): u8 mode: perspective(fovy, aspect, near, far), ortho, 16 raw values, identity.
 #include "framebuffer.hpp"
 #include "renderer.hpp"
+#include "texture.hpp"
 
 #include <cmath>
 #include <cstdint>
@@ -273,6 +281,49 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
     m.shininess = in.value_f();
     m.metallic = in.value_f();
     m.roughness = in.value_f();
+  }
+
+  options.texture_filter = in.u8();
+  if (options.texture_filter != 0xff) options.texture_filter %= 4;
+  const int tw = 1 + in.u8() % 64, th = 1 + in.u8() % 64, tc = 1 + in.u8() % 4;
+  const uint8_t format = in.u8();
+  std::vector<uint8_t> texels8;
+  std::vector<float> texels32;
+  std::unique_ptr<Texture> texture;
+  if (format & 1) {
+    texels32.resize(std::size_t(tw) * th * tc);
+    for (float& v : texels32) v = in.value_f();
+    texture = std::make_unique<Texture>(tw, th, tc, texels32.data());
+  } else {
+    texels8.resize(std::size_t(tw) * th * tc);
+    for (uint8_t& v : texels8) v = in.u8();
+    texture = std::make_unique<Texture>(tw, th, tc, texels8.data(), (format & 2) != 0);
+  }
+  texture->top_left = (format & 4) != 0;
+  texture->filter = TextureFilter(in.u8() % 4);
+  texture->wrap_u = Wrap(in.u8() % 3);
+  texture->wrap_v = Wrap(in.u8() % 3);
+  texture->max_anisotropy = 1 + in.u8() % 32;
+  if (format & 8) texture->build_mips();
+  for (Draw& d : draws) {
+    const uint8_t slots = in.u8();
+    Material& m = d.material;
+    if (slots & 1) m.base_color_texture = texture.get();
+    if (slots & 2) {
+      m.emissive_texture = texture.get();
+      m.emissive_factor = m.emissive;
+      m.emissive = vec3(0.0f);
+    }
+    if (slots & 4) m.normal_texture = texture.get();
+    m.normal_scale = in.value_f();
+    m.normal_y_down = in.u8() & 1;
+    if (slots & 8) m.metallic_roughness_texture = texture.get();
+    if (slots & 16) m.occlusion_texture = texture.get();
+    if (slots & 32) m.bump_texture = texture.get();
+    if (slots & 56) {
+      m.occlusion_strength = in.value_f();
+      m.bump_scale = in.value_f();
+    }
   }
 
   try {

@@ -125,6 +125,24 @@ def lighting(lights=(), ambient_light=(0.05, 0.05, 0.05), frequency=0, srgb=True
     return b
 
 
+def texturing(texels, channels=3, floats=False, srgb=True, top_left=False, mips=True, filt=2,
+              wrap=(0, 0), max_aniso=16, override=0xFF, slots=((1, 1.0, 0),)) -> bytes:
+    """The textures' tail: the render's filter override, one texture (texels (h, w, c) as
+    uint8, or floats), then per draw (slots bits, normal_scale, normal_y_down)."""
+    texels = np.asarray(texels)
+    h, w = texels.shape[:2]
+    b = u8(override) + u8(w - 1) + u8(h - 1) + u8(channels - 1)
+    b += u8(int(floats) | (2 if srgb else 0) | (4 if top_left else 0) | (8 if mips else 0))
+    b += u8(filt) + u8(wrap[0]) + u8(wrap[1]) + u8(max_aniso - 1)
+    if floats:
+        b += b"".join(value(float(v)) for v in texels.ravel())
+    else:
+        b += bytes(texels.astype(np.uint8).ravel())
+    for bits, scale, y_down in slots:
+        b += u8(bits) + value(scale) + u8(y_down)
+    return b
+
+
 # --- geometry -------------------------------------------------------------------------------
 
 def icosphere(subdivisions: int = 1):
@@ -269,6 +287,31 @@ def seeds() -> dict[str, bytes]:
         lit=lighting([(1, (1e30, 1e30, 1e30), (0, 0, -3), (0, 0, 1), 1, 0.0, 1.0),
                       (2, (1, 1, 1), (0, 0, 0), (0, 0, 0), 0, 1e30, -1e30)],
                      materials=[(4, 0, (0, 0, 0), (0, 0, 0), (1, 1, 1), (0, 0, 0), 1e30, 1.0, 0.0)]))
+    # Textures: every filter and wrap, uint8 and float texels, uvs far out, NaN and inf.
+    checker = ((np.indices((16, 16)).sum(0) % 2) * 255)[:, :, None].repeat(3, 2)
+    gp, gf = grid(6, 6)
+    guv = np.c_[gp[:, 0], gp[:, 1]] * 3.0
+    for filt in range(4):
+        for wrap in range(3):
+            out[f"tex_grid_filter{filt}_wrap{wrap}"] = scene(
+                size=(80, 60), threads=2, compare_threads=True, outputs=0xFF, shading=4, cull="none",
+                positions=gp, faces=gf, normals=np.tile([0, 0, 1.0], (len(gp), 1)), uvs=guv,
+                view=rotation(1.2, (1, 0, 0), (0, 0, -2)),
+                draws=((None, 0, (1, 1, 1, 1)),),
+                lit=lighting(lights[:2], frequency=filt % 3, materials=[mats[filt + 1]])
+                + texturing(checker, filt=filt, wrap=(wrap, (wrap + 1) % 3),
+                            slots=((1 | (4 if filt % 2 else 0) | (2 if wrap == 2 else 0), 1.0, wrap % 2),)))
+    odd = rng.random((7, 13, 4)) * 3 - 1
+    odd[0, 0, 0], odd[1, 1, 1], odd[2, 2, 2] = NAN, INF, -INF
+    out["tex_float_nan_inf_texels_far_uvs"] = scene(
+        outputs=0xFF, shading=4, cull="none", positions=sphere_p, faces=sphere_f, normals=sphere_p,
+        uvs=np.c_[sphere_p[:, 0] * 1e6, sphere_p[:, 1] * 1e30], draws=((translation((0, 0, -3)), 0, (1, 1, 1, 1)),),
+        lit=lighting(lights, materials=[mats[4]])
+        + texturing(odd, channels=4, floats=True, filt=3, max_aniso=32, override=3, slots=((7, 1e30, 1),)))
+    out["tex_nan_uvs_one_texel"] = scene(
+        outputs=0xFF, shading=4, positions=TRI, faces=[[0, 1, 2]], uvs=np.array([[NAN, 0], [INF, 1], [0, -INF]]),
+        lit=lighting(lights[:1], materials=[mats[0]])
+        + texturing(np.full((1, 1, 1), 200), channels=1, mips=False, filt=2, slots=((7, NAN, 0),)))
     out["lit_nan_light_refused"] = scene(
         outputs=0xFF, shading=4, positions=TRI, faces=[[0, 1, 2]],
         lit=lighting([(0, (NAN, 1, 1), (0, 0, 0), (0, 0, -1), 0, 0.0, 1.0)], materials=[mats[3]]))
