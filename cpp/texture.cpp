@@ -133,34 +133,12 @@ int mip_level_count(int width, int height) {
 
 Texture::Texture(int width, int height, int channels, const uint8_t* texels, bool srgb)
     : width_(width), height_(height), channels_(channels), u8_(texels),
-      lut_(srgb ? luts().srgb : luts().linear), num_levels_(mip_level_count(width, height)) {}
+      lut_(srgb ? luts().srgb : luts().linear), alpha_lut_(luts().linear),
+      num_levels_(mip_level_count(width, height)) {}
 
 Texture::Texture(int width, int height, int channels, const float* texels)
     : width_(width), height_(height), channels_(channels), f32_(texels),
       num_levels_(mip_level_count(width, height)) {}
-
-vec4 Texture::texel(int level, int x, int y) const {
-  if (level > 0) {
-    const Level& l = mips_[level - 1];
-    const float* p = l.rgba.data() + (std::size_t(y) * l.width + x) * 4;
-    return vec4(p[0], p[1], p[2], p[3]);
-  }
-  const std::size_t i = (std::size_t(y) * width_ + x) * channels_;
-  float c[4];
-  if (u8_) {
-    const uint8_t* p = u8_ + i;
-    for (int k = 0; k < channels_; ++k) c[k] = lut_[p[k]];
-    if (channels_ == 2 || channels_ == 4) c[channels_ - 1] = luts().linear[p[channels_ - 1]];
-  } else {
-    for (int k = 0; k < channels_; ++k) c[k] = f32_[i + k];
-  }
-  switch (channels_) {
-    case 1: return vec4(c[0], c[0], c[0], 1.0f);
-    case 2: return vec4(c[0], c[0], c[0], c[1]);
-    case 3: return vec4(c[0], c[1], c[2], 1.0f);
-    default: return vec4(c[0], c[1], c[2], c[3]);
-  }
-}
 
 void Texture::build_mips() {
   std::call_once(mips_once_, [this] {

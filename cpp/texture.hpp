@@ -40,8 +40,9 @@ class Texture {
   void build_mips();
   bool has_mips() const { return mips_ready_; }
 
-  // Linear RGBA of texel (x, y) of level l (indices already wrapped).
-  vec4 texel(int level, int x, int y) const;
+  // Linear RGBA of texel (x, y) of level l (indices already wrapped). Inline: the samplers'
+  // inner loop.
+  __attribute__((always_inline)) vec4 texel(int level, int x, int y) const;
 
   TextureFilter filter = TextureFilter::Trilinear;
   Wrap wrap_u = Wrap::Repeat, wrap_v = Wrap::Repeat;
@@ -57,11 +58,35 @@ class Texture {
   const uint8_t* u8_ = nullptr;
   const float* f32_ = nullptr;
   const float* lut_ = nullptr;  // uint8 decode table (sRGB or linear)
+  const float* alpha_lut_ = nullptr;  // uint8 alpha: always linear
   int num_levels_ = 1;
   std::vector<Level> mips_;
   std::once_flag mips_once_;
   bool mips_ready_ = false;
 };
+
+inline vec4 Texture::texel(int level, int x, int y) const {
+  if (level > 0) {
+    const Level& l = mips_[level - 1];
+    const float* p = l.rgba.data() + (std::size_t(y) * l.width + x) * 4;
+    return vec4(p[0], p[1], p[2], p[3]);
+  }
+  const std::size_t i = (std::size_t(y) * width_ + x) * channels_;
+  float c[4];
+  if (u8_) {
+    const uint8_t* p = u8_ + i;
+    for (int k = 0; k < channels_; ++k) c[k] = lut_[p[k]];
+    if (channels_ == 2 || channels_ == 4) c[channels_ - 1] = alpha_lut_[p[channels_ - 1]];
+  } else {
+    for (int k = 0; k < channels_; ++k) c[k] = f32_[i + k];
+  }
+  switch (channels_) {
+    case 1: return vec4(c[0], c[0], c[0], 1.0f);
+    case 2: return vec4(c[0], c[0], c[0], c[1]);
+    case 3: return vec4(c[0], c[1], c[2], 1.0f);
+    default: return vec4(c[0], c[1], c[2], c[3]);
+  }
+}
 
 // Levels of a full chain down to 1x1 for a width x height level 0.
 int mip_level_count(int width, int height);
