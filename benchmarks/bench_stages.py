@@ -56,8 +56,8 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FOV_Y_DEG, NEAR, FAR = 45.0, 0.05, 100.0
 SILHOUETTE_FRACTION = 0.8  # as bench_vs_pyrender.py: the sphere spans 0.8 of the image height
 ALL_OUTPUTS = sr.OUTPUTS
-SECTIONS = ("faces", "pixels", "outputs", "paths", "order", "threads", "lit", "litcg", "overhead",
-            "memory", "callgrind")
+SECTIONS = ("faces", "pixels", "outputs", "paths", "order", "threads", "lit", "litcg", "textures",
+            "overhead", "memory", "callgrind")
 
 
 def camera_distance() -> float:
@@ -347,6 +347,45 @@ def section_lit(opts):
     srgb, lin = by[("lambert", 1, "srgb")], by[("lambert", 1)]
     print(f"sRGB encoding (lambert, 1 light, srgb=True - srgb=False): {srgb.ms - lin.ms:+.2f} ms = "
           f"{1e6 * (srgb.ms - lin.ms) / cov:+.2f} ns/covered px")
+    print("(2 threads: ns are wall time over both cores; per core, double them)")
+
+
+class TexturedJob(Job):
+    """The sphere with spherical uvs, unlit, its base colour from the 1024x1024 Spot texture
+    (None: no texture), one texture filter."""
+
+    def __init__(self, key, sub, width, height, filt, texture):
+        super().__init__(key, sub, width, height)
+        mesh = _MESHES[sub]
+        p = mesh.positions.astype(np.float64)
+        uv = np.c_[np.arctan2(p[:, 2], p[:, 0]) / (2 * math.pi) + 0.5,
+                   np.arcsin(np.clip(p[:, 1], -1, 1)) / math.pi + 0.5] * (4.0, 2.0)  # 4x2 repeats
+        material = sr.Material(base_color=(1.0, 1.0, 1.0), base_color_texture=texture, model="unlit")
+        self.scene = sr.Scene()
+        self.scene.add(sr.Mesh(mesh.positions, mesh.faces, normals=mesh.normals, uvs=uv), material=material)
+        self.kwargs = dict(outputs=("color", "depth"), texture_filter=filt if texture is not None else None)
+        self.frame = self.renderer.render(self.scene, self.cam, **self.kwargs)
+
+
+def section_textures(opts):
+    sub, size = 6, 1024
+    print(f"\n## Textures (issue 17): ns per covered pixel by filter over the same untextured unlit "
+          f"render; ico{sub} {size}x{size} with spherical uvs (4x2 repeats of the 1024x1024 Spot "
+          f"texture: ~1-2 texels per pixel), colour+depth, threads 2, out=")
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    texture = sr.load_texture(os.path.join(root, "assets", "meshes", "spot_texture.png"))
+    filters = ("nearest", "bilinear", "trilinear", "anisotropic")
+    jobs = [Job("depth", sub, size, size, outputs=("depth",)),
+            TexturedJob("untextured", sub, size, size, None, None)]
+    jobs += [TexturedJob(f, sub, size, size, f, texture) for f in filters]
+    run_interleaved(jobs, opts.target, opts.rounds)
+    by = {j.key: j for j in jobs}
+    cov = by["depth"].covered
+    base = by["untextured"]
+    print(f"untextured unlit {base.ms:.2f} ms; {cov:,} covered px")
+    print(f"{'filter':<13}{'ms':>9}{'ns/px extra':>13}")
+    for f in filters:
+        print(f"{f:<13}{by[f].ms:>9.2f}{1e6 * (by[f].ms - base.ms) / cov:>13.2f}")
     print("(2 threads: ns are wall time over both cores; per core, double them)")
 
 

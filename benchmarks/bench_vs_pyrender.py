@@ -709,7 +709,8 @@ def run_ab(old_path: str, rows, target_s: float, rounds: int) -> dict:
     # (old cell, new cell) pairs; the old cell is the baseline of every new variant.
     pairs = []
     for key in workers["new"][1]["ready"]:
-        old_key = key.replace(" srgb", "")
+        # an old build with the same cell (srgb included) is its own baseline
+        old_key = key if key in workers["old"][1]["ready"] else key.replace(" srgb", "")
         pairs.append((old_key, key))
     same_bits = {key: workers["new"][1]["digest"][key] == workers["old"][1]["digest"][key]
                  for key in workers["old"][1]["ready"] if key in workers["new"][1]["digest"]}
@@ -730,7 +731,7 @@ def run_ab(old_path: str, rows, target_s: float, rounds: int) -> dict:
         proc.stdin.write(json.dumps({"quit": True}) + "\n")
         proc.stdin.flush()
         proc.wait()
-    ms = {f"{name} {key}": 1e3 * statistics.median(v) for (name, key), v in times.items()}
+    ms = {f"{name} {key}": 1e3 * statistics.median(v) for (name, key), v in times.items() if v}
     return {"ms": ms, "pairs": pairs, "same_bits": same_bits, "rounds": rounds,
             "n": {f"{name} {key}": len(v) for (name, key), v in times.items()}}
 

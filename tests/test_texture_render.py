@@ -459,3 +459,20 @@ def test_bump_map_of_a_ramp_tilts_the_normal() -> None:
     inner = frame.radiance[:, 1:-2, 0]  # away from the clamped edge texels
     np.testing.assert_allclose(inner, max(0.0, n @ l), rtol=0, atol=1e-5)
     assert abs(n @ l - l[2]) > 0.1
+
+
+def test_load_texture_bad_files(tmp_path: Path) -> None:
+    with pytest.raises(FileNotFoundError, match="nope.png"):
+        sr.load_texture(tmp_path / "nope.png")
+    bad = tmp_path / "corrupt.png"
+    bad.write_bytes(b"\x89PNG\r\n\x1a\n" + b"\x00" * 40)
+    with pytest.raises(ValueError, match="corrupt.png"):
+        sr.load_texture(bad)
+    good = tmp_path / "t.png"
+    img = np.random.default_rng(0).integers(0, 256, (5, 7, 3)).astype(np.uint8)
+    sr.imwrite(good, img)
+    tex = sr.load_texture(good, filter="nearest", wrap="clamp")
+    np.testing.assert_array_equal(tex.image, img)
+    assert tex.name == "t.png" and tex.filter == "nearest" and tex.wrap == ("clamp", "clamp")
+    with pytest.raises(ValueError, match="filter"):
+        sr.load_texture(good, filter="box")
