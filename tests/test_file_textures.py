@@ -1,6 +1,8 @@
-"""Textures from mesh files: glTF / GLB (baseColorTexture, emissiveTexture, normalTexture, samplers)
-and OBJ + MTL (map_Kd, map_Ke, norm, map_Bump), their uv convention checked on rendered pixels,
-sharing within a load, and a warning for every map that is not drawn.
+"""Textures from mesh files: glTF / GLB (baseColorTexture, emissiveTexture, normalTexture,
+metallicRoughnessTexture, occlusionTexture and its strength, samplers) and OBJ + MTL (map_Kd,
+map_Ke, norm, map_Bump / bump as height or normal maps), their uv convention checked on rendered
+pixels, metallic-roughness, occlusion and bump maps checked on rendered radiance, sharing within
+a load, and a warning for every map that is not drawn.
 
 uv convention: trimesh flips glTF's v on load (v = 1 - v), so every loaded mesh's uvs are
 OpenGL-style (v up, image row 0 at v = 1), as OBJ's vt are; the loaders make every texture with
@@ -234,7 +236,7 @@ def test_pil_modes_become_1_to_4_channels(tmp_path, no_warnings, mode, channels)
     assert texture.image.dtype == (np.uint16 if mode == "I;16" else np.uint8)
 
 
-def test_glb_metallic_roughness_occlusion_alpha_and_texcoord_warn(tmp_path):
+def test_glb_alpha_mode_texcoord_and_transform_warn_but_mr_and_occlusion_load(tmp_path):
     mr = np.full((2, 2, 3), (0, 128, 255), np.uint8)
 
     def edit(doc):
@@ -249,14 +251,180 @@ def test_glb_metallic_roughness_occlusion_alpha_and_texcoord_warn(tmp_path):
         scene = sr.load_scene(path)
     (text,) = [str(w.message) for w in record]
     assert text.startswith(f"{path}: material 'paint': ")
-    for part in ("metallicRoughnessTexture is not drawn yet; rendering its metallic and roughness factors",
-                 "occlusionTexture is not drawn yet",
-                 "alphaMode 'MASK' is not drawn yet: rendered opaque",
+    for part in ("alphaMode 'MASK' is not drawn yet: rendered opaque",
                  "emissiveTexture uses texCoord 1 and only TEXCOORD_0 is read: not drawn",
                  "baseColorTexture: extension KHR_texture_transform is ignored"):
         assert part in text
+    assert "metallicRoughnessTexture" not in text and "occlusionTexture" not in text
     (inst,) = scene.instances
-    assert inst.material.base_color_texture is not None and inst.material.emissive_texture is None
+    m = inst.material
+    assert m.base_color_texture is not None and m.emissive_texture is None
+    # one image named by both slots (an occlusion-roughness-metallic image): one Texture
+    assert m.metallic_roughness_texture is m.occlusion_texture
+    np.testing.assert_array_equal(m.metallic_roughness_texture.image, mr)
+    assert m.occlusion_strength == 1.0  # glTF's default
+
+
+def _lit_scene(mesh, ambient=(0.2, 0.2, 0.2)):
+    scene = sr.Scene(ambient_light=ambient)
+    scene.add(mesh)
+    scene.add(sr.PointLight(intensity=6.0), pose=trimesh.transformations.translation_matrix([1.5, 2.0, 2.5]))
+    return scene
+
+
+def _radiance(mesh, ambient=(0.2, 0.2, 0.2)):
+    """The box seen from a corner (three faces), lit by a point light and an ambient light."""
+    camera = sr.PerspectiveCamera(fov_y=40.0, near=0.1, far=20.0)
+    camera.look_at(eye=(1.6, 1.2, 2.2), target=(0.0, 0.0, 0.0), up=(0, 1, 0))
+    frame = sr.Renderer(48, 48).render(_lit_scene(mesh, ambient), camera, outputs=("radiance", "triangle_id"))
+    assert (frame.triangle_id >= 0).mean() > 0.3
+    return frame.radiance
+
+
+PAINT_FACTORS = {"baseColorFactor": [0.8, 0.5, 0.3, 1.0], "metallicFactor": 0.8, "roughnessFactor": 0.6}
+
+
+def test_glb_metallic_roughness_and_occlusion_textures_load(tmp_path, no_warnings):
+    mr = np.full((4, 4, 3), (0, 64, 128), np.uint8)
+    ao = np.random.default_rng(3).integers(0, 256, (4, 4), dtype=np.uint8)  # L: 1 channel
+
+    def edit(doc):
+        mat = doc["materials"][0]
+        mat["pbrMetallicRoughness"].update(PAINT_FACTORS)
+        mat["occlusionTexture"]["strength"] = 0.5
+        doc["samplers"] = [{"wrapS": 33071, "wrapT": 33648, "magFilter": 9728, "minFilter": 9728}]
+        doc["textures"][mat["occlusionTexture"]["index"]]["sampler"] = 0
+
+    path, uv = _textured_glb(tmp_path, edit, metallicRoughnessTexture=mr, occlusionTexture=ao)
+    mesh = sr.load_mesh(path)  # no warning: both are drawn
+    m = mesh.material
+    assert m.model == "pbr" and m.metallic == 0.8 and m.roughness == 0.6
+    np.testing.assert_array_equal(m.metallic_roughness_texture.image, mr)
+    np.testing.assert_array_equal(m.occlusion_texture.image.reshape(4, 4), ao)
+    assert m.occlusion_strength == 0.5
+    assert m.metallic_roughness_texture.filter == "trilinear"
+    assert m.metallic_roughness_texture.wrap == ("repeat", "repeat")
+    assert m.occlusion_texture.filter == "nearest" and m.occlusion_texture.wrap == ("clamp", "mirror")
+    for tex in (m.metallic_roughness_texture, m.occlusion_texture):
+        # linear data: the slot decides (srgb None reads linear in these slots)
+        assert tex.uv_origin == "bottom_left" and tex.srgb is None
+    assert m.base_color_texture is None and m.normal_texture is None and m.bump_texture is None
+    np.testing.assert_allclose(mesh.uvs, uv, atol=1e-6)
+
+
+@pytest.mark.parametrize("strength, expected, warning", [
+    (None, 1.0, None), (0.0, 0.0, None), (1, 1.0, None),
+    (1.5, 1.0, "occlusionTexture strength 1.5 clipped to [0, 1]"),
+    (-0.25, 0.0, "occlusionTexture strength -0.25 clipped to [0, 1]"),
+    ("half", 1.0, "occlusionTexture strength 'half' is not a number (using 1)")])
+def test_glb_occlusion_strength_from_the_json(tmp_path, strength, expected, warning):
+    def edit(doc):
+        if strength is not None:
+            doc["materials"][0]["occlusionTexture"]["strength"] = strength
+
+    path, _ = _textured_glb(tmp_path, edit, occlusionTexture=np.full((2, 2), 200, np.uint8))
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        m = sr.load_mesh(path).material
+    texts = [str(w.message) for w in record]
+    if warning is None:
+        assert texts == []
+    else:
+        (text,) = texts
+        assert text.startswith(f"{path}: material 'paint': ") and warning in text
+    assert m.occlusion_texture is not None and m.occlusion_strength == expected
+
+
+def test_glb_metallic_roughness_texture_renders_as_scaled_factors(tmp_path, no_warnings):
+    """A constant metallic-roughness texel (0, g, b) renders as the same file without the texture
+    and with roughnessFactor x g, metallicFactor x b (the red channel is not read)."""
+    g, b = 64, 128
+    mr = np.full((4, 4, 3), (0, g, b), np.uint8)
+
+    def textured(doc):
+        doc["materials"][0]["pbrMetallicRoughness"].update(PAINT_FACTORS)
+
+    def scaled(doc):
+        pbr = doc["materials"][0]["pbrMetallicRoughness"]
+        pbr.update(PAINT_FACTORS)
+        del pbr["metallicRoughnessTexture"]
+        pbr["roughnessFactor"] = 0.6 * g / 255
+        pbr["metallicFactor"] = 0.8 * b / 255
+
+    path, _ = _textured_glb(tmp_path, textured, metallicRoughnessTexture=mr)
+    plain_path, _ = _textured_glb(tmp_path, scaled, name="scaled.glb", metallicRoughnessTexture=mr)
+    mesh, plain = sr.load_mesh(path), sr.load_mesh(plain_path)
+    assert mesh.material.metallic_roughness_texture is not None
+    assert plain.material.metallic_roughness_texture is None and not plain.material.textured
+    assert plain.material.roughness == pytest.approx(0.6 * g / 255, rel=1e-15)
+    got, expected = _radiance(mesh), _radiance(plain)
+    np.testing.assert_allclose(got, expected, rtol=1e-5, atol=1e-7)
+    # the texture matters: without it (the factors alone) the box renders differently
+    unscaled = _radiance(sr.Mesh(mesh.positions, mesh.faces, normals=mesh.normals, uvs=mesh.uvs,
+                                 material=mesh.material.replace(metallic_roughness_texture=None)))
+    assert np.abs(unscaled - expected).max() > 0.05
+
+
+def test_glb_occlusion_roughness_metallic_image_renders(tmp_path, no_warnings):
+    """One image (a, g, b) named by occlusionTexture (strength 0.5) and metallicRoughnessTexture:
+    the ambient term times 1 + 0.5 (a - 1), on top of the factors render; the ambient term is
+    what the ambient light adds (the render with it less the one without)."""
+    a, g, b = 51, 191, 204
+    orm = np.full((4, 4, 3), (a, g, b), np.uint8)
+
+    def textured(doc):
+        mat = doc["materials"][0]
+        mat["pbrMetallicRoughness"].update(PAINT_FACTORS)
+        mat["occlusionTexture"] = {"index": mat["pbrMetallicRoughness"]["metallicRoughnessTexture"]["index"],
+                                   "strength": 0.5}
+
+    def scaled(doc):
+        pbr = doc["materials"][0]["pbrMetallicRoughness"]
+        pbr.update(PAINT_FACTORS)
+        del pbr["metallicRoughnessTexture"]
+        pbr["roughnessFactor"] = 0.6 * g / 255
+        pbr["metallicFactor"] = 0.8 * b / 255
+
+    path, _ = _textured_glb(tmp_path, textured, metallicRoughnessTexture=orm)
+    plain_path, _ = _textured_glb(tmp_path, scaled, name="scaled.glb", metallicRoughnessTexture=orm)
+    mesh, plain = sr.load_mesh(path), sr.load_mesh(plain_path)
+    m = mesh.material
+    assert m.occlusion_texture is m.metallic_roughness_texture and m.occlusion_strength == 0.5
+    lit, dark = _radiance(plain), _radiance(plain, ambient=(0.0, 0.0, 0.0))
+    ambient = lit - dark
+    assert ambient.max() > 0.01
+    expected = lit + ambient * (0.5 * (a / 255 - 1.0))
+    np.testing.assert_allclose(_radiance(mesh), expected, rtol=1e-5, atol=1e-6)
+    # without an ambient light the occlusion texture changes nothing
+    np.testing.assert_allclose(_radiance(mesh, ambient=(0.0, 0.0, 0.0)), dark, rtol=1e-5, atol=1e-7)
+
+
+def test_from_trimesh_pbr_material_metallic_roughness_and_occlusion(no_warnings):
+    from PIL import Image
+
+    mr = Image.fromarray(np.full((2, 2, 3), (0, 100, 200), np.uint8))
+    ao = Image.fromarray(np.full((2, 2), 150, np.uint8))
+    box = trimesh.creation.box()
+    box.visual = trimesh.visual.TextureVisuals(uv=np.zeros((8, 2)), material=trimesh.visual.material.PBRMaterial(
+        metallicRoughnessTexture=mr, occlusionTexture=ao, metallicFactor=0.5))
+    m = sr.Mesh.from_trimesh(box).material
+    np.testing.assert_array_equal(m.metallic_roughness_texture.image, np.asarray(mr))
+    np.testing.assert_array_equal(m.occlusion_texture.image.reshape(2, 2), np.asarray(ao))
+    assert m.occlusion_strength == 1.0 and m.metallic == 0.5 and m.roughness == 1.0
+    assert m.metallic_roughness_texture.srgb is None and m.occlusion_texture.srgb is None
+
+
+def test_from_trimesh_textures_without_uvs_are_dropped_naming_every_slot():
+    from PIL import Image
+
+    img = Image.fromarray(np.full((2, 2, 3), 100, np.uint8))
+    box = trimesh.creation.box()
+    box.visual = trimesh.visual.TextureVisuals(material=trimesh.visual.material.PBRMaterial(
+        name="paint", metallicRoughnessTexture=img, occlusionTexture=img))
+    with pytest.warns(UserWarning, match=r"material 'paint': the mesh has no uvs, so its "
+                                         r"metallic_roughness_texture, occlusion_texture cannot be drawn"):
+        m = sr.Mesh.from_trimesh(box).material
+    assert not m.textured
 
 
 def test_glb_texture_that_cannot_be_read_warns(tmp_path):
@@ -447,14 +615,135 @@ def test_obj_norm_map_ke_and_bump(tmp_path):
         m = sr.load_mesh(path).material
     assert m.normal_texture is not None and m.normal_scale == 1.0
 
-    # a height map is not drawn
+    # a height map is a bump map: -bm is its bump_scale
     path = _quad(tmp_path, mtl, material="height")
-    with pytest.warns(UserWarning, match=r"quad\.obj: material 'height': bump 'height\.png' \(a height map\) "
-                                         r"is not drawn yet"):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
         m = sr.load_mesh(path).material
     assert m.normal_texture is None and m.emissive == (0.5, 0.5, 0.5) and m.emissive_texture is not None
+    assert m.bump_texture is not None and m.bump_scale == 0.2 and m.bump_texture.srgb is None
     # one Texture per file within a load: glow.png and tex.png hold the same texels but are two files
     assert m.base_color_texture is not m.emissive_texture
+
+
+HEIGHT = np.random.default_rng(4).integers(0, 256, (16, 16), dtype=np.uint8)
+
+
+def _lit_quad_radiance(mesh):
+    """The quad filling a 64 x 64 image, lambert, lit by a slanted directional light."""
+    scene = sr.Scene(ambient_light=(0.1, 0.1, 0.1))
+    scene.add(mesh)
+    light = trimesh.transformations.rotation_matrix(0.6, [1.0, 0.5, 0.0])  # its -z: the direction
+    scene.add(sr.DirectionalLight(intensity=1.0), pose=light)
+    camera = sr.OrthographicCamera(xmag=1.0, ymag=1.0, near=0.1, far=10.0)
+    camera.look_at(eye=(0, 0, 3), target=(0, 0, 0), up=(0, 1, 0))
+    return sr.Renderer(64, 64).render(scene, camera, outputs=("radiance",), shading="lambert").radiance
+
+
+def test_obj_bump_height_map_is_drawn_with_its_bm(tmp_path, no_warnings):
+    sr.imwrite(tmp_path / "h.png", HEIGHT)
+    plain = sr.load_mesh(_quad(tmp_path, "newmtl tex\nKd 0.8 0.7 0.6\n"))
+    path = _quad(tmp_path, "newmtl tex\nKd 0.8 0.7 0.6\nbump -bm 2.5 h.png\n")
+    mesh = sr.load_mesh(path)
+    m = mesh.material
+    assert m.bump_scale == 2.5 and m.bump_texture.name == "h.png" and m.bump_texture.srgb is None
+    np.testing.assert_array_equal(m.bump_texture.image.reshape(16, 16), HEIGHT)
+    assert m.bump_texture.uv_origin == "bottom_left" and m.bump_texture.wrap == ("repeat", "repeat")
+    assert m.normal_texture is None
+    # the MTL's material otherwise, as without the bump statement
+    assert m == plain.material.replace(bump_texture=m.bump_texture, bump_scale=2.5)
+    bumped, flat = _lit_quad_radiance(mesh), _lit_quad_radiance(plain)
+    assert np.abs(bumped - flat).max() > 0.1
+    # the same as the hand-built material, and -bm scales the bump
+    by_hand = sr.Mesh(plain.positions, plain.faces, normals=plain.normals, uvs=plain.uvs,
+                      material=plain.material.replace(bump_texture=sr.Texture(HEIGHT), bump_scale=2.5))
+    np.testing.assert_array_equal(bumped, _lit_quad_radiance(by_hand))
+    one = sr.load_mesh(_quad(tmp_path, "newmtl tex\nKd 0.8 0.7 0.6\nmap_Bump h.png\n"))
+    assert one.material.bump_scale == 1.0 and one.material.bump_texture is not None
+    assert np.abs(_lit_quad_radiance(one) - bumped).max() > 0.01
+
+
+def test_obj_norm_and_bump_keeps_both_and_notes_the_bump_is_not_drawn(tmp_path):
+    sr.imwrite(tmp_path / "h.png", HEIGHT)
+    sr.imwrite(tmp_path / "n.png", np.full((4, 4, 3), (120, 135, 250), np.uint8))
+    path = _quad(tmp_path, "newmtl tex\nbump -bm 3 h.png\nnorm -bm 0.5 n.png\n")
+    with pytest.warns(UserWarning) as record:
+        m = sr.load_mesh(path).material
+    (text,) = [str(w.message) for w in record]
+    assert text == (f"{path}: material 'tex': bump 'h.png' (a height map) is kept as bump_texture but not "
+                    "drawn: the norm map is drawn in its place")
+    assert m.normal_texture is not None and m.normal_scale == 0.5
+    assert m.bump_texture is not None and m.bump_scale == 3.0
+
+
+def test_obj_bump_normal_maps_colour_heights_and_second_bumps(tmp_path):
+    normal = np.full((4, 4, 3), (120, 135, 250), np.uint8)
+    sr.imwrite(tmp_path / "n.png", normal)
+    sr.imwrite(tmp_path / "n2.png", normal)  # the same texels, another file
+    sr.imwrite(tmp_path / "h.png", HEIGHT)
+    colour = np.random.default_rng(6).integers(0, 256, (8, 8, 3), dtype=np.uint8)
+    sr.imwrite(tmp_path / "c.png", colour)
+    sr.imwrite(tmp_path / "grey.png", np.repeat(HEIGHT[:, :, None], 3, axis=2))
+
+    # a normal map in map_Bump next to a norm map: the norm map is drawn, the other ignored
+    path = _quad(tmp_path, "newmtl tex\nmap_Bump -bm 2 n.png\nnorm n2.png\n")
+    with pytest.warns(UserWarning, match=r"material 'tex': map_Bump 'n\.png' looks like a tangent-space "
+                                         r"normal map, and the material's norm map is drawn: ignored"):
+        m = sr.load_mesh(path).material
+    assert m.normal_texture.name == "n2.png" and m.normal_scale == 1.0 and m.bump_texture is None
+
+    # ... and without a norm map (or with one that cannot be found) drawn as the normal map
+    path = _quad(tmp_path, "newmtl tex\nnorm missing.png\nbump -bm 2 n.png\n")
+    with pytest.warns(UserWarning) as record:
+        m = sr.load_mesh(path).material
+    (text,) = [str(w.message) for w in record]
+    assert "norm 'missing.png' not found next to the MTL file: not drawn" in text
+    assert "bump 'n.png' looks like a tangent-space normal map (RGB, mean colour near (0.5, 0.5, 1)): drawn " \
+           "as one" in text
+    assert m.normal_texture.name == "n.png" and m.normal_scale == 2.0 and m.bump_texture is None
+
+    # a colour height map: its red channel is the height, said unless -imfchan r says so
+    path = _quad(tmp_path, "newmtl tex\nbump c.png\n")
+    with pytest.warns(UserWarning, match=r"material 'tex': bump 'c\.png' is a colour image: its red channel "
+                                         r"is read as the height"):
+        m = sr.load_mesh(path).material
+    np.testing.assert_array_equal(m.bump_texture.image, colour)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        m = sr.load_mesh(_quad(tmp_path, "newmtl tex\nbump -imfchan r c.png\n")).material
+        assert m.bump_texture is not None
+        m = sr.load_mesh(_quad(tmp_path, "newmtl tex\nbump grey.png\n")).material  # R = G = B
+        assert m.bump_texture is not None
+    path = _quad(tmp_path, "newmtl tex\nbump -imfchan g c.png\n")
+    with pytest.warns(UserWarning) as record:
+        sr.load_mesh(path)
+    (text,) = [str(w.message) for w in record]
+    assert "bump 'c.png': option(s) -imfchan g ignored" in text and "red channel is read" in text
+
+    # a second bump statement is ignored; a first that cannot be found does not count
+    path = _quad(tmp_path, "newmtl tex\nbump nowhere.png\nmap_Bump -bm 0.5 h.png\nbump grey.png\n")
+    with pytest.warns(UserWarning) as record:
+        m = sr.load_mesh(path).material
+    (text,) = [str(w.message) for w in record]
+    assert "bump 'nowhere.png' not found next to the MTL file: not drawn" in text
+    assert "bump 'grey.png': a second bump map is ignored" in text
+    assert m.bump_texture.name == "h.png" and m.bump_scale == 0.5
+
+    # a bad -bm: the default scale, with a warning
+    path = _quad(tmp_path, "newmtl tex\nbump -bm x h.png\n")
+    with pytest.warns(UserWarning, match=r"bump 'h\.png': -bm 'x' is not a number; ignored"):
+        m = sr.load_mesh(path).material
+    assert m.bump_texture is not None and m.bump_scale == 1.0
+
+
+def test_obj_bump_without_uvs_is_dropped(tmp_path):
+    sr.imwrite(tmp_path / "h.png", HEIGHT)
+    (tmp_path / "quad.obj").write_text("mtllib quad.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl tex\nf 1 2 3\n")
+    (tmp_path / "quad.mtl").write_text("newmtl tex\nKd 0.5 0.5 0.5\nbump -bm 2 h.png\n")
+    with pytest.warns(UserWarning, match=r"quad\.obj: material 'tex': the mesh has no uvs, so its "
+                                         r"bump_texture cannot be drawn"):
+        m = sr.load_mesh(tmp_path / "quad.obj").material
+    assert not m.textured and m.kd == (0.5, 0.5, 0.5)
 
 
 def test_obj_maps_not_drawn_or_missing_warn_naming_file_and_material(tmp_path):

@@ -32,10 +32,17 @@ Textures (``softrast.Texture``, see ``softrast.texture``):
 * glTF: ``baseColorTexture`` -> ``base_color_texture`` (multiplying ``baseColorFactor`` and
   ``COLOR_0``), ``emissiveTexture`` -> ``emissive_texture`` (multiplying ``emissiveFactor``,
   default 0 as glTF says), ``normalTexture`` -> ``normal_texture`` with its ``scale`` ->
-  ``normal_scale``. The images are the ones trimesh decodes with Pillow (a dependency: without
-  it trimesh drops every image, with a warning naming the file), 1 to 4 channels of uint8 as
-  stored (L, LA, RGB, RGBA; palette images become RGB, or RGBA if they have transparency;
-  16-bit grey stays uint16). The texture's sampler: ``wrapS`` / ``wrapT`` 10497 -> "repeat"
+  ``normal_scale``, ``metallicRoughnessTexture`` -> ``metallic_roughness_texture`` (green x
+  ``roughnessFactor``, blue x ``metallicFactor``), ``occlusionTexture`` -> ``occlusion_texture``
+  (red) with its ``strength`` (default 1, clipped to [0, 1] with a warning) ->
+  ``occlusion_strength``. An image used by several slots (an occlusion-roughness-metallic image
+  named by both ``occlusionTexture`` and ``metallicRoughnessTexture``) is one Texture. Every
+  Texture is made with ``srgb=None``, so the material slot decides: base colour and emissive
+  are decoded from sRGB, normal, metallic-roughness and occlusion read linear, as glTF says.
+  The images are the ones trimesh decodes with Pillow (a dependency: without it trimesh drops
+  every image, with a warning naming the file), 1 to 4 channels of uint8 as stored (L, LA,
+  RGB, RGBA; palette images become RGB, or RGBA if they have transparency; 16-bit grey stays
+  uint16). The texture's sampler: ``wrapS`` / ``wrapT`` 10497 -> "repeat"
   (the default), 33071 -> "clamp", 33648 -> "mirror"; the filter from ``minFilter`` (NEAREST ->
   "nearest", LINEAR -> "bilinear", the mipmapped ones and none -> "trilinear", except
   NEAREST_MIPMAP_NEAREST, or no minFilter, with magFilter NEAREST -> "nearest"). A texture read
@@ -44,18 +51,31 @@ Textures (``softrast.Texture``, see ``softrast.texture``):
 * MTL: ``map_Kd`` -> ``base_color_texture`` (the material then has ``kd=None``, so the texture
   multiplies Kd, as MTL prescribes; without Kd, white), ``map_Ke`` -> ``emissive_texture``
   (multiplying Ke; without Ke, white), ``norm`` -> ``normal_texture`` (a tangent-space normal
-  map; ``-bm`` -> ``normal_scale``). ``map_Bump`` / ``bump`` are height maps, not drawn yet,
-  except that an RGB image that is plainly a tangent-space normal map (mean colour near
-  (0.5, 0.5, 1): what Blender writes there) is drawn as one, with a warning saying so. File
-  names are relative to the MTL file (backslashes are read as separators); images are read with
+  map; ``-bm`` -> ``normal_scale``), ``map_Bump`` / ``bump`` (a height map) -> ``bump_texture``
+  with ``-bm`` (MTL's bump multiplier, default 1) -> ``bump_scale``; its first (red) channel is
+  the height, so a colour (not grey) height map gets a warning unless it says ``-imfchan r``
+  (MTL's default is luminance). An RGB ``map_Bump`` / ``bump`` image that is plainly a
+  tangent-space normal map (mean colour near (0.5, 0.5, 1): what Blender writes there) is drawn
+  as the normal map instead (``-bm`` -> ``normal_scale``), with a warning saying so; if the
+  material's ``norm`` map is drawn, such an image is ignored, with a warning. A height map
+  with a ``norm`` map is kept too (the material has both), but the renderer draws the normal
+  map where a material has both, so a warning notes that the bump map is not drawn. A second
+  ``map_Bump`` / ``bump`` statement in one material is ignored, with a warning. File names are
+  relative to the MTL file (backslashes are read as separators); images are read with
   ``softrast.load_texture``; ``-clamp on`` -> wrap "clamp", other options are ignored with a
-  warning. ``Mesh.from_trimesh``: a SimpleMaterial's image -> ``base_color_texture``.
+  warning. ``Mesh.from_trimesh``: a SimpleMaterial's image -> ``base_color_texture``; a
+  PBRMaterial's five images -> the five glTF slots above (trimesh keeps no sampler, normal scale
+  or occlusion strength: trilinear, repeat, 1 and 1).
 * Within one load, an image is one Texture however many materials and instances use it.
 * A textured material on a mesh without uvs loses its textures, with a warning.
 
-Whatever a file carries that softrast cannot draw yet (metallic-roughness, occlusion, height,
-specular and other maps, alpha blending or masking, transparency, unknown material extensions)
-is dropped with a ``UserWarning`` naming the file, the material and what was dropped: never
+Whatever a file carries that softrast cannot draw yet (glTF alpha blending or masking
+(``alphaMode`` MASK / BLEND: rendered opaque), textures read through ``texCoord`` other than 0,
+``KHR_texture_transform`` and other texture or material extensions; MTL ``map_Ka``,
+``map_Ks``, ``map_Ns``, ``map_d``, ``disp``, ``decal``, ``refl`` and the PBR maps ``map_Pr``,
+``map_Pm``, ``map_Ps``, ``map_RMA``, ``map_ORM``, map options other than ``-clamp``, ``-bm``
+(on ``norm`` and bump maps) and ``-imfchan r`` (on bump maps), and transparency ``d`` < 1) is
+dropped with a ``UserWarning`` naming the file, the material and what was dropped: never
 silently; so is a texture that cannot be read.
 """
 from __future__ import annotations
@@ -77,16 +97,21 @@ from .texture import Texture
 
 __all__ = ["load_scene", "srgb_to_linear"]
 
-# glTF texture slots: (where, key, Material field or None if not drawn yet)
+# glTF texture slots: (where, key, Material field)
 _GLTF_SLOTS = (("pbr", "baseColorTexture", "base_color_texture"),
-               ("pbr", "metallicRoughnessTexture", None),
+               ("pbr", "metallicRoughnessTexture", "metallic_roughness_texture"),
                ("material", "normalTexture", "normal_texture"),
-               ("material", "occlusionTexture", None),
+               ("material", "occlusionTexture", "occlusion_texture"),
                ("material", "emissiveTexture", "emissive_texture"))
+# what a glTF material renders instead of a texture that is not drawn
+_GLTF_FALLBACK = {"baseColorTexture": "; rendering its base colour factor",
+                  "metallicRoughnessTexture": "; rendering its metallic and roughness factors",
+                  "normalTexture": "", "occlusionTexture": "",
+                  "emissiveTexture": "; rendering its emissive factor"}
 _GLTF_WRAPS = {10497: "repeat", 33071: "clamp", 33648: "mirror"}
 _GL_NEAREST, _GL_LINEAR, _GL_NEAREST_MIPMAP_NEAREST = 9728, 9729, 9984
-# MTL statements naming texture maps (lower case). map_Kd, map_Ke and norm are drawn, map_Bump /
-# bump when they hold a normal map; the others are dropped with a warning.
+# MTL statements naming texture maps (lower case). map_Kd, map_Ke, norm and map_Bump / bump
+# (a height map, or a normal map) are drawn; the others are dropped with a warning.
 _MTL_MAPS = ("map_ka", "map_kd", "map_ks", "map_ns", "map_d", "map_ke", "map_bump", "bump",
              "disp", "decal", "refl", "norm", "map_pr", "map_pm", "map_ps", "map_rma", "map_orm")
 _MTL_SLOTS = {"map_kd": "base_color_texture", "map_ke": "emissive_texture", "norm": "normal_texture"}
@@ -298,20 +323,34 @@ def _file_texture(path: str, info: _FileInfo, wrap: str) -> tuple[Texture | None
     return cached[1], cached[2]
 
 
+def _texel_sample(tex: Texture) -> np.ndarray:
+    """About 65536 of a texture's texels (a regular subsample), (n, c) float64 in [0, 1]."""
+    img = tex.image
+    step = max(1, int(math.sqrt(img.shape[0] * img.shape[1] / 65536.0)))
+    sample = np.asarray(img[::step, ::step], dtype=np.float64)
+    if img.dtype == np.uint8:
+        sample = sample / 255.0
+    elif img.dtype == np.uint16:
+        sample = sample / 65535.0
+    return sample.reshape(-1, img.shape[2])
+
+
 def _looks_like_normal_map(tex: Texture) -> bool:
     """An RGB(A) image whose mean colour is near (0.5, 0.5, 1): a tangent-space normal map,
     not a (grey) height map."""
     if tex.channels < 3:
         return False
-    img = tex.image
-    step = max(1, int(math.sqrt(img.shape[0] * img.shape[1] / 65536.0)))
-    sample = np.asarray(img[::step, ::step, :3], dtype=np.float64)
-    if img.dtype == np.uint8:
-        sample = sample / 255.0
-    elif img.dtype == np.uint16:
-        sample = sample / 65535.0
-    r, g, b = sample.reshape(-1, 3).mean(axis=0)
+    r, g, b = _texel_sample(tex)[:, :3].mean(axis=0)
     return abs(r - 0.5) < 0.15 and abs(g - 0.5) < 0.15 and b > 0.75
+
+
+def _is_grey(tex: Texture) -> bool:
+    """The texture has one grey channel, or RGB(A) with red = green = blue (checked on a
+    subsample)."""
+    if tex.channels < 3:
+        return True
+    rgb = _texel_sample(tex)[:, :3]
+    return bool((rgb[:, 0] == rgb[:, 1]).all() and (rgb[:, 1] == rgb[:, 2]).all())
 
 
 def _gltf_doc(path_str: str) -> dict[str, Any]:
@@ -500,28 +539,41 @@ def _mtl_path(folder: str, name: str) -> str | None:
 
 
 def _mtl_resolve(entry: _MtlEntry, info: _FileInfo) -> tuple[Material, list[str]]:
-    """The MTL material with its textures (read on first use, shared within the load)."""
+    """The MTL material with its textures (read on first use, shared within the load).
+
+    ``map_Bump`` / ``bump`` (the first that can be read; a second is ignored): a height map ->
+    ``bump_texture``, ``-bm`` -> ``bump_scale``; an RGB image that looks like a tangent-space
+    normal map -> ``normal_texture``, ``-bm`` -> ``normal_scale`` (with a warning), unless the
+    material's ``norm`` map is drawn (then it is ignored, with a warning). A height map next to a
+    drawn ``norm`` map is kept as ``bump_texture`` but not drawn (a material draws its bump map
+    only without a normal map), with a note.
+    """
     if entry.resolved is not None:
         return entry.resolved
     dropped = list(entry.dropped)
     textures: dict[str, Any] = {}
-    has_norm = any(m.statement.lower() == "norm" for m in entry.maps)
+    bump_seen = False
+    normal_like: tuple[str, Texture, float | None] | None = None  # a bump map holding a normal map
+    bump_what = ""
     for m in entry.maps:
         statement = m.statement.lower()
+        bump = statement in ("map_bump", "bump")
         what = f"{m.statement} {m.file!r}"
+        if bump and bump_seen:
+            dropped.append(f"{what}: a second bump map is ignored")
+            continue
+        scaled = statement not in ("map_kd", "map_ke")  # -bm: norm's normal_scale, bump_scale
+        red = bump and [a.lower() for a in m.options.get("-imfchan", [])] == ["r"]
         ignored = []
         for option, args in m.options.items():
             identity = ((option == "-o" and all(float(a) == 0.0 for a in args))
                         or (option == "-s" and all(float(a) == 1.0 for a in args)))
-            if option == "-clamp" or identity or (option == "-bm" and statement != "map_kd"
-                                                  and statement != "map_ke"):
+            if (option == "-clamp" or identity or (option == "-bm" and scaled)
+                    or (option == "-imfchan" and red)):
                 continue
             ignored.append(" ".join([option] + args))
         if ignored:
             dropped.append(f"{what}: option(s) {', '.join(ignored)} ignored")
-        if statement in ("map_bump", "bump") and has_norm:
-            dropped.append(f"{what} (a height map) is not drawn yet")
-            continue
         path = _mtl_path(entry.folder, m.file)
         if path is None:
             dropped.append(f"{what} not found next to the MTL file: not drawn")
@@ -531,27 +583,44 @@ def _mtl_resolve(entry: _MtlEntry, info: _FileInfo) -> tuple[Material, list[str]
         if tex is None:
             dropped.append(f"{what} {why}: not drawn")
             continue
-        if statement in ("map_bump", "bump"):
-            if not _looks_like_normal_map(tex):
-                dropped.append(f"{what} (a height map) is not drawn yet")
-                continue
-            dropped.append(f"{what} looks like a tangent-space normal map (RGB, mean colour near "
-                           "(0.5, 0.5, 1)): drawn as one (name it with 'norm' to say so)")
-            slot = "normal_texture"
-        else:
-            slot = _MTL_SLOTS[statement]
-        if slot in textures:
-            dropped.append(f"{what}: a second {slot} is ignored")
-            continue
-        textures[slot] = tex
-        if slot == "normal_texture" and "-bm" in m.options:
+        bump_seen = bump_seen or bump
+        scale = None
+        if scaled and "-bm" in m.options:
             try:
                 scale = float(m.options["-bm"][0])
                 if not math.isfinite(scale):
                     raise ValueError
-                textures["normal_scale"] = scale
             except (ValueError, IndexError):
+                scale = None
                 dropped.append(f"{what}: -bm {' '.join(m.options['-bm'])!r} is not a number; ignored")
+        if bump and _looks_like_normal_map(tex):
+            normal_like = (what, tex, scale)  # drawn as the normal map if there is no norm
+            continue
+        slot = "bump_texture" if bump else _MTL_SLOTS[statement]
+        if slot in textures:
+            dropped.append(f"{what}: a second {slot} is ignored")
+            continue
+        textures[slot] = tex
+        if scale is not None:
+            textures["bump_scale" if bump else "normal_scale"] = scale
+        if bump:
+            bump_what = what
+            if not red and not _is_grey(tex):
+                dropped.append(f"{what} is a colour image: its red channel is read as the height")
+    if normal_like is not None:
+        what, tex, scale = normal_like
+        if "normal_texture" in textures:
+            dropped.append(f"{what} looks like a tangent-space normal map, and the material's norm "
+                           "map is drawn: ignored")
+        else:
+            dropped.append(f"{what} looks like a tangent-space normal map (RGB, mean colour near "
+                           "(0.5, 0.5, 1)): drawn as one (name it with 'norm' to say so)")
+            textures["normal_texture"] = tex
+            if scale is not None:
+                textures["normal_scale"] = scale
+    elif "normal_texture" in textures and "bump_texture" in textures:
+        dropped.append(f"{bump_what} (a height map) is kept as bump_texture but not drawn: the "
+                       "norm map is drawn in its place")
     material = entry.material
     if "base_color_texture" in textures:
         # map_Kd multiplies Kd (white without Kd): kd is the base colour, which the texture
@@ -647,14 +716,7 @@ def _gltf_textures(entry: dict[str, Any], pbr: dict[str, Any], info: _FileInfo, 
         ref = (pbr if where == "pbr" else entry).get(key)
         if ref is None:
             continue
-        if slot is None:
-            extra = {"metallicRoughnessTexture": "; rendering its metallic and roughness factors",
-                     "occlusionTexture": ""}[key]
-            dropped.append(f"{key} is not drawn yet{extra}")
-            continue
-        fallback = {"baseColorTexture": "; rendering its base colour factor",
-                    "emissiveTexture": "; rendering its emissive factor",
-                    "normalTexture": ""}[key]
+        fallback = _GLTF_FALLBACK[key]
         if not isinstance(ref, dict) or "index" not in ref:
             dropped.append(f"{key} {ref!r:.60} is not a texture reference: not drawn{fallback}")
             continue
@@ -700,6 +762,17 @@ def _gltf_textures(entry: dict[str, Any], pbr: dict[str, Any], info: _FileInfo, 
                 out["normal_scale"] = float(scale)
             else:
                 dropped.append(f"normalTexture scale {scale!r:.40} is not a number (using 1)")
+        if key == "occlusionTexture" and "strength" in ref:
+            strength = ref["strength"]  # glTF: in [0, 1], default 1
+            if (isinstance(strength, (int, float)) and not isinstance(strength, bool)
+                    and math.isfinite(strength)):
+                clipped = min(max(float(strength), 0.0), 1.0)
+                if clipped != strength:
+                    dropped.append(f"occlusionTexture strength {strength!r:.40} clipped to [0, 1]")
+                out["occlusion_strength"] = clipped
+            else:
+                dropped.append(f"occlusionTexture strength {strength!r:.40} is not a number "
+                               "(using 1)")
     return out
 
 
@@ -766,17 +839,17 @@ def _trimesh_material(mat: Any, info: _FileInfo) -> tuple[Material | None, list[
                     cached = info.materials[(key, id(mat))] = _gltf_material(
                         index, info.gltf[index], info, mat)
                 return cached[0], cached[1], key
-        # from trimesh's values (8-bit base colour): Mesh.from_trimesh, or no match in the file
-        dropped = [f"{k} is not drawn yet" + extra for k, extra in (
-            ("metallicRoughnessTexture", "; rendering its metallic and roughness factors"),
-            ("occlusionTexture", "")) if getattr(mat, k, None) is not None]
+        # from trimesh's values (8-bit base colour): Mesh.from_trimesh, or no match in the file.
+        # trimesh keeps no sampler, normal scale or occlusion strength: the defaults (trilinear,
+        # repeat, 1, 1).
+        dropped: list[str] = []
         textures: dict[str, Any] = {}
         for _, k, slot in _GLTF_SLOTS:
             image = getattr(mat, k, None)
-            if slot is not None and image is not None:
+            if image is not None:
                 texture, why = _pil_texture(image, info)
                 if texture is None:
-                    dropped.append(f"{k} {why}: not drawn")
+                    dropped.append(f"{k} {why}: not drawn{_GLTF_FALLBACK[k]}")
                 else:
                     textures[slot] = texture
         if mat.alphaMode not in (None, "OPAQUE"):
@@ -823,8 +896,7 @@ def _without_textures(material: Material | None, uvs: Any, where: str, key: Any,
     mesh has no uvs to sample them at, with a warning."""
     if material is None or uvs is not None or not material.textured:
         return material
-    slots = [k for k in ("base_color_texture", "emissive_texture", "normal_texture")
-             if getattr(material, k) is not None]
+    slots = [k for k in Material._TEXTURE_SLOTS if getattr(material, k) is not None]
     info.warn(("no uvs", key), f"{where}: the mesh has no uvs, so its {', '.join(slots)} "
                                "cannot be drawn: dropped")
     return plain if plain is not None else material.replace(**{k: None for k in slots})

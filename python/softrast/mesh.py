@@ -574,8 +574,21 @@ def load_mesh(path: str | os.PathLike[str], smooth: bool | str = True, color: Se
     colours in PLY, OBJ, OFF and STL files are sRGB and are decoded to linear (exact IEC
     61966-2-1 curve), so an ``unlit`` render with the default sRGB output gives back the file's
     bytes; glTF ``COLOR_0`` and factors, and MTL colours, are linear. A per-face colour gives each
-    face three vertices of its own (faces keep their order). Textures, transparency and whatever
-    else softrast cannot draw yet are dropped with a UserWarning naming the file and what.
+    face three vertices of its own (faces keep their order).
+
+    Textures are drawn (``softrast.Texture``; details in ``softrast.loaders``): glTF
+    ``baseColorTexture``, ``emissiveTexture``, ``normalTexture`` (its ``scale``),
+    ``metallicRoughnessTexture`` and ``occlusionTexture`` (its ``strength``), each with its
+    sampler's filter and wraps; MTL ``map_Kd``, ``map_Ke``, ``norm`` (``-bm``: normal scale) and
+    ``map_Bump`` / ``bump`` height maps (``-bm``: bump scale; an RGB one that looks like a normal
+    map is drawn as the normal map, with a warning; next to a ``norm`` map a height map is kept
+    but the normal map is drawn, with a warning). Whatever softrast cannot draw yet is dropped
+    with a UserWarning naming the file, the material and what: glTF ``alphaMode`` MASK and BLEND
+    (rendered opaque), textures read through ``texCoord`` other than 0, ``KHR_texture_transform``
+    and other unknown extensions; MTL transparency (``d`` < 1), the other maps (``map_Ka``,
+    ``map_Ks``, ``map_Ns``, ``map_d``, ``disp``, ``decal``, ``refl``, the PBR maps) and map
+    options other than ``-clamp`` and ``-bm``; textures that cannot be read, and every texture of
+    a mesh without uvs.
 
     Raises FileNotFoundError if ``path`` (or a buffer or texture file a glTF references) does not
     exist, ValueError (naming the file) for every other failure: it cannot be parsed, holds no
