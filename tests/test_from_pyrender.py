@@ -182,3 +182,47 @@ def test_softrast_never_imports_pyrender() -> None:
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
                           env=dict(os.environ, PYTHONPATH=str(pathlib.Path(sr.__file__).resolve().parent.parent)))
     assert proc.returncode == 0, proc.stderr
+
+
+TEXTURE_CHILD = r"""
+import json, os, sys
+sys.path.insert(0, sys.argv[1])
+import numpy as np, trimesh, pyrender, softrast as sr
+tscene = trimesh.load(sys.argv[2])
+prs = pyrender.Scene.from_trimesh_scene(tscene)
+cam = pyrender.PerspectiveCamera(yfov=0.8)
+pose = np.eye(4); pose[:3, 3] = (1.2, 1.0, 2.5)
+z = pose[:3, 3] / np.linalg.norm(pose[:3, 3]); x = np.cross([0, 1, 0], z); x /= np.linalg.norm(x)
+pose[:3, 0], pose[:3, 1], pose[:3, 2] = x, np.cross(z, x), z
+prs.add(cam, pose=pose)
+scene, camera = sr.from_pyrender(prs, 96, 72)
+mats = [i.mesh.material for i in scene._instances]
+tex = mats[0].base_color_texture
+frame = sr.Renderer(96, 72).render(scene, camera, outputs=("radiance",), shading="unlit")
+np.save(sys.argv[3], frame.radiance)
+np.save(sys.argv[3] + ".pose.npy", camera.pose)
+print(json.dumps({"shape": list(tex.image.shape), "dtype": str(tex.image.dtype), "wrap": tex.wrap,
+                  "filter": tex.filter, "same": all(m.base_color_texture is tex for m in mats),
+                  "n": len(mats)}))
+"""
+
+
+def test_from_pyrender_keeps_textures(tmp_path) -> None:
+    """BoxTextured through pyrender.Scene.from_trimesh_scene and sr.from_pyrender renders (unlit)
+    exactly as sr.load_scene of the file: the same texture, slot, sampler and uv convention."""
+    box = pathlib.Path(__file__).resolve().parents[2] / "shared" / "assets" / "BoxTextured" / "BoxTextured.gltf"
+    env = dict(os.environ, PYOPENGL_PLATFORM="osmesa")
+    parent = str(pathlib.Path(sr.__file__).resolve().parent.parent)
+    out = tmp_path / "radiance.npy"
+    proc = subprocess.run([sys.executable, "-c", TEXTURE_CHILD, parent, str(box), str(out)], env=env,
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-3000:] + INSTALL_HINT
+    info = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert info["shape"][:2] == [211, 211] and info["dtype"] == "uint8" and info["same"]
+    got = np.load(out)
+    scene = sr.load_scene(box)
+    cam = sr.PerspectiveCamera(fov_y=math.degrees(0.8), width=96, height=72)
+    cam.pose = np.load(str(out) + ".pose.npy")
+    ref = sr.Renderer(96, 72).render(scene, cam, outputs=("radiance",), shading="unlit").radiance
+    assert (ref > 0).any(-1).sum() > 1000
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-6)

@@ -12,8 +12,13 @@ context. What is converted, and how (pyrender 0.1.45's attribute names):
   ``baseColorFactor``, ``metallicFactor``, ``roughnessFactor``, ``emissiveFactor`` (clipped to
   [0, 1]) and ``doubleSided``. A ``color_0`` is multiplied by ``baseColorFactor`` (glTF's rule);
   pyrender instead multiplies its shaded colour by ``color_0``, so with ``pbr`` shading and
-  vertex colours the colours differ (geometry does not). Textures are dropped with a
-  UserWarning; any other material type gets softrast's default look, with a UserWarning.
+  vertex colours the colours differ (geometry does not). Textures (``baseColorTexture``,
+  ``metallicRoughnessTexture``, ``normalTexture``, ``occlusionTexture``, ``emissiveTexture``:
+  pyrender ``Texture`` objects, their ``source`` an array or a PIL image) become
+  ``sr.Texture`` objects in the matching slots (one per pyrender texture), with the sampler's
+  wraps (GL enums) and filter (nearest / bilinear without mipmaps, else trilinear); uvs keep
+  pyrender's convention, image row 0 at v = 1 (``uv_origin="bottom_left"``). Any other
+  material type gets softrast's default look, with a UserWarning.
 * Lights: ``DirectionalLight`` / ``PointLight`` / ``SpotLight`` -> ``sr.DirectionalLight`` /
   ``sr.PointLight`` / ``sr.SpotLight`` with the same ``color`` and ``intensity`` (spot cones:
   ``innerConeAngle`` / ``outerConeAngle``, radians in both), posed by the node's world pose
@@ -48,8 +53,36 @@ from .scene import Scene
 __all__ = ["from_pyrender"]
 
 _TRIANGLES = 4  # GL_TRIANGLES, pyrender's default primitive mode
-_TEXTURES = ("baseColorTexture", "metallicRoughnessTexture", "normalTexture", "occlusionTexture",
-             "emissiveTexture")
+# pyrender's texture attributes and softrast's slots.
+_TEXTURES = {"baseColorTexture": "base_color_texture",
+             "metallicRoughnessTexture": "metallic_roughness_texture",
+             "normalTexture": "normal_texture", "occlusionTexture": "occlusion_texture",
+             "emissiveTexture": "emissive_texture"}
+_GL_WRAP = {10497: "repeat", 33071: "clamp", 33648: "mirror"}
+_GL_NEAREST, _GL_LINEAR = 9728, 9729
+
+
+def _texture(tex: Any, label: str, key: str, cache: dict[int, Any]) -> Any:
+    """An sr.Texture for pyrender texture ``tex`` (made once per object), or None with a warning."""
+    from .texture import Texture
+
+    if id(tex) in cache:
+        return cache[id(tex)]
+    source = getattr(tex, "source", None)
+    sampler = getattr(tex, "sampler", None)
+    try:
+        image = np.asarray(source)
+        if image.dtype == np.float64:
+            image = image.astype(np.float32)
+        wrap = tuple(_GL_WRAP.get(getattr(sampler, k, 10497), "repeat") for k in ("wrapS", "wrapT"))
+        min_filter = getattr(sampler, "minFilter", None)
+        filt = {_GL_NEAREST: "nearest", _GL_LINEAR: "bilinear"}.get(min_filter, "trilinear")
+        result = Texture(image, filter=filt, wrap=wrap)
+    except (TypeError, ValueError) as e:
+        warnings.warn(f"{label}: {key} is not drawn: {e}", UserWarning, stacklevel=4)
+        result = None
+    cache[id(tex)] = result
+    return result
 
 
 def _kind(obj: Any) -> str:
@@ -67,7 +100,7 @@ def _unit(values: Any, n: int, default: tuple[float, ...]) -> tuple[float, ...]:
     return tuple(float(v) for v in arr)
 
 
-def _material(mat: Any) -> Material | None:
+def _material(mat: Any, cache: dict[int, Any] | None = None) -> Material | None:
     kind = _kind(mat)
     name = getattr(mat, "name", None)
     label = f"pyrender material {name!r}" if isinstance(name, str) else "a pyrender material"
@@ -75,11 +108,10 @@ def _material(mat: Any) -> Material | None:
         warnings.warn(f"{label}: a {kind} is not converted; the primitive gets softrast's default look",
                       UserWarning, stacklevel=3)
         return None
-    dropped = [k for k in _TEXTURES if getattr(mat, k, None) is not None]
-    if dropped:
-        warnings.warn(f"{label}: {', '.join(dropped)} not drawn yet (textures: issue 17); its factors "
-                      "are kept", UserWarning, stacklevel=3)
-    return Material(base_color=_unit(getattr(mat, "baseColorFactor", None), 4, (1.0, 1.0, 1.0, 1.0)),
+    cache = {} if cache is None else cache
+    textures = {slot: _texture(getattr(mat, key), label, key, cache)
+                for key, slot in _TEXTURES.items() if getattr(mat, key, None) is not None}
+    return Material(**textures,base_color=_unit(getattr(mat, "baseColorFactor", None), 4, (1.0, 1.0, 1.0, 1.0)),
                     metallic=_unit(getattr(mat, "metallicFactor", 1.0), 1, (1.0,))[0],
                     roughness=_unit(getattr(mat, "roughnessFactor", 1.0), 1, (1.0,))[0],
                     emissive=_unit(getattr(mat, "emissiveFactor", None), 3, (0.0, 0.0, 0.0)),
@@ -87,7 +119,7 @@ def _material(mat: Any) -> Material | None:
                     name=name if isinstance(name, str) else None)
 
 
-def _mesh(prim: Any) -> Mesh:
+def _mesh(prim: Any, cache: dict[int, Any]) -> Mesh:
     mode = getattr(prim, "mode", _TRIANGLES)
     if mode != _TRIANGLES:
         raise ValueError(f"only triangle primitives (mode 4) are converted, got mode {mode}")
@@ -101,7 +133,8 @@ def _mesh(prim: Any) -> Mesh:
         faces = np.asarray(indices).reshape(-1, 3).astype(np.int64)
     normals = getattr(prim, "normals", None)
     uvs = getattr(prim, "texcoord_0", None)
-    material = _material(prim.material) if getattr(prim, "material", None) is not None else None
+    material = (_material(prim.material, cache) if getattr(prim, "material", None) is not None
+                else None)
     colors = getattr(prim, "color_0", None)
     if colors is not None:
         colors = np.clip(np.asarray(colors, dtype=np.float64), 0.0, 1.0)
@@ -175,13 +208,14 @@ def from_pyrender(pyrender_scene: Any, width: int, height: int) -> tuple[Scene, 
     scene = Scene(ambient_light=None if ambient is None else
                   tuple(float(v) for v in np.asarray(ambient, dtype=np.float64).reshape(3)))
     nodes = sorted(pyrender_scene.mesh_nodes, key=lambda n: (str(n.name), id(n)))
+    textures: dict[int, Any] = {}  # one sr.Texture per pyrender texture
     for node in nodes:
         mesh = node.mesh
         if not getattr(mesh, "is_visible", True):
             continue
         world = np.asarray(pyrender_scene.get_pose(node), dtype=np.float64)
         for prim in mesh.primitives:
-            converted = _mesh(prim)
+            converted = _mesh(prim, textures)
             poses = getattr(prim, "poses", None)
             for local in ([np.eye(4)] if poses is None else np.asarray(poses, dtype=np.float64)):
                 scene.add(converted, pose=world @ local)

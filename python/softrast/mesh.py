@@ -448,7 +448,10 @@ class Mesh:
         "blinn_phong"; a ``PBRMaterial`` (glTF) -> base colour, metallic, roughness (trimesh's
         None: glTF's defaults 1 and 1), emissive, double_sided, model "pbr". trimesh holds their
         colours as 8 bits; ``softrast.load_mesh`` reads the exact values from the file instead.
-        Textures and whatever else softrast cannot draw yet are dropped with a UserWarning.
+        Its images become ``softrast.Texture`` objects (a SimpleMaterial's image: the base colour
+        texture; a PBRMaterial's base colour, metallic-roughness, normal, occlusion and emissive
+        textures, with default samplers: trimesh keeps none). What softrast cannot draw yet
+        (alpha modes) is dropped with a UserWarning.
         A Scene whose parts have different materials gets the first part's, with a UserWarning
         (``softrast.load_scene`` keeps each part's).
         """
