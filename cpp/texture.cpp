@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 namespace sr {
 namespace {
@@ -44,6 +45,33 @@ void box_down(const float* src, int n, int src_step, float* dst, int m, int dst_
 inline float fast_floor(float x) {
   const float t = float(int(x));
   return t > x ? t - 1.0f : t;
+}
+
+// ceil for |x| < 2^31 (no libm call either).
+inline float fast_ceil(float x) {
+  const float t = float(int(x));
+  return t < x ? t + 1.0f : t;
+}
+
+// log2(x) for x > 0 without a libm call: x = 2^e m, m in [sqrt(1/2), sqrt(2)), log2(m) by the
+// atanh series (lighting.hpp's log2_pos, scalar; error < 1e-8). inf gives a large value (the
+// callers clamp the level), denormals count as 2^-126.
+inline float fast_log2(float x) {
+  if (!(x < 3.0e38f)) return 128.0f;
+  if (x < 1.17549435e-38f) x = 1.17549435e-38f;
+  uint32_t bits;
+  std::memcpy(&bits, &x, sizeof bits);
+  int e = int((bits >> 23) & 0xff) - 127;
+  bits = (bits & 0x007fffffu) | 0x3f800000u;
+  float m;
+  std::memcpy(&m, &bits, sizeof m);
+  if (m > 1.41421356f) {
+    m *= 0.5f;
+    ++e;
+  }
+  const float t = (m - 1.0f) / (m + 1.0f), t2 = t * t;
+  const float series = t * (2.0f + t2 * (0.666666667f + t2 * (0.4f + t2 * (0.285714286f + t2 * 0.222222222f))));
+  return float(e) + series * 1.44269504f;
 }
 
 inline int wrap_index(int i, int n, Wrap wrap) {
@@ -182,7 +210,7 @@ vec4 sample_texture(const Texture& t, TextureFilter filter, float u, float v, fl
   const float ay = std::sqrt((dudy * w) * (dudy * w) + (dvdy * h) * (dvdy * h));
   if (filter == TextureFilter::Trilinear || !t.has_mips()) {
     const float rho = std::isnan(ax) || std::isnan(ay) ? 0.0f : (ax > ay ? ax : ay);
-    return trilinear(t, rho > 0.0f ? std::log2(rho) : 0.0f, c);
+    return trilinear(t, rho > 0.0f ? fast_log2(rho) : 0.0f, c);
   }
   // Anisotropic (EXT_texture_filter_anisotropic): N probes along the footprint's major axis,
   // each trilinear at the level of the minor extent (or of Pmax / max_anisotropy).
@@ -194,9 +222,9 @@ vec4 sample_texture(const Texture& t, TextureFilter filter, float u, float v, fl
   // ceil(Pmax / Pmin - 1/64): an isotropic footprint whose derivatives round a little apart
   // stays one probe (the 1/64 absorbs float rounding).
   const float ratio = pmax / pmin - 0.015625f;  // pmin = 0: inf
-  int n = ratio < float(max_n) ? int(std::ceil(ratio)) : max_n;
+  int n = ratio < float(max_n) ? int(fast_ceil(ratio)) : max_n;
   n = n < 1 ? 1 : n;
-  const float lambda = std::log2(pmax / float(n));
+  const float lambda = fast_log2(pmax / float(n));
   const float du = x_major ? dudx : dudy, dv = x_major ? dvdx : dvdy;
   if (!std::isfinite(du) || !std::isfinite(dv)) return trilinear(t, lambda, c);
   vec4 acc(0.0f);
