@@ -158,3 +158,34 @@ def test_refused_worker_thread_is_a_clean_error(tmp_path, capsys):
     assert status == 2
     assert err.startswith("softrast: error:") and "threads" in err and "Traceback" not in err
     assert not (tmp_path / "x.png").exists()
+
+
+def test_render_with_texture_as_the_readme_does(tmp_path):
+    """The README's first command: Spot with its texture. The colour equals a Python render of
+    the same scene, and the texture shows (the cow's black patches and pink nose: many distinct
+    colours, unlike the untextured grey)."""
+    import softrast as sr
+
+    tex_path = SPOT_PATH.parent / "spot_texture.png"
+    argv = ["render", str(SPOT_PATH), "--texture", str(tex_path), "-o", str(tmp_path / "c.png"),
+            "--size", "160x120", "--eye", "1.7,0.9,-2.3", "--target", "0,0.05,0.15"]
+    assert main(argv) == 0
+    color = imread(tmp_path / "c.png")
+    mesh = sr.load_mesh(SPOT_PATH)
+    scene = sr.Scene()
+    scene.add(mesh, material=sr.Material(base_color=(1, 1, 1), model="lambert",
+                                         base_color_texture=sr.load_texture(tex_path)))
+    eye, target, near, far = frame_camera(scene.bounds, 45.0, 160, 120, (1.7, 0.9, -2.3), (0, 0.05, 0.15))
+    cam = sr.PerspectiveCamera(fov_y=45.0, width=160, height=120, near=near, far=far)
+    cam.look_at(eye, target, (0.0, 1.0, 0.0))
+    np.testing.assert_array_equal(color, sr.Renderer(160, 120).render(scene, cam).color)
+    hit = color.max(-1) > 0
+    assert len(np.unique(color[hit] // 32, axis=0)) > 8  # more than shades of one grey
+    dark = (color[hit].max(-1) < 60).mean()
+    assert dark > 0.005  # the black patches and eyes (untextured, nothing is below ~120)
+
+
+def test_texture_errors(tmp_path, capsys):
+    assert main(["render", str(SPOT_PATH), "--texture", str(tmp_path / "missing.png"),
+                 "-o", str(tmp_path / "c.png")]) == 2
+    assert "--texture" in capsys.readouterr().err
