@@ -284,6 +284,18 @@ def _radiance(mesh, ambient=(0.2, 0.2, 0.2)):
 PAINT_FACTORS = {"baseColorFactor": [0.8, 0.5, 0.3, 1.0], "metallicFactor": 0.8, "roughnessFactor": 0.6}
 
 
+def _factors_only(g: int, b: int):
+    """A glTF edit: PAINT_FACTORS with roughness x g/255 and metallic x b/255, and no
+    metallicRoughnessTexture (what a constant (_, g, b) texture should render as)."""
+    def scaled(doc):
+        pbr = doc["materials"][0]["pbrMetallicRoughness"]
+        pbr.update(PAINT_FACTORS)
+        del pbr["metallicRoughnessTexture"]
+        pbr["roughnessFactor"] = 0.6 * g / 255
+        pbr["metallicFactor"] = 0.8 * b / 255
+    return scaled
+
+
 def test_glb_metallic_roughness_and_occlusion_textures_load(tmp_path, no_warnings):
     mr = np.full((4, 4, 3), (0, 64, 128), np.uint8)
     ao = np.random.default_rng(3).integers(0, 256, (4, 4), dtype=np.uint8)  # L: 1 channel
@@ -344,12 +356,7 @@ def test_glb_metallic_roughness_texture_renders_as_scaled_factors(tmp_path, no_w
     def textured(doc):
         doc["materials"][0]["pbrMetallicRoughness"].update(PAINT_FACTORS)
 
-    def scaled(doc):
-        pbr = doc["materials"][0]["pbrMetallicRoughness"]
-        pbr.update(PAINT_FACTORS)
-        del pbr["metallicRoughnessTexture"]
-        pbr["roughnessFactor"] = 0.6 * g / 255
-        pbr["metallicFactor"] = 0.8 * b / 255
+    scaled = _factors_only(g, b)
 
     path, _ = _textured_glb(tmp_path, textured, metallicRoughnessTexture=mr)
     plain_path, _ = _textured_glb(tmp_path, scaled, name="scaled.glb", metallicRoughnessTexture=mr)
@@ -378,12 +385,7 @@ def test_glb_occlusion_roughness_metallic_image_renders(tmp_path, no_warnings):
         mat["occlusionTexture"] = {"index": mat["pbrMetallicRoughness"]["metallicRoughnessTexture"]["index"],
                                    "strength": 0.5}
 
-    def scaled(doc):
-        pbr = doc["materials"][0]["pbrMetallicRoughness"]
-        pbr.update(PAINT_FACTORS)
-        del pbr["metallicRoughnessTexture"]
-        pbr["roughnessFactor"] = 0.6 * g / 255
-        pbr["metallicFactor"] = 0.8 * b / 255
+    scaled = _factors_only(g, b)
 
     path, _ = _textured_glb(tmp_path, textured, metallicRoughnessTexture=orm)
     plain_path, _ = _textured_glb(tmp_path, scaled, name="scaled.glb", metallicRoughnessTexture=orm)

@@ -75,19 +75,33 @@ def test_mip_level_at_known_minification(k: int) -> None:
     assert np.abs(frame.radiance - tex.mip(k - 1)[:: 2, :: 2, :3]).max() > 0.05
 
 
+def _opencv_look_at(K, eye, target, up, w, h, near, far):
+    """An OpenCV-convention camera at `eye` looking at `target` (x right, y down, z forward),
+    and its world-to-camera R, t."""
+    eye, target = np.asarray(eye, float), np.asarray(target, float)
+    z = target - eye
+    z /= np.linalg.norm(z)
+    x = np.cross(z, up)
+    x /= np.linalg.norm(x)
+    R = np.stack([x, np.cross(z, x), z])
+    t = -R @ eye
+    return sr.IntrinsicsCamera.from_opencv(K, R, t, w, h, near=near, far=far), R, t
+
+
+def _light_toward(l: np.ndarray) -> np.ndarray:
+    """A light pose whose -z axis travels along -l (it lights surfaces facing l)."""
+    pose = np.eye(4)
+    xax = np.cross([0, 1.0, 0], l)
+    xax /= np.linalg.norm(xax)
+    pose[:3, 0], pose[:3, 1], pose[:3, 2] = xax, np.cross(l, xax), l
+    return pose
+
+
 def _opencv_plane_camera(w: int, h: int) -> tuple[sr.IntrinsicsCamera, np.ndarray, np.ndarray, np.ndarray]:
     """A camera looking down at the plane z = 0 at about 60 degrees from its normal."""
     K = np.array([[1.1 * w, 0, w / 2 - 0.3], [0, 1.1 * w, h / 2 + 0.2], [0, 0, 1.0]])
-    eye = np.array([0.3, -2.2, 1.3])
-    target = np.array([0.05, 0.1, 0.0])
-    z = target - eye
-    z /= np.linalg.norm(z)
-    x = np.cross(z, [0, 0, 1.0])
-    x /= np.linalg.norm(x)
-    y = np.cross(z, x)
-    R = np.stack([x, y, z])  # world -> camera rows (OpenCV: x right, y down, z forward)
-    t = -R @ eye
-    return sr.IntrinsicsCamera.from_opencv(K, R, t, w, h, near=0.1, far=20.0), K, R, t
+    cam, R, t = _opencv_look_at(K, (0.3, -2.2, 1.3), (0.05, 0.1, 0.0), [0, 0, 1.0], w, h, 0.1, 20.0)
+    return cam, K, R, t
 
 
 def _plane_uv(K: np.ndarray, R: np.ndarray, t: np.ndarray, px: np.ndarray, py: np.ndarray,
@@ -163,15 +177,7 @@ def test_grazing_checkerboard_error_ordering(capsys) -> None:
     # row 0 is v = 1: the texel (row r, col j) has v index n - 1 - r
     img = (((n - 1 - np.mgrid[0:n, 0:n][0]) // texels + xx) % 2).astype(np.float32)[:, :, None]
     K = np.array([[0.9 * w, 0, w / 2], [0, 0.9 * w, h / 2], [0, 0, 1.0]])
-    eye = np.array([0.0, -4.3, 0.35])
-    target = np.array([0.0, 1.0, 0.0])
-    z = target - eye
-    z /= np.linalg.norm(z)
-    x = np.cross(z, [0, 0, 1.0])
-    x /= np.linalg.norm(x)
-    R = np.stack([x, np.cross(z, x), z])
-    t = -R @ eye
-    cam = sr.IntrinsicsCamera.from_opencv(K, R, t, w, h, near=0.05, far=50.0)
+    cam, R, t = _opencv_look_at(K, (0.0, -4.3, 0.35), (0.0, 1.0, 0.0), [0, 0, 1.0], w, h, 0.05, 50.0)
     ref, full = _checker_reference(K, R, t, w, h, size, checks)
     scene = sr.Scene()
     scene.add(quad(unlit(sr.Texture(img, srgb=False)), size=size))
@@ -191,13 +197,7 @@ def _side_light_scene(tex: sr.Texture, convention: str = "opengl", scale: float 
                     normal_map_convention=convention, normal_scale=scale)
     scene = sr.Scene()
     scene.add(quad(m))
-    light = np.eye(4)  # shines along its -z: rotate so that it travels along -l
-    l = np.array([1.0, 0.5, 1.0]) / 1.5
-    zax = l
-    xax = np.cross([0, 1.0, 0], zax)
-    xax /= np.linalg.norm(xax)
-    light[:3, 0], light[:3, 1], light[:3, 2] = xax, np.cross(zax, xax), zax
-    scene.add(sr.DirectionalLight(intensity=1.0), pose=light)
+    scene.add(sr.DirectionalLight(intensity=1.0), pose=_light_toward(np.array([1.0, 0.5, 1.0]) / 1.5))
     return scene
 
 
@@ -279,14 +279,8 @@ def test_textured_spot_against_ray_cast_reference() -> None:
     w, h = 160, 120
     scene, mesh, tex = _spot_scene("bilinear")
     K = np.array([[150.0, 0, w / 2], [0, 150.0, h / 2], [0, 0, 1.0]])
-    eye, target = np.array([2.2, 0.6, 1.5]), np.array([0.0, 0.0, 0.3])
-    z = target - eye
-    z /= np.linalg.norm(z)
-    x = np.cross(z, [0, 1.0, 0])
-    x /= np.linalg.norm(x)
-    R = np.stack([x, np.cross(z, x), z])
-    t = -R @ eye
-    cam = sr.IntrinsicsCamera.from_opencv(K, R, t, w, h, near=0.05, far=20.0)
+    eye = np.array([2.2, 0.6, 1.5])
+    cam, R, t = _opencv_look_at(K, eye, (0.0, 0.0, 0.3), [0, 1.0, 0], w, h, 0.05, 20.0)
     frame = sr.Renderer(w, h).render(scene, cam, outputs=("radiance", "triangle_id"))
     rows, cols = np.nonzero(frame.triangle_id >= 0)
     assert rows.size > 2000
@@ -448,11 +442,7 @@ def test_bump_map_of_a_ramp_tilts_the_normal() -> None:
     scene = sr.Scene()
     scene.add(quad(m))
     l = np.array([1.0, 0.5, 1.0]) / 1.5
-    light = np.eye(4)
-    xax = np.cross([0, 1.0, 0], l)
-    xax /= np.linalg.norm(xax)
-    light[:3, 0], light[:3, 1], light[:3, 2] = xax, np.cross(l, xax), l
-    scene.add(sr.DirectionalLight(intensity=1.0), pose=light)
+    scene.add(sr.DirectionalLight(intensity=1.0), pose=_light_toward(l))
     frame = sr.Renderer(w, h).render(scene, ortho_camera(w, h), outputs=("radiance",))
     du = k * a / w
     n = np.array([-du, 0.0, 1.0]) / np.hypot(du, 1.0)
