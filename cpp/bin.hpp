@@ -3,6 +3,7 @@
 // any primitive kind's records are binned the same way.
 #pragma once
 
+#include "alpha_mask.hpp"
 #include "pipeline.hpp"
 #include "scratch.hpp"
 #include "viewport.hpp"
@@ -28,6 +29,7 @@ struct alignas(64) SetupChunk {
   GrowingArray<uint32_t> record_tiles;   // scratch: tiles each record overlaps (setup.cpp)
   std::vector<float> tile_area;          // per tile: records' area in it, px^2 (an estimate);
                                          // empty unless SetupParams::estimate_overdraw
+  const AlphaTest* alpha = nullptr;      // a masked draw's alpha test (alpha_mask.hpp), or null
 };
 
 // The first pass of binning for the record just appended, with inclusive pixel box

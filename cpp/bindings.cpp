@@ -281,10 +281,11 @@ const Texture* texture_from(const py::handle& h) {
 // A material record from render.py: (brdf index, kd_is_base, ka_is_kd, double_sided, ka, kd,
 // ks, shininess, metallic, roughness, emissive, base_color_texture, emissive_texture,
 // normal_texture, normal_scale, normal_y_down, metallic_roughness_texture, occlusion_texture,
-// occlusion_strength, bump_texture, bump_scale); ranges are checked by Renderer::render.
+// occlusion_strength, bump_texture, bump_scale, alpha_mask, alpha_cutoff); ranges are checked by
+// Renderer::render.
 Material material_from(const py::handle& h, const std::string& where) {
   auto t = py::reinterpret_borrow<py::tuple>(h);
-  if (py::len(t) != 21) throw py::value_error(where + " material must have 21 fields");
+  if (py::len(t) != 23) throw py::value_error(where + " material must have 23 fields");
   Material m;
   const int brdf = t[0].cast<int>();
   if (brdf < 0 || brdf >= int(std::size(kBrdfNames)))
@@ -310,6 +311,8 @@ Material material_from(const py::handle& h, const std::string& where) {
   m.occlusion_strength = t[18].cast<float>();
   m.bump_texture = texture_from(t[19]);
   m.bump_scale = t[20].cast<float>();
+  m.alpha_mask = t[21].cast<bool>();
+  m.alpha_cutoff = t[22].cast<float>();
   if (m.emissive_texture) {  // the texture carries it, per pixel
     m.emissive_factor = m.emissive;
     m.emissive = vec3(0.0f);

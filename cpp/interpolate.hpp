@@ -52,6 +52,53 @@ inline void vertex_attributes(const MeshData& mesh, int32_t vertex, float* out) 
   out[1] = uv.y;
 }
 
+// The first N attributes at a record's three vertices: its mesh vertices' (unclipped), or, for a
+// piece of a clipped face, the source corners' mapped by the record's clip weights.
+template <int N>
+inline void triangle_attributes(const MeshData& mesh, const TriangleSetup& t,
+                                const TriangleShading& a, const SetupChunk& chunk,
+                                float (*out)[N]) {
+  if (a.clip_ref == kNoClip) {
+    for (int k = 0; k < 3; ++k) vertex_attributes<N>(mesh, a.vertex[k], out[k]);
+    return;
+  }
+  const ivec3 f = mesh.faces[t.prim];
+  const vec3* weights = &chunk.clip_bary[3 * std::size_t(a.clip_ref)];
+  float src[3][N];
+  for (int c = 0; c < 3; ++c) vertex_attributes<N>(mesh, f[c], src[c]);
+  for (int k = 0; k < 3; ++k)
+    for (int j = 0; j < N; ++j)
+      out[k][j] = weights[k].x * src[0][j] + weights[k].y * src[1][j] + weights[k].z * src[2][j];
+}
+
+// Screen derivatives of a record's unnormalised perspective weights b_k = E_k persp_k: of their
+// sum (sum_dx, sum_dy) and of the attributes they weight (attr_dx, attr_dy). E_k (edge
+// kEdgeStart[k] -> kEdgeEnd[k], the weight of vertex k) steps by -dy * one per pixel in x and
+// dx * one in y. Per pixel then d(attr)/dx = (attr_dx - attr * sum_dx) / sum b_k.
+template <int N>
+inline void attribute_derivatives(const TriangleSetup& t, const TriangleShading& a,
+                                  const float (*attr)[N], float& sum_dx, float& sum_dy,
+                                  float* attr_dx, float* attr_dy) {
+  double sx = 0.0, sy = 0.0, ax[N] = {}, ay[N] = {};
+  for (int k = 0; k < 3; ++k) {
+    const int i = kEdgeStart[k], j = kEdgeEnd[k];
+    const double gx = -double(int64_t(t.y[j]) - t.y[i]) * kSubpixelOne * a.persp[k];
+    const double gy = double(int64_t(t.x[j]) - t.x[i]) * kSubpixelOne * a.persp[k];
+    sx += gx;
+    sy += gy;
+    for (int c = 0; c < N; ++c) {
+      ax[c] += gx * attr[k][c];
+      ay[c] += gy * attr[k][c];
+    }
+  }
+  sum_dx = float(sx);
+  sum_dy = float(sy);
+  for (int c = 0; c < N; ++c) {
+    attr_dx[c] = float(ax[c]);
+    attr_dy[c] = float(ay[c]);
+  }
+}
+
 // Prepares one visible triangle into `s`: its perspective weights and its attributes at its own
 // three vertices. An unclipped record names its mesh vertices; a clipped triangle's vertices
 // carry weights of the source face's corners, and attributes, linear in those weights, are
@@ -89,8 +136,7 @@ SR_INLINE void prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTri
     if constexpr (Model::kReadsPosition)
       for (int k = 0; k < 3; ++k) s.position[k] = world_position(d, v[k]);
     if constexpr (Model::kAttributes > 0)
-      if (attributes)
-        for (int k = 0; k < 3; ++k) vertex_attributes<Model::kAttributes>(mesh, v[k], s.attr[k]);
+      if (attributes) triangle_attributes<Model::kAttributes>(mesh, t, a, *vt.chunk, s.attr);
   } else {
     const ivec3 f = mesh.faces[t.prim];
     vec3 normal_src[3] = {}, color_src[3];
@@ -117,13 +163,8 @@ SR_INLINE void prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTri
         s.position[k] = w.x * src[0] + w.y * src[1] + w.z * src[2];
       }
     }
-    if constexpr (Model::kAttributes > 0) if (attributes) {
-      float src[3][Model::kAttributes];
-      for (int c = 0; c < 3; ++c) vertex_attributes<Model::kAttributes>(mesh, f[c], src[c]);
-      for (int k = 0; k < 3; ++k)
-        for (int j = 0; j < Model::kAttributes; ++j)
-          s.attr[k][j] = weights[k].x * src[0][j] + weights[k].y * src[1][j] + weights[k].z * src[2][j];
-    }
+    if constexpr (Model::kAttributes > 0)
+      if (attributes) triangle_attributes<Model::kAttributes>(mesh, t, a, *vt.chunk, s.attr);
     uniform_color = s.color[0] == s.color[1] && s.color[0] == s.color[2];
   }
   if (kNormals && d.world_normals) {
@@ -149,28 +190,9 @@ SR_INLINE void prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTri
             (Model::kReadsPosition ? ShadeTriangleBase::kReadPosition : 0) |
             (Model::kAttributes > 0 && !Model::kAttributesIfTextured ? ShadeTriangleBase::kReadUv : 0);
   if constexpr (Model::kAttributesIfTextured) {
-    if (attributes) {
-      // Screen derivatives of the weights: b_k = E_k persp_k, and E_k (edge kEdgeStart[k] ->
-      // kEdgeEnd[k], the weight of vertex k) steps by -dy * one per pixel in x and dx * one in y.
-      double sx = 0.0, sy = 0.0, ax[Model::kAttributes] = {}, ay[Model::kAttributes] = {};
-      for (int k = 0; k < 3; ++k) {
-        const int i = kEdgeStart[k], j = kEdgeEnd[k];
-        const double gx = -double(int64_t(t.y[j]) - t.y[i]) * kSubpixelOne * a.persp[k];
-        const double gy = double(int64_t(t.x[j]) - t.x[i]) * kSubpixelOne * a.persp[k];
-        sx += gx;
-        sy += gy;
-        for (int c = 0; c < Model::kAttributes; ++c) {
-          ax[c] += gx * s.attr[k][c];
-          ay[c] += gy * s.attr[k][c];
-        }
-      }
-      s.sum_dx = float(sx);
-      s.sum_dy = float(sy);
-      for (int c = 0; c < Model::kAttributes; ++c) {
-        s.attr_dx[c] = float(ax[c]);
-        s.attr_dy[c] = float(ay[c]);
-      }
-    }
+    if (attributes)
+      attribute_derivatives<Model::kAttributes>(t, a, s.attr, s.sum_dx, s.sum_dy, s.attr_dx,
+                                                s.attr_dy);
   }
   if constexpr (Model::kFaceNormal) {
     if (p.in.frequency == Frequency::Face) {

@@ -60,6 +60,8 @@ struct Material {
   float occlusion_strength = 1.0f;
   float bump_scale = 1.0f;
   bool normal_y_down = false;  // DirectX-style normal map (green = -v)
+  bool alpha_mask = false;     // glTF alphaMode MASK: fragments with alpha < alpha_cutoff are
+  float alpha_cutoff = 0.5f;   // discarded (alpha_mask.hpp); else the draw is opaque
   bool textured() const {
     return base_color_texture || emissive_texture || normal_texture || metallic_roughness_texture ||
            occlusion_texture || bump_texture;

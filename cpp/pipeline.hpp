@@ -177,8 +177,8 @@ struct TriangleSetup {
   uint32_t draw;           // index of the draw
 };
 // What shading needs of the same triangle to find its attributes without going back to the
-// mesh's faces; a parallel array, written only when colour or normals are requested (a
-// depth-only render writes and reads two thirds of the bytes).
+// mesh's faces; a parallel array, written only when colour or normals are requested, or for an
+// alpha-masked draw (alpha_mask.hpp) (a depth-only render writes and reads two thirds of the bytes).
 struct TriangleShading {
   float persp[3];      // (1 / w_k) / (max_j (1 / w_j) * area2), area2 = twice the area in
                        // fixed-point units^2: E_k * persp[k] is proportional to the perspective-

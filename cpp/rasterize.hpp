@@ -2,6 +2,7 @@
 // which triangle is visible at each pixel (a tile-local visibility buffer, shaded afterwards).
 #pragma once
 
+#include "alpha_mask.hpp"
 #include "setup.hpp"
 #include "simd.hpp"
 
@@ -62,12 +63,11 @@ struct EdgeEquations {
   int64_t origin[3];
   int64_t step_x[3], step_y[3];
 };
-template <typename Pattern>
-inline EdgeEquations edge_equations(const TriangleSetup& t, int x, int y) {
-  static_assert(Pattern::kCount == 1, "one sample per pixel: the kernels step one sample");
+inline EdgeEquations edge_equations_at(const TriangleSetup& t, int x, int y, int32_t sample_x,
+                                       int32_t sample_y) {
   EdgeEquations e;
-  const int64_t px = int64_t(x) * kSubpixelOne + Pattern::kX;
-  const int64_t py = int64_t(y) * kSubpixelOne + Pattern::kY;
+  const int64_t px = int64_t(x) * kSubpixelOne + sample_x;
+  const int64_t py = int64_t(y) * kSubpixelOne + sample_y;
   for (int k = 0; k < 3; ++k) {
     const int a = kEdgeStart[k], b = kEdgeEnd[k];
     const int64_t dx = t.x[b] - t.x[a], dy = t.y[b] - t.y[a];
@@ -76,6 +76,11 @@ inline EdgeEquations edge_equations(const TriangleSetup& t, int x, int y) {
     e.step_y[k] = dx * kSubpixelOne;
   }
   return e;
+}
+template <typename Pattern>
+inline EdgeEquations edge_equations(const TriangleSetup& t, int x, int y) {
+  static_assert(Pattern::kCount == 1, "one sample per pixel: the kernels step one sample");
+  return edge_equations_at(t, x, y, Pattern::kX, Pattern::kY);
 }
 
 // A small triangle's edge functions for eight pixels of a row in exact int32 (see above), stepped
@@ -286,6 +291,12 @@ SR_INLINE void rasterize_all(const TileRect& rect, int tile, const std::vector<S
       const int x0 = std::max(int(t.x0), rect.x0), x1 = std::min(int(t.x1), rect.x1 - 1);
       const int y0 = std::max(int(t.y0), rect.y0), y1 = std::min(int(t.y1), rect.y1 - 1);
       if (x0 > x1 || y0 > y1) continue;
+      if (chunk.alpha) {  // a masked draw's (alpha_mask.hpp): shaded as the int64 path's are
+        if (rasterize_masked(*chunk.alpha, chunk, chunk.tile_records[r], x0, x1, y0, y1, rect,
+                             index, Pattern::kX, Pattern::kY, kCoverage, s))
+          hook.large_won(index);
+        continue;
+      }
       if (is_small(t)) {
         if (x1 - x0 < 4 && y1 > y0)
           rasterize_pairs<Pattern, kCoverage>(t, x0, x1, y0, y1, rect, index, s, hook);

@@ -220,7 +220,8 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
     const Material& m = draws[d].material;
     if (!(all_finite(m.ka) && all_finite(m.kd) && all_finite(m.ks) && all_finite(m.emissive) &&
           std::isfinite(m.shininess) && m.shininess >= 0.0f && m.metallic >= 0.0f &&
-          m.metallic <= 1.0f && m.roughness >= 0.0f && m.roughness <= 1.0f))
+          m.metallic <= 1.0f && m.roughness >= 0.0f && m.roughness <= 1.0f &&
+          std::isfinite(m.alpha_cutoff)))
       throw std::invalid_argument("material of draw " + std::to_string(d) + " is out of range");
   }
   const RenderPlan plan = make_plan(options, width(), height());
@@ -251,8 +252,15 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   });
 
   // Setup and binning, parallel over fixed-size triangle chunks (primitive order is kept).
+  // A masked draw's chunks carry its alpha test; a draw whose one alpha is below its cutoff
+  // has none.
+  std::vector<AlphaTest> alpha_tests(draws.size());
+  std::vector<const AlphaTest*> alpha(draws.size(), nullptr);
   std::vector<Block> chunk_ranges;
   for (std::size_t d = 0; d < draws.size(); ++d) {
+    const AlphaKind kind = alpha_kind(draws[d], options.texture_filter, alpha_tests[d]);
+    if (kind == AlphaKind::Invisible) continue;
+    if (kind == AlphaKind::Masked) alpha[d] = &alpha_tests[d];
     const std::size_t m = draws[d].mesh->faces.size();
     const std::size_t step = chunk_faces(m);
     for (std::size_t b = 0; b < m; b += step)
@@ -263,7 +271,8 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
     const Block& blk = chunk_ranges[item];
     SetupParams params{draws[blk.draw].mesh.get(), &transforms[blk.draw],
                        vertices_[blk.draw].data(), blk.draw, camera.orthographic, options.cull,
-                       &planes, viewport_, plan.estimate_overdraw, plan.shade, isa_};
+                       &planes, viewport_, plan.estimate_overdraw,
+                       plan.shade || alpha[blk.draw], alpha[blk.draw], isa_};
     setup_chunk(params, blk.begin, blk.end, chunks_[item]);
   });
 

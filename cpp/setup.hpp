@@ -22,7 +22,8 @@ struct SetupParams {
   const ClipPlanes* planes;
   Viewport viewport;
   bool estimate_overdraw;  // fill SetupChunk::tile_area (the "auto" shading path's choice)
-  bool shade;              // fill SetupChunk::shading (else nothing shades)
+  bool shade;              // fill SetupChunk::shading (shading, or an alpha test, reads it)
+  const AlphaTest* alpha;  // the draw's alpha test, or null (opaque)
   Isa isa;                 // kernels for eight faces at a time (the same records for either)
 };
 

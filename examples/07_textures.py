@@ -1,6 +1,7 @@
-"""Textures: Spot the cow with its texture under a key light (07_textured_spot.png), and a
+"""Textures: Spot the cow with its texture under a key light (07_textured_spot.png), a
 checkerboard plane at a grazing angle under the four filters side by side (07_filters.png):
-nearest aliases, bilinear too, trilinear blurs into grey far away, anisotropic stays sharp."""
+nearest aliases, bilinear too, trilinear blurs into grey far away, anisotropic stays sharp; and
+the cow behind a lattice cut out of a quad by its texture's alpha (07_alpha_mask.png)."""
 import sys
 from pathlib import Path
 
@@ -65,4 +66,24 @@ for k, name in enumerate(sr.texture.FILTERS):
     grid[r * (h + label_h): r * (h + label_h) + label_h, c * w:(c + 1) * w] = np.asarray(tile)
     grid[r * (h + label_h) + label_h:(r + 1) * (h + label_h), c * w:(c + 1) * w] = image
 sr.imwrite(out / "07_filters.png", grid)
-print(f"wrote {out / '07_textured_spot.png'} and {out / '07_filters.png'}")
+
+# 3. Alpha masks (glTF's alphaMode MASK): a lattice whose gaps are alpha 0 in an RGBA texture,
+# on one quad between the camera and the cow. Fragments with alpha < alpha_cutoff are discarded
+# before the depth test, so the cow shows through the gaps (in the depth and ids too).
+m = 256
+v, u = np.mgrid[0:m, 0:m] / m
+bars = (np.abs(((u + v) * 6) % 1 - 0.5) > 0.38) | (np.abs(((u - v) * 6) % 1 - 0.5) > 0.38)
+lattice = np.dstack([np.full((m, m), 150), 95 + 40 * v, np.full((m, m), 50), bars * 255]).astype(np.uint8)
+fence = sr.Mesh([[-0.7, -0.45, 0], [0.7, -0.45, 0], [0.7, 0.45, 0], [-0.7, 0.45, 0]], [[0, 1, 2], [0, 2, 3]],
+                uvs=[[0, 0], [1, 0], [1, 1], [0, 1]],
+                material=sr.Material(base_color_texture=sr.Texture(lattice), model="pbr",
+                                     roughness=0.8, double_sided=True, alpha_mode="mask",
+                                     alpha_cutoff=0.5))
+to_camera = np.asarray(camera.pose)[:3, 3] - np.array([0.0, 0.05, 0.15])
+pose = light_pose(0.45 * to_camera + np.array([0.0, 0.05, 0.15]), target=camera.pose[:3, 3])
+pose[:3, 2] *= -1  # the quad faces the camera (+z toward it)
+pose[:3, 0] *= -1
+scene.add(fence, pose=pose)
+frame = sr.Renderer(480, 360).render(scene, camera, background=(0.1, 0.1, 0.12))
+sr.imwrite(out / "07_alpha_mask.png", frame.color)
+print(f"wrote {out / '07_textured_spot.png'}, {out / '07_filters.png'} and {out / '07_alpha_mask.png'}")

@@ -242,7 +242,7 @@ def test_glb_alpha_mode_texcoord_and_transform_warn_but_mr_and_occlusion_load(tm
     def edit(doc):
         mat = doc["materials"][0]
         mat["occlusionTexture"] = {"index": mat["pbrMetallicRoughness"]["metallicRoughnessTexture"]["index"]}
-        mat["alphaMode"] = "MASK"
+        mat["alphaMode"] = "BLEND"
         mat["emissiveTexture"] = {"index": 0, "texCoord": 1}
         mat["pbrMetallicRoughness"]["baseColorTexture"]["extensions"] = {"KHR_texture_transform": {"scale": [2, 2]}}
 
@@ -251,7 +251,7 @@ def test_glb_alpha_mode_texcoord_and_transform_warn_but_mr_and_occlusion_load(tm
         scene = sr.load_scene(path)
     (text,) = [str(w.message) for w in record]
     assert text.startswith(f"{path}: material 'paint': ")
-    for part in ("alphaMode 'MASK' is not drawn yet: rendered opaque",
+    for part in ("alphaMode 'BLEND' is not drawn yet: rendered opaque",
                  "emissiveTexture uses texCoord 1 and only TEXCOORD_0 is read: not drawn",
                  "baseColorTexture: extension KHR_texture_transform is ignored"):
         assert part in text
@@ -263,6 +263,48 @@ def test_glb_alpha_mode_texcoord_and_transform_warn_but_mr_and_occlusion_load(tm
     assert m.metallic_roughness_texture is m.occlusion_texture
     np.testing.assert_array_equal(m.metallic_roughness_texture.image, mr)
     assert m.occlusion_strength == 1.0  # glTF's default
+    assert m.alpha_mode == "opaque"
+
+
+@pytest.mark.parametrize("cutoff", [None, 0.25])
+def test_glb_alpha_mask_loads_and_cuts(tmp_path, no_warnings, cutoff):
+    """alphaMode MASK with the file's alphaCutoff (glTF's default 0.5 when absent): the mesh is
+    drawn exactly where the texture's alpha reaches it, from load_mesh and from trimesh."""
+    rgba = np.random.default_rng(3).integers(0, 256, (8, 8, 4), dtype=np.uint8)
+
+    def edit(doc):
+        mat = doc["materials"][0]
+        mat["alphaMode"] = "MASK"
+        if cutoff is not None:
+            mat["alphaCutoff"] = cutoff
+
+    path, _ = _textured_glb(tmp_path, edit, baseColorTexture=rgba)
+    expected_cutoff = 0.5 if cutoff is None else cutoff
+    for mesh in (sr.load_mesh(path), sr.Mesh.from_trimesh(trimesh.load(path, force="mesh"))):
+        m = mesh.material
+        assert (m.alpha_mode, m.alpha_cutoff) == ("mask", expected_cutoff)
+        np.testing.assert_array_equal(m.base_color_texture.image, rgba)
+    # a quad with the file's material and one texel per pixel
+    n = 8
+    quad = sr.Mesh(np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], np.float32),
+                   np.array([[0, 1, 2], [0, 2, 3]]), uvs=np.array([[0, 0], [1, 0], [1, 1], [0, 1.0]]),
+                   material=m.replace(base_color_texture=sr.Texture(rgba, filter="nearest")))
+    scene = sr.Scene()
+    scene.add(quad)
+    cam = sr.OrthographicCamera(xmag=1.0, ymag=1.0, width=n, height=n)
+    cam.pose = np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 2.0], [0, 0, 0, 1]])
+    frame = sr.Renderer(n, n).render(scene, cam, outputs=("mask",))
+    np.testing.assert_array_equal(frame.mask, rgba[..., 3] / 255 >= expected_cutoff)
+
+
+def test_glb_bad_alpha_cutoff_warns(tmp_path):
+    def edit(doc):
+        doc["materials"][0].update(alphaMode="MASK", alphaCutoff=-1)
+
+    path, _ = _textured_glb(tmp_path, edit, baseColorTexture=RNG_IMAGE)
+    with pytest.warns(UserWarning, match="alphaCutoff -1 is not a number >= 0"):
+        m = sr.load_mesh(path).material
+    assert (m.alpha_mode, m.alpha_cutoff) == ("mask", 0.5)
 
 
 def _lit_scene(mesh, ambient=(0.2, 0.2, 0.2)):

@@ -17,7 +17,9 @@ context. What is converted, and how (pyrender 0.1.45's attribute names):
   pyrender ``Texture`` objects, their ``source`` an array or a PIL image) become
   ``sr.Texture`` objects in the matching slots (one per pyrender texture), with the sampler's
   wraps (GL enums) and filter (nearest / bilinear without mipmaps, else trilinear); uvs keep
-  pyrender's convention, image row 0 at v = 1 (``uv_origin="bottom_left"``). Any other
+  pyrender's convention, image row 0 at v = 1 (``uv_origin="bottom_left"``). ``alphaMode``
+  "MASK" and ``alphaCutoff`` -> ``alpha_mode="mask"``, ``alpha_cutoff`` (as a glTF file's; "BLEND"
+  is rendered opaque, with a UserWarning). Any other
   material type gets softrast's default look, with a UserWarning.
 * Lights: ``DirectionalLight`` / ``PointLight`` / ``SpotLight`` -> ``sr.DirectionalLight`` /
   ``sr.PointLight`` / ``sr.SpotLight`` with the same ``color`` and ``intensity`` (spot cones:
@@ -46,6 +48,7 @@ import numpy as np
 
 from .camera import Camera, IntrinsicsCamera, OrthographicCamera, PerspectiveCamera
 from .light import DirectionalLight, Light, PointLight, SpotLight
+from .loaders import _gltf_alpha
 from .material import Material
 from .mesh import Mesh
 from .scene import Scene
@@ -111,7 +114,11 @@ def _material(mat: Any, cache: dict[int, Any] | None = None) -> Material | None:
     cache = {} if cache is None else cache
     textures = {slot: _texture(getattr(mat, key), label, key, cache)
                 for key, slot in _TEXTURES.items() if getattr(mat, key, None) is not None}
-    return Material(**textures,base_color=_unit(getattr(mat, "baseColorFactor", None), 4, (1.0, 1.0, 1.0, 1.0)),
+    dropped: list[str] = []
+    alpha = _gltf_alpha(getattr(mat, "alphaMode", None), getattr(mat, "alphaCutoff", None), dropped)
+    for what in dropped:
+        warnings.warn(f"{label}: {what}", UserWarning, stacklevel=3)
+    return Material(**textures, **alpha, base_color=_unit(getattr(mat, "baseColorFactor", None), 4, (1.0, 1.0, 1.0, 1.0)),
                     metallic=_unit(getattr(mat, "metallicFactor", 1.0), 1, (1.0,))[0],
                     roughness=_unit(getattr(mat, "roughnessFactor", 1.0), 1, (1.0,))[0],
                     emissive=_unit(getattr(mat, "emissiveFactor", None), 3, (0.0, 0.0, 0.0)),

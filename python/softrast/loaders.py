@@ -69,8 +69,10 @@ Textures (``softrast.Texture``, see ``softrast.texture``):
 * Within one load, an image is one Texture however many materials and instances use it.
 * A textured material on a mesh without uvs loses its textures, with a warning.
 
-Whatever a file carries that softrast cannot draw yet (glTF alpha blending or masking
-(``alphaMode`` MASK / BLEND: rendered opaque), textures read through ``texCoord`` other than 0,
+* glTF ``alphaMode`` MASK and ``alphaCutoff`` -> ``alpha_mode="mask"``, ``alpha_cutoff``.
+
+Whatever a file carries that softrast cannot draw yet (glTF alpha blending (``alphaMode``
+BLEND: rendered opaque), textures read through ``texCoord`` other than 0,
 ``KHR_texture_transform`` and other texture or material extensions; MTL ``map_Ka``,
 ``map_Ks``, ``map_Ns``, ``map_d``, ``disp``, ``decal``, ``refl`` and the PBR maps ``map_Pr``,
 ``map_Pm``, ``map_Ps``, ``map_RMA``, ``map_ORM``, map options other than ``-clamp``, ``-bm``
@@ -666,9 +668,7 @@ def _gltf_material(index: int, entry: Any, info: _FileInfo, mat: Any = None) -> 
     roughness = factor(pbr, "roughnessFactor", 1.0, 0)
     emissive = factor(entry, "emissiveFactor", (0.0, 0.0, 0.0), 3)
     textures = _gltf_textures(entry, pbr, info, mat, dropped)
-    mode = entry.get("alphaMode", "OPAQUE")
-    if mode != "OPAQUE":
-        dropped.append(f"alphaMode {mode!r} is not drawn yet: rendered opaque")
+    alpha = _gltf_alpha(entry.get("alphaMode", "OPAQUE"), entry.get("alphaCutoff", 0.5), dropped)
     model = "pbr"
     extensions = entry.get("extensions", {})
     for ext in (extensions if isinstance(extensions, dict) else {}):
@@ -679,7 +679,23 @@ def _gltf_material(index: int, entry: Any, info: _FileInfo, mat: Any = None) -> 
     double = entry.get("doubleSided", False)
     return Material(base_color=base, metallic=metallic, roughness=roughness, emissive=emissive,
                     double_sided=bool(double) if isinstance(double, bool) else False,
-                    model=model, name=name, **textures), dropped
+                    model=model, name=name, **alpha, **textures), dropped
+
+
+def _gltf_alpha(mode: Any, cutoff: Any, dropped: list[str]) -> dict[str, Any]:
+    """A glTF material's alphaMode and alphaCutoff as Material arguments: MASK is drawn (cutoff
+    0.5 unless given), BLEND is rendered opaque with a note in `dropped`."""
+    if mode == "MASK":
+        if cutoff is None:
+            cutoff = 0.5
+        if (isinstance(cutoff, bool) or not isinstance(cutoff, (int, float))
+                or not math.isfinite(cutoff) or cutoff < 0):
+            dropped.append(f"alphaCutoff {cutoff!r} is not a number >= 0 (using 0.5)")
+            cutoff = 0.5
+        return {"alpha_mode": "mask", "alpha_cutoff": float(cutoff)}
+    if mode not in (None, "OPAQUE"):
+        dropped.append(f"alphaMode {mode!r} is not drawn yet: rendered opaque")
+    return {}
 
 
 def _gltf_list(doc: dict[str, Any], key: str, index: Any) -> dict[str, Any] | None:
@@ -852,8 +868,7 @@ def _trimesh_material(mat: Any, info: _FileInfo) -> tuple[Material | None, list[
                     dropped.append(f"{k} {why}: not drawn{_GLTF_FALLBACK[k]}")
                 else:
                     textures[slot] = texture
-        if mat.alphaMode not in (None, "OPAQUE"):
-            dropped.append(f"alphaMode {mat.alphaMode!r} is not drawn yet: rendered opaque")
+        alpha = _gltf_alpha(mat.alphaMode, mat.alphaCutoff, dropped)
         base = (1.0, 1.0, 1.0, 1.0) if mat.baseColorFactor is None else tuple(
             (np.asarray(mat.baseColorFactor, dtype=np.float64) / 255.0).tolist())
         emissive = (0.0, 0.0, 0.0) if mat.emissiveFactor is None else tuple(
@@ -862,7 +877,7 @@ def _trimesh_material(mat: Any, info: _FileInfo) -> tuple[Material | None, list[
                      metallic=1.0 if mat.metallicFactor is None else min(max(mat.metallicFactor, 0.0), 1.0),
                      roughness=1.0 if mat.roughnessFactor is None else min(max(mat.roughnessFactor, 0.0), 1.0),
                      emissive=emissive, double_sided=bool(mat.doubleSided), model="pbr",
-                     name=mat.name if isinstance(mat.name, str) else None, **textures)
+                     name=mat.name if isinstance(mat.name, str) else None, **alpha, **textures)
         return m, dropped, ("pbr", id(mat))
     if isinstance(mat, tmat.SimpleMaterial):
         name = getattr(mat, "_name", None)

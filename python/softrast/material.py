@@ -44,10 +44,12 @@ import numpy as np
 from ._checks import real, real_array
 from .texture import Texture
 
-__all__ = ["Material", "MODELS"]
+__all__ = ["Material", "MODELS", "ALPHA_MODES"]
 
 # Shading models a material may ask for (render(shading="auto") uses each material's own).
 MODELS = ("unlit", "lambert", "phong", "blinn_phong", "pbr", "normal")
+# How a material's alpha is used (glTF's alphaMode, less BLEND).
+ALPHA_MODES = ("opaque", "mask")
 
 
 def _color(value: Any, name: str, n: int) -> tuple[float, ...]:
@@ -99,18 +101,26 @@ class Material:
         ``normal_map_convention``: "opengl" (default, green = +v) or "directx" (green = -v).
     metallic_roughness_texture, occlusion_texture, bump_texture : Texture or None (see the
         module docstring); ``occlusion_strength`` in [0, 1], ``bump_scale`` finite.
+    alpha_mode : "opaque" (default: alpha is ignored) or "mask" (glTF's alphaMode MASK): a
+        fragment is drawn only where its alpha >= ``alpha_cutoff`` (finite; default 0.5, as
+        glTF's), else it is discarded before the depth test, so what lies behind shows through,
+        in every output (depth, ids, mask, colour) and whatever the shading model. The alpha is
+        ``base_color``'s (or the mesh's interpolated per-vertex alpha where it has vertex
+        colours) times the ``base_color_texture``'s alpha at the pixel, sampled with the same uv,
+        filter and level of detail as its colour. ``coverage`` counts only the fragments kept.
+        Blending ("blend") is not drawn yet.
     """
 
     __slots__ = ("base_color", "ka", "kd", "ks", "shininess", "metallic", "roughness", "emissive",
                  "double_sided", "model", "name", "base_color_texture", "emissive_texture",
                  "normal_texture", "normal_scale", "normal_map_convention",
                  "metallic_roughness_texture", "occlusion_texture", "occlusion_strength",
-                 "bump_texture", "bump_scale", "_core")
+                 "bump_texture", "bump_scale", "alpha_mode", "alpha_cutoff", "_core")
     _FIELDS = ("base_color", "ka", "kd", "ks", "shininess", "metallic", "roughness", "emissive",
                "double_sided", "model", "name", "base_color_texture", "emissive_texture",
                "normal_texture", "normal_scale", "normal_map_convention",
                "metallic_roughness_texture", "occlusion_texture", "occlusion_strength",
-               "bump_texture", "bump_scale")
+               "bump_texture", "bump_scale", "alpha_mode", "alpha_cutoff")
     _TEXTURE_SLOTS = ("base_color_texture", "emissive_texture", "normal_texture",
                       "metallic_roughness_texture", "occlusion_texture", "bump_texture")
 
@@ -125,7 +135,8 @@ class Material:
                  normal_scale: float = 1.0, normal_map_convention: str = "opengl",
                  metallic_roughness_texture: Texture | None = None,
                  occlusion_texture: Texture | None = None, occlusion_strength: float = 1.0,
-                 bump_texture: Texture | None = None, bump_scale: float = 1.0) -> None:
+                 bump_texture: Texture | None = None, bump_scale: float = 1.0,
+                 alpha_mode: str = "opaque", alpha_cutoff: float = 0.5) -> None:
         s = object.__setattr__
         s(self, "base_color", _color(base_color, "base_color", 4))
         s(self, "ka", None if ka is None else _color(ka, "ka", 3))
@@ -170,6 +181,14 @@ class Material:
         if not math.isfinite(bump):
             raise ValueError(f"bump_scale must be finite, got {bump_scale!r}")
         s(self, "bump_scale", bump)
+        if not isinstance(alpha_mode, str) or alpha_mode not in ALPHA_MODES:
+            raise ValueError(f"alpha_mode must be one of {ALPHA_MODES}, got {alpha_mode!r:.80}"
+                             + (" (blending is not drawn yet)" if alpha_mode == "blend" else ""))
+        s(self, "alpha_mode", alpha_mode)
+        cutoff = real(alpha_cutoff, "alpha_cutoff")
+        if not math.isfinite(cutoff):
+            raise ValueError(f"alpha_cutoff must be finite, got {alpha_cutoff!r}")
+        s(self, "alpha_cutoff", cutoff)
         core = lambda tex, srgb: tex._core(srgb) if tex is not None else None  # noqa: E731
         # The core's record less its first field (the reflectance model, chosen per render):
         # kd_is_base, ka_is_kd, double_sided, ka, kd, ks, shininess, metallic, roughness, emissive,
@@ -182,7 +201,8 @@ class Material:
                           core(base_color_texture, True), core(emissive_texture, True),
                           core(normal_texture, False), scale, normal_map_convention == "directx",
                           core(metallic_roughness_texture, False), core(occlusion_texture, False),
-                          self.occlusion_strength, core(bump_texture, False), bump))
+                          self.occlusion_strength, core(bump_texture, False), bump,
+                          alpha_mode == "mask", cutoff))
 
     def __setattr__(self, key: str, value: Any) -> None:
         raise AttributeError("Material is immutable: make a new one (softrast.Material(...) or "
@@ -193,7 +213,7 @@ class Material:
         """True if the material is lambert shading of its base colour, two-sided: what a mesh
         without a material gets (render's fast headlight path takes it too)."""
         return (self.ka is None and self.kd is None and self.emissive == (0.0, 0.0, 0.0)
-                and self.double_sided and not self.textured)
+                and self.double_sided and not self.textured and self.alpha_mode == "opaque")
 
     @property
     def textured(self) -> bool:

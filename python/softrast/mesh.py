@@ -450,8 +450,8 @@ class Mesh:
         colours as 8 bits; ``softrast.load_mesh`` reads the exact values from the file instead.
         Its images become ``softrast.Texture`` objects (a SimpleMaterial's image: the base colour
         texture; a PBRMaterial's base colour, metallic-roughness, normal, occlusion and emissive
-        textures, with default samplers: trimesh keeps none). What softrast cannot draw yet
-        (alpha modes) is dropped with a UserWarning.
+        textures, with default samplers: trimesh keeps none), and its alpha mode (MASK is drawn;
+        what softrast cannot draw yet, BLEND, is rendered opaque with a UserWarning).
         A Scene whose parts have different materials gets the first part's, with a UserWarning
         (``softrast.load_scene`` keeps each part's).
         """
@@ -586,8 +586,8 @@ def load_mesh(path: str | os.PathLike[str], smooth: bool | str = True, color: Se
     ``map_Bump`` / ``bump`` height maps (``-bm``: bump scale; an RGB one that looks like a normal
     map is drawn as the normal map, with a warning; next to a ``norm`` map a height map is kept
     but the normal map is drawn, with a warning). Whatever softrast cannot draw yet is dropped
-    with a UserWarning naming the file, the material and what: glTF ``alphaMode`` MASK and BLEND
-    (rendered opaque), textures read through ``texCoord`` other than 0, ``KHR_texture_transform``
+    with a UserWarning naming the file, the material and what: glTF ``alphaMode`` BLEND
+    (rendered opaque; MASK is drawn), textures read through ``texCoord`` other than 0, ``KHR_texture_transform``
     and other unknown extensions; MTL transparency (``d`` < 1), the other maps (``map_Ka``,
     ``map_Ks``, ``map_Ns``, ``map_d``, ``disp``, ``decal``, ``refl``, the PBR maps) and map
     options other than ``-clamp`` and ``-bm``; textures that cannot be read, and every texture of

@@ -25,7 +25,8 @@ _SHADING = ("auto",) + _core.REFLECTANCE_MODELS + tuple(
     m for m in _core.SHADING_MODELS if m not in _core.REFLECTANCE_MODELS and m != "lit")
 # A mesh without a material: lambert of its base colour, two-sided, no specular term.
 _PLAIN_MATERIAL = (True, True, True, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 32.0, 0.0,
-                   0.5, (0.0, 0.0, 0.0), None, None, None, 1.0, False, None, None, 1.0, None, 1.0)
+                   0.5, (0.0, 0.0, 0.0), None, None, None, 1.0, False, None, None, 1.0, None, 1.0,
+                   False, 0.5)
 _LAMBERT = _REFLECTANCE["lambert"]
 _FILTERS = _core.TEXTURE_FILTERS
 # Bytes per pixel of each output (see Frame): what a render allocates for it. From the core's

@@ -21,8 +21,9 @@
 //   (1 + c % 4), u8 format (bit 0: float32 texels as F values, else raw u8; bit 1 sRGB; bit 2
 //   top_left; bit 3 build mips), u8 filter % 4, u8 wrap_u % 3, u8 wrap_v % 3, u8 max
 //   anisotropy (1 + a % 32), the texels, then per draw u8 slots (bit 0 base colour, 1 emissive,
-//   2 normal, 3 metallic-roughness, 4 occlusion, 5 bump) and F normal_scale, u8 normal_y_down
-//   (then, for the later slots: F occlusion_strength, F bump_scale).
+//   2 normal, 3 metallic-roughness, 4 occlusion, 5 bump; bit 6: alpha mask) and F normal_scale,
+//   u8 normal_y_down (then, for the later slots: F occlusion_strength, F bump_scale; for an
+//   alpha mask: F alpha_cutoff).
 // F (float) / D (double) values: u8 selector, then for some selectors a payload (see value()).
 // I (face index): u8 < 0xf0 => that byte % vertices, else a special value (see index()).
 // M (matrix): u8 mode: identity, translation, scale + translation, 16 raw values, mirror.
@@ -323,6 +324,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
     if (slots & 56) {
       m.occlusion_strength = in.value_f();
       m.bump_scale = in.value_f();
+    }
+    if (slots & 64) {
+      m.alpha_mask = true;
+      m.alpha_cutoff = in.value_f();
     }
   }
 

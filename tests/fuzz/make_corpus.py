@@ -138,8 +138,12 @@ def texturing(texels, channels=3, floats=False, srgb=True, top_left=False, mips=
         b += b"".join(value(float(v)) for v in texels.ravel())
     else:
         b += bytes(texels.astype(np.uint8).ravel())
-    for bits, scale, y_down in slots:
+    for bits, scale, y_down, *more in slots:
         b += u8(bits) + value(scale) + u8(y_down)
+        if bits & 56:
+            b += value(more[0] if more else 1.0) + value(more[1] if len(more) > 1 else 1.0)
+        if bits & 64:
+            b += value(more[2] if len(more) > 2 else 0.5)
     return b
 
 
@@ -312,6 +316,21 @@ def seeds() -> dict[str, bytes]:
         outputs=0xFF, shading=4, positions=TRI, faces=[[0, 1, 2]], uvs=np.array([[NAN, 0], [INF, 1], [0, -INF]]),
         lit=lighting(lights[:1], materials=[mats[0]])
         + texturing(np.full((1, 1, 1), 200), channels=1, mips=False, filt=2, slots=((7, NAN, 0),)))
+    # Alpha masks: an RGBA texture cut at its alpha, vertex alpha, clipped at the near plane,
+    # depth only (nothing shaded), a NaN cutoff refused.
+    rgba = rng.integers(0, 256, (16, 16, 4))
+    valpha = np.c_[np.ones((len(gp), 3)), rng.random(len(gp))]
+    for name, outputs, view, cutoff in (("mask_all_outputs", 0xFF, rotation(1.2, (1, 0, 0), (0, 0, -2)), 0.5),
+                                        ("mask_depth_only", 2 | 16, rotation(1.2, (1, 0, 0), (0, 0, -2)), 0.3),
+                                        ("mask_near_plane", 0xFF, rotation(1.5, (1, 0, 0), (0, 0.2, 0)), 0.5),
+                                        ("mask_nan_cutoff", 0xFF, rotation(1.2, (1, 0, 0), (0, 0, -2)), NAN)):
+        out[f"tex_alpha_{name}"] = scene(
+            size=(80, 60), threads=2, compare_threads=True, outputs=outputs, shading=4, cull="none",
+            positions=gp, faces=gf, normals=np.tile([0, 0, 1.0], (len(gp), 1)), uvs=guv, colors=valpha,
+            view=view, draws=((None, 0, (1, 1, 1, 1)), (translation((0, 0, -0.3)), 1, (1, 1, 1, 0.2))),
+            lit=lighting(lights[:1], materials=[mats[1], mats[2]])
+            + texturing(rgba, channels=4, filt=3, slots=((1 | 64, 1.0, 0, 1.0, 1.0, cutoff),
+                                                          (64, 1.0, 0, 1.0, 1.0, 0.5))))
     out["lit_nan_light_refused"] = scene(
         outputs=0xFF, shading=4, positions=TRI, faces=[[0, 1, 2]],
         lit=lighting([(0, (NAN, 1, 1), (0, 0, 0), (0, 0, -1), 0, 0.0, 1.0)], materials=[mats[3]]))
