@@ -19,7 +19,8 @@ struct RenderPlan {
   bool world_normals = false; // vertex normals go to world space (the normal output, or a colour
                               // whose model reads normals)
   bool estimate_overdraw = false;  // "auto" path: setup estimates each tile's overdraw
-  bool forward_allowed = false;    // forward shading may be used (shading, and not "deferred")
+  bool forward_allowed = false;    // forward shading may be used (shading, not "deferred", no
+                                   // coverage counting)
   bool stream = false;        // outputs written with non-temporal stores (outputs.hpp)
   std::size_t bytes = 0;      // of every requested output
   Shading shading = Shading::Lambert;

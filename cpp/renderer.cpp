@@ -161,9 +161,11 @@ RenderPlan make_plan(const RenderOptions& options, int width, int height) {
   plan.coverage = options.outputs & kOutCoverage;
   plan.shade = plan.color || plan.normal;
   plan.world_normals = plan.normal || (plan.color && model_reads_normal(options.shading));
-  // The "auto" shading path picks per tile, from overdraw estimated in setup; only when shading.
-  plan.estimate_overdraw = plan.shade && options.shading_path == ShadingPath::Auto;
-  plan.forward_allowed = plan.shade && options.shading_path != ShadingPath::Deferred;
+  // Forward shading kernels do not count coverage (a diagnostic): those renders are deferred,
+  // the same bits. The "auto" shading path picks per tile, from overdraw estimated in setup.
+  plan.forward_allowed = plan.shade && options.shading_path != ShadingPath::Deferred &&
+                         !plan.coverage;
+  plan.estimate_overdraw = plan.forward_allowed && options.shading_path == ShadingPath::Auto;
   plan.bytes = Framebuffer::bytes_needed(width, height, options.outputs);
   plan.stream = plan.bytes >= kStreamFrameBytes;
   plan.shading = options.shading;

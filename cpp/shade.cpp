@@ -17,8 +17,9 @@ TileKernels select_tile_kernels(const RenderPlan& plan, const Viewport& viewport
   const bool avx2 = isa == Isa::Avx2;
   k.deferred = (avx2 ? shading::select_deferred<Isa::Avx2> : shading::select_deferred<Isa::Generic>)(
       pattern, plan.shading, plan.color, plan.normal);
-  k.forward = (avx2 ? shading::select_forward<Isa::Avx2> : shading::select_forward<Isa::Generic>)(
-      pattern, plan.shading, plan.color, plan.normal, plan.coverage);
+  if (plan.forward_allowed)  // (never with coverage counting: make_plan)
+    k.forward = (avx2 ? shading::select_forward<Isa::Avx2> : shading::select_forward<Isa::Generic>)(
+        pattern, plan.shading, plan.color, plan.normal);
   k.isa = isa;
   k.coverage = plan.coverage;
   return k;

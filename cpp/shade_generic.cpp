@@ -12,8 +12,8 @@ TileKernels::Deferred select_deferred<Isa::Generic>(const SamplePattern& pattern
 
 template <>
 TileKernels::Forward select_forward<Isa::Generic>(const SamplePattern& pattern, Shading shading,
-                                                bool color, bool normal, bool coverage) {
-  return make_select_forward<Isa::Generic>(pattern, shading, color, normal, coverage);
+                                                bool color, bool normal) {
+  return make_select_forward<Isa::Generic>(pattern, shading, color, normal);
 }
 
 }  // namespace shading

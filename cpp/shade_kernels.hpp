@@ -236,14 +236,16 @@ struct ForwardShading {
   }
 };
 
-template <typename Pattern, typename Model, bool kColor, bool kNormal, bool kCoverage>
+// (Not compiled with coverage counting: a render that counts coverage, a diagnostic, takes the
+// deferred path, which gives the same bits; one kernel less per model and output set.)
+template <typename Pattern, typename Model, bool kColor, bool kNormal>
 struct ForwardTile {
   SR_INLINE static void run(const ShadeParams& p, const TileRect& rect, int tile,
                             const std::vector<SetupChunk>& chunks, std::size_t num_chunks,
                             TileScratch& raster, ShadeScratch& scratch) {
     scratch.large.clear();
     ForwardShading<Model, kColor, kNormal> hook{p, scratch};
-    raster::rasterize_all<Pattern, kCoverage>(rect, tile, chunks, num_chunks, raster, hook);
+    raster::rasterize_all<Pattern, false>(rect, tile, chunks, num_chunks, raster, hook);
     for (const uint32_t index : scratch.large)
       shade_triangle<Pattern, Model, kColor, kNormal>(p, rect, raster, index, scratch);
   }
@@ -257,7 +259,7 @@ TileKernels::Deferred select_deferred(const SamplePattern& pattern, Shading shad
                                       bool normal);
 template <Isa I>
 TileKernels::Forward select_forward(const SamplePattern& pattern, Shading shading, bool color,
-                                    bool normal, bool coverage);
+                                    bool normal);
 
 // Each is defined in its instruction set's file.
 template <>
@@ -265,9 +267,9 @@ TileKernels::Deferred select_deferred<Isa::Avx2>(const SamplePattern&, Shading, 
 template <>
 TileKernels::Deferred select_deferred<Isa::Generic>(const SamplePattern&, Shading, bool, bool);
 template <>
-TileKernels::Forward select_forward<Isa::Avx2>(const SamplePattern&, Shading, bool, bool, bool);
+TileKernels::Forward select_forward<Isa::Avx2>(const SamplePattern&, Shading, bool, bool);
 template <>
-TileKernels::Forward select_forward<Isa::Generic>(const SamplePattern&, Shading, bool, bool, bool);
+TileKernels::Forward select_forward<Isa::Generic>(const SamplePattern&, Shading, bool, bool);
 
 // The definitions of both, for the file of instruction set I.
 template <Isa I>
@@ -291,21 +293,21 @@ TileKernels::Deferred make_select_deferred(const SamplePattern& pattern, Shading
 
 template <Isa I>
 TileKernels::Forward make_select_forward(const SamplePattern& pattern, Shading shading,
-                                         bool color, bool normal, bool coverage) {
+                                         bool color, bool normal) {
   using Fn = TileKernels::Forward;
   if (!color) shading = Shading::Unlit;
   return dispatch::select<Fn>(
-      [](auto sp, auto m, auto c, auto n, auto cov) -> Fn {
+      [](auto sp, auto m, auto c, auto n) -> Fn {
         if constexpr (!decltype(c)::value && !decltype(n)::value) {
           return nullptr;
         } else {
           using K = ForwardTile<typename decltype(sp)::type, typename decltype(m)::type,
-                                decltype(c)::value, decltype(n)::value, decltype(cov)::value>;
+                                decltype(c)::value, decltype(n)::value>;
           if constexpr (I == Isa::Avx2) return dispatch::IsaKernel<K, Fn>::avx2;
           else return dispatch::IsaKernel<K, Fn>::generic;
         }
       },
-      pattern, shading, color, normal, coverage);
+      pattern, shading, color, normal);
 }
 
 }  // namespace shading

@@ -319,6 +319,7 @@ class Renderer:
               "deferred" (once per visible pixel, after the depth test) or "auto" (default:
               per 64x64 tile, forward unless the tile's triangles cover it over 1.5 times).
               The same bits either way; only speed differs (forward wins without overdraw).
+              A render that asks for ``coverage`` (a diagnostic) is always deferred.
         """
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a softrast.Scene, got {type(scene).__name__}")
