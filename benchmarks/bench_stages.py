@@ -354,13 +354,14 @@ class TexturedJob(Job):
     """The sphere with spherical uvs, unlit, its base colour from the 1024x1024 Spot texture
     (None: no texture), one texture filter."""
 
-    def __init__(self, key, sub, width, height, filt, texture):
+    def __init__(self, key, sub, width, height, filt, texture, alpha_mode="opaque"):
         super().__init__(key, sub, width, height)
         mesh = _MESHES[sub]
         p = mesh.positions.astype(np.float64)
         uv = np.c_[np.arctan2(p[:, 2], p[:, 0]) / (2 * math.pi) + 0.5,
                    np.arcsin(np.clip(p[:, 1], -1, 1)) / math.pi + 0.5] * (4.0, 2.0)  # 4x2 repeats
-        material = sr.Material(base_color=(1.0, 1.0, 1.0), base_color_texture=texture, model="unlit")
+        material = sr.Material(base_color=(1.0, 1.0, 1.0), base_color_texture=texture, model="unlit",
+                               alpha_mode=alpha_mode)
         self.scene = sr.Scene()
         self.scene.add(sr.Mesh(mesh.positions, mesh.faces, normals=mesh.normals, uvs=uv), material=material)
         self.kwargs = dict(outputs=("color", "depth"), texture_filter=filt if texture is not None else None)
@@ -378,6 +379,11 @@ def section_textures(opts):
     jobs = [Job("depth", sub, size, size, outputs=("depth",)),
             TexturedJob("untextured", sub, size, size, None, None)]
     jobs += [TexturedJob(f, sub, size, size, f, texture) for f in filters]
+    # Alpha masks: the same texels with an alpha channel of 255 (every fragment kept), so the
+    # extra time is the masked raster path and its alpha sample alone.
+    opaque_alpha = sr.Texture(np.dstack([texture.image, np.full(texture.image.shape[:2], 255, np.uint8)]))
+    masked = ("bilinear", "trilinear")
+    jobs += [TexturedJob(f"{f} masked", sub, size, size, f, opaque_alpha, alpha_mode="mask") for f in masked]
     run_interleaved(jobs, opts.target, opts.rounds)
     by = {j.key: j for j in jobs}
     cov = by["depth"].covered
@@ -387,6 +393,10 @@ def section_textures(opts):
     for f in filters:
         print(f"{f:<13}{by[f].ms:>9.2f}{1e6 * (by[f].ms - base.ms) / cov:>13.2f}")
     print("(2 threads: ns are wall time over both cores; per core, double them)")
+    print(f"\nalpha_mode='mask' (alpha 1 everywhere: nothing cut) over the same filter, opaque:")
+    print(f"{'filter':<13}{'ms':>9}{'ns/px extra':>13}")
+    for f in masked:
+        print(f"{f:<13}{by[f + ' masked'].ms:>9.2f}{1e6 * (by[f + ' masked'].ms - by[f].ms) / cov:>13.2f}")
 
 
 # Runs under valgrind in a fresh interpreter (no trimesh import: the mesh comes from an .npz):

@@ -557,6 +557,8 @@ class TexturedRow:
             self.pr = pr.OffscreenRenderer(width, height)
             self.pr.render(scene)
         self.scene = sr.Scene(ambient_light=(LIT_AMBIENT,) * 3)
+        # The same meshes without their texture: the floor any texture sampler sits on.
+        self.plain = sr.Scene(ambient_light=(LIT_AMBIENT,) * 3)
         textures: dict[int, sr.Texture] = {}
         for node in tscene.graph.nodes_geometry:
             pose, geom_name = tscene.graph[node]
@@ -569,7 +571,10 @@ class TexturedRow:
             mesh = sr.Mesh(g.vertices, g.faces, normals=g.vertex_normals, uvs=g.visual.uv,
                            material=material)
             self.scene.add(mesh, pose=pose)
+            self.plain.add(mesh, pose=pose, material=material.replace(base_color_texture=None,
+                                                                      base_color=(0.8, 0.8, 0.8, 1)))
         self.scene.add(sr.DirectionalLight(intensity=3.0), pose=self.cam_pose)
+        self.plain.add(sr.DirectionalLight(intensity=3.0), pose=self.cam_pose)
         self.cam = sr.PerspectiveCamera(fov_y=FOV_Y_DEG, width=width, height=height, near=NEAR, far=FAR)
         self.cam.pose = self.cam_pose
         self.renderers = {t: sr.Renderer(width, height, threads=t) for t in (2, 1)}
@@ -593,6 +598,8 @@ class TexturedRow:
                 for filt in ("nearest", "bilinear", "anisotropic"):
                     cells.append(Cell(f"softrast t2 {filt}", lambda r=r, f=f, filt=filt: r.render(
                         s, cam, out=f, texture_filter=filt, **kw)))
+                cells.append(Cell("softrast t2 untextured", lambda r=r, f=f: r.render(
+                    self.plain, cam, out=f, **kw)))
         return cells
 
 
@@ -625,7 +632,7 @@ def report_textured(results: list[dict]) -> None:
     print("\nTextured rows (issue 17): median ms per colour+depth frame; pyrender's standard shader with"
           "\nthe base colour texture vs softrast pbr + texture (trilinear unless named), t2/t1 = threads")
     head = (f"{'row':<18}{'cover':>6}{'pyrender':>9}{'sr t2':>8}{'sr t1':>8}{'nearest':>8}{'bilin':>8}"
-            f"{'aniso':>8}{'xpyr t2':>9}  goal >= {TEXTURED_GOAL:.0f}x")
+            f"{'aniso':>8}{'untex':>8}{'xpyr t2':>9}{'untex x':>9}  goal >= {TEXTURED_GOAL:.0f}x")
     print(head)
     print("-" * len(head))
     for r in results:
@@ -635,7 +642,10 @@ def report_textured(results: list[dict]) -> None:
         verdict = "n/a" if x != x else ("MET" if x >= TEXTURED_GOAL else f"NOT MET (short by {TEXTURED_GOAL / x:.2f}x)")
         print(f"{r['row']:<18}{100 * r['coverage']:>5.0f}%{fmt(pyr, 9)}{fmt(t2, 8, 2)}{fmt(t1, 8, 2)}"
               f"{fmt(get(r, 'softrast t2 nearest'), 8, 2)}{fmt(get(r, 'softrast t2 bilinear'), 8, 2)}"
-              f"{fmt(get(r, 'softrast t2 anisotropic'), 8, 2)}{fmt(x, 9)}  {verdict}")
+              f"{fmt(get(r, 'softrast t2 anisotropic'), 8, 2)}{fmt(get(r, 'softrast t2 untextured'), 8, 2)}"
+              f"{fmt(x, 9)}{fmt(ratio(pyr, get(r, 'softrast t2 untextured')), 9)}  {verdict}")
+    print("(untex: the same meshes and light without the texture, softrast t2: the floor of the"
+          "\n textured time; untex x: pyrender's textured time over it)")
 
 
 # ------------------------------------------------------------------ Lambert A/B (old vs new)
