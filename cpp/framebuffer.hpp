@@ -15,8 +15,10 @@ constexpr std::size_t dtype_bytes(DType t) {
   return t == DType::U8 || t == DType::Bool ? 1 : 4;
 }
 // Which pass writes an output: the resolve of the tile's visibility buffer (depth keys, ids,
-// coverage) or shading (colour, normals: forward or deferred, then copied by write_tile).
-enum class OutputPass : uint8_t { Resolve, Shade };
+// coverage), shading (colour, normals: forward or deferred, then copied by write_tile), or the
+// visible surface point, found from the visibility buffer when the tile is written (barycentric
+// weights and what they interpolate).
+enum class OutputPass : uint8_t { Resolve, Shade, Surface };
 
 // The output table: one row per output, the one place that says what an output is. Bindings,
 // the Python package (softrast.OUTPUT_TABLE: render.py's lists, Frame, the memory budget, the
@@ -56,6 +58,20 @@ inline constexpr OutputLayout kOutputLayouts[kNumOutputs] = {
     {kOutRadiance, "radiance", DType::F32, 3, 4, 0.0, OutputPass::Shade,
      "(h, w, 3) float32: shaded linear RGB radiance, unclamped, 0 = background (the colour "
      "output is this, clamped and encoded)"},
+    {kOutBarycentric, "barycentric", DType::F32, 3, 4, 0.0, OutputPass::Surface,
+     "(h, w, 3) float32: perspective-correct barycentric weights of the visible point in its "
+     "mesh face (weights of the face's corners faces[triangle_id] in order; of the whole face "
+     "where clipping cut it), each in [0, 1], summing to 1; 0 = background"},
+    {kOutUv, "uv", DType::F32, 2, 4, 0.0, OutputPass::Surface,
+     "(h, w, 2) float32: the mesh's uvs interpolated at the visible point (perspective-correct; "
+     "0 where the mesh has none), 0 = background"},
+    {kOutPosition, "position", DType::F32, 3, 4, 0.0, OutputPass::Surface,
+     "(h, w, 3) float32: world-space position of the visible point (the barycentric weights "
+     "applied to its face's posed corners), 0 = background"},
+    {kOutRayDepth, "ray_depth", DType::F32, 1, 4, 0.0, OutputPass::Surface,
+     "(h, w) float32: Euclidean distance from the camera centre to the visible point in scene "
+     "units (orthographic cameras: from the image plane along the rays, = depth), 0 = "
+     "background"},
 };
 
 constexpr bool output_table_is_consistent() {

@@ -232,6 +232,69 @@ SR_TARGET_AVX2 void write_rgb_stream(const uint32_t* rgb, const uint32_t* visibl
   }
 }
 
+// The visible surface point of each pixel of a row (`n` pixels from column x0 of row y, `visible`
+// their entries in the tile's visibility buffer): the perspective-correct barycentric weights of
+// the visible triangle's mesh face, from the exact edge values at the pixel's sample, in double,
+// and what they interpolate, into each requested surface output (null = not requested).
+// Scalar: surface outputs are for datasets, and a triangle's records are fetched once per run
+// of pixels it owns.
+void write_surface_row(const ShadeParams& p, const TileScratch& raster, const uint32_t* visible,
+                       int x0, int y, int n, float* bary_out, float* uv_out, float* position_out,
+                       float* ray_depth_out) {
+  uint32_t current = kNoTriangle;
+  const TriangleSetup* t = nullptr;
+  const TriangleShading* a = nullptr;
+  const vec3* clip_weights = nullptr;
+  const ShadeDraw* d = nullptr;
+  ivec3 face(0);
+  for (int x = 0; x < n; ++x) {
+    const uint32_t v = visible[x];
+    if (v == kNoTriangle) {
+      if (bary_out) for (int c = 0; c < 3; ++c) bary_out[3 * x + c] = 0.0f;
+      if (uv_out) uv_out[2 * x] = uv_out[2 * x + 1] = 0.0f;
+      if (position_out) for (int c = 0; c < 3; ++c) position_out[3 * x + c] = 0.0f;
+      if (ray_depth_out) ray_depth_out[x] = 0.0f;
+      continue;
+    }
+    if (v != current) {
+      current = v;
+      const VisibleTriangle& vt = raster.triangles[v];
+      t = vt.tri;
+      a = &vt.chunk->shading[std::size_t(t - vt.chunk->records.data())];
+      clip_weights = a->clip_ref == kNoClip ? nullptr
+                                            : &vt.chunk->clip_bary[3 * std::size_t(a->clip_ref)];
+      d = &p.draws[t->draw];
+      face = d->mesh->faces[t->prim];
+    }
+    const EdgeEquations eq = edge_equations_at(*t, x0 + x, y, p.sample_x, p.sample_y);
+    double b[3], sum = 0.0;
+    for (int k = 0; k < 3; ++k) sum += b[k] = double(eq.origin[k]) * double(a->persp[k]);
+    dvec3 w(0.0);  // weights of the face's corners
+    for (int k = 0; k < 3; ++k) {
+      const double bk = b[k] / sum;
+      if (clip_weights) w += bk * dvec3(clip_weights[k]);
+      else w[k == 0 ? 0 : a->swapped ? 3 - k : k] += bk;
+    }
+    if (bary_out) for (int c = 0; c < 3; ++c) bary_out[3 * x + c] = float(w[c]);
+    if (uv_out) {
+      glm::dvec2 uv(0.0);
+      if (!d->mesh->uvs.empty())
+        for (int c = 0; c < 3; ++c) uv += w[c] * glm::dvec2(d->mesh->uvs[face[c]]);
+      uv_out[2 * x] = float(uv.x);
+      uv_out[2 * x + 1] = float(uv.y);
+    }
+    if (position_out || ray_depth_out) {
+      dvec3 local(0.0);
+      for (int c = 0; c < 3; ++c) local += w[c] * dvec3(d->mesh->positions[face[c]]);
+      const dvec3 world = dvec3(d->model_to_world * dvec4(local, 1.0));
+      if (position_out) for (int c = 0; c < 3; ++c) position_out[3 * x + c] = float(world[c]);
+      if (ray_depth_out)
+        ray_depth_out[x] = p.orthographic ? depth_from_key(raster.key[&visible[x] - raster.visible], true)
+                                          : float(glm::length(world - p.camera_centre));
+    }
+  }
+}
+
 }  // namespace
 
 void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
@@ -254,6 +317,11 @@ void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& r
   float* const normal = fb.get<float>(kOutNormal);
   uint8_t* const color = fb.get<uint8_t>(kOutColor);
   float* const radiance = fb.get<float>(kOutRadiance);
+  float* const barycentric = fb.get<float>(kOutBarycentric);
+  float* const uv = fb.get<float>(kOutUv);
+  float* const position = fb.get<float>(kOutPosition);
+  float* const ray_depth = fb.get<float>(kOutRayDepth);
+  const bool surface = barycentric || uv || position || ray_depth;
   const auto encode_row = isa == Isa::Avx2 ? encode_row_avx2 : encode_row_generic;
   uint32_t packed[kTileSizePx] = {};  // (encode_row skips groups with nothing visible)
   for (int y = rect.y0; y < rect.y1; ++y) {
@@ -276,7 +344,21 @@ void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& r
         const bool bg = visible[x] == kNoTriangle;
         for (int c = 0; c < 3; ++c) out[3 * x + c] = bg ? 0.0f : shaded.normal[c][row + x];
       }
+      if (p.normal_rotation) {  // camera space: the view's rotation, renormalised
+        const mat3& r = *p.normal_rotation;
+        for (int x = 0; x < n; ++x) {
+          if (visible[x] == kNoTriangle) continue;
+          const vec3 m = r * vec3(out[3 * x], out[3 * x + 1], out[3 * x + 2]);
+          const float len2 = glm::dot(m, m);
+          const vec3 u = len2 > 0.0f ? m * (1.0f / std::sqrt(len2)) : vec3(0.0f);
+          for (int c = 0; c < 3; ++c) out[3 * x + c] = u[c];
+        }
+      }
     }
+    if (surface)
+      write_surface_row(p, raster, visible, rect.x0, y, n, barycentric ? barycentric + 3 * o : nullptr,
+                        uv ? uv + 2 * o : nullptr, position ? position + 3 * o : nullptr,
+                        ray_depth ? ray_depth + o : nullptr);
     const float* rgb[3] = {shaded.rgb[0] + row, shaded.rgb[1] + row, shaded.rgb[2] + row};
     if (color) {
       const uint32_t background = p.background[0] | p.background[1] << 8 | p.background[2] << 16;

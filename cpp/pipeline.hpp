@@ -54,8 +54,15 @@ enum OutputBit : uint32_t {
   kOutInstanceId = 1u << 5,
   kOutCoverage = 1u << 6,
   kOutRadiance = 1u << 7,
+  kOutBarycentric = 1u << 8,
+  kOutUv = 1u << 9,
+  kOutPosition = 1u << 10,
+  kOutRayDepth = 1u << 11,
 };
-constexpr int kNumOutputs = 8;
+constexpr int kNumOutputs = 12;
+// The outputs read from the visible surface point (outputs.cpp, write_surface_row): they need
+// each triangle's TriangleShading, as shading does.
+constexpr uint32_t kSurfaceOutputs = kOutBarycentric | kOutUv | kOutPosition | kOutRayDepth;
 
 // Read-only view of `size` contiguous T's that something else owns (C++20's std::span<const T>,
 // as much of it as the stages use).
@@ -147,6 +154,7 @@ struct RenderOptions {
   Frequency frequency = Frequency::Pixel;
   bool srgb = true;  // the colour output is sRGB-encoded (IEC 61966-2-1), else linear
   uint8_t texture_filter = 0xff;  // a TextureFilter for every texture, or 0xff: each its own
+  bool normal_camera = false;  // the normal output in camera space (the view's axes), else world
 };
 
 // Per-vertex result of the transform stage (one draw).

@@ -160,6 +160,7 @@ RenderPlan make_plan(const RenderOptions& options, int width, int height) {
   plan.normal = options.outputs & kOutNormal;
   plan.coverage = options.outputs & kOutCoverage;
   plan.shade = plan.color || plan.normal;
+  plan.surface = options.outputs & kSurfaceOutputs;
   plan.world_normals = plan.normal || (plan.color && model_reads_normal(options.shading));
   // Forward shading kernels do not count coverage (a diagnostic): those renders are deferred,
   // the same bits. The "auto" shading path picks per tile, from overdraw estimated in setup.
@@ -274,7 +275,7 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
     SetupParams params{draws[blk.draw].mesh.get(), &transforms[blk.draw],
                        vertices_[blk.draw].data(), blk.draw, camera.orthographic, options.cull,
                        &planes, viewport_, plan.estimate_overdraw,
-                       plan.shade || alpha[blk.draw], alpha[blk.draw], isa_};
+                       plan.shade || plan.surface || alpha[blk.draw], alpha[blk.draw], isa_};
     setup_chunk(params, blk.begin, blk.end, chunks_[item]);
   });
 
@@ -319,6 +320,11 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   shade.orthographic = camera.orthographic;
   shade.stream = plan.stream;
   shade.framebuffer = framebuffer.get();
+  const mat3 normal_rotation(glm::transpose(glm::inverse(dmat3(camera.view))));
+  shade.normal_rotation = options.normal_camera ? &normal_rotation : nullptr;
+  shade.camera_centre = dvec3(camera_to_world[3]);
+  shade.sample_x = viewport_.samples.x[0];
+  shade.sample_y = viewport_.samples.y[0];
   const std::size_t num_chunks = chunk_ranges.size();
   const TileKernels kernels = select_tile_kernels(plan, viewport_, isa_);
   pool_.parallel_for(viewport_.num_tiles(), [&](std::size_t tile, int worker) {

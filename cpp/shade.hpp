@@ -28,6 +28,10 @@ struct ShadeParams {
   bool stream;  // write depth and colour with non-temporal stores (frames larger than caches)
   bool srgb;    // the colour output is sRGB-encoded (else linear), 8 bits
   Framebuffer* framebuffer;
+  // Written outputs only (outputs.cpp):
+  const mat3* normal_rotation;   // normals to camera space (normal_space="camera"), or null
+  dvec3 camera_centre;           // world space (ray_depth of a perspective camera)
+  int32_t sample_x, sample_y;    // the pixels' sample (viewport.hpp): where surfaces are read
 };
 // Per-thread scratch for shade_tile: which binned triangles own a pixel, and the tile's shaded
 // values (row stride kTileSizePx, padded like TileScratch) before they go to the framebuffer.

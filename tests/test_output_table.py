@@ -25,7 +25,7 @@ def test_every_row_describes_what_a_render_returns():
         assert arr.shape == shape and arr.dtype == row["dtype"], row["name"]
         assert arr.nbytes == 30 * 40 * row["bytes_per_pixel"]
         doc_shape = "(h, w)" if row["channels"] == 1 else f"(h, w, {row['channels']})"
-        assert row["pass"] in ("resolve", "shade") and row["doc"].startswith(doc_shape), row["name"]
+        assert row["pass"] in ("resolve", "shade", "surface") and row["doc"].startswith(doc_shape), row["name"]
         if row["name"] != "color":  # colour's background is the render's option
             bg = arr[~frame.mask]
             assert bg.size and (bg == np.asarray(row["background"], dtype=row["dtype"])).all(), row["name"]

@@ -29,6 +29,7 @@ _PLAIN_MATERIAL = (True, True, True, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0
                    False, 0.5)
 _LAMBERT = _REFLECTANCE["lambert"]
 _FILTERS = _core.TEXTURE_FILTERS
+_NORMAL_SPACES = ("world", "camera")
 # Bytes per pixel of each output (see Frame): what a render allocates for it. From the core's
 # output table, as every list of outputs here is.
 _OUTPUT_BYTES = {row["name"]: row["bytes_per_pixel"] for row in _core.OUTPUT_TABLE}
@@ -81,13 +82,14 @@ def _spec(view: Any, proj: Any, orthographic: bool, near: float, far: float, out
           background: Sequence[float] = (0.0, 0.0, 0.0), ambient: float = 0.25,
           out: dict[str, np.ndarray] | None = None, shading_path: str = "auto",
           lights: Sequence[tuple] = (), ambient_light: Sequence[float] = (0.0, 0.0, 0.0),
-          frequency: str = "pixel", srgb: bool = True, texture_filter: int = -1) -> dict[str, Any]:
+          frequency: str = "pixel", srgb: bool = True, texture_filter: int = -1,
+          normal_space: str = "world") -> dict[str, Any]:
     """The core's render spec (_core.pyi, Renderer.render): the options, already checked."""
     return {"view": view, "proj": proj, "orthographic": orthographic, "near": near, "far": far,
             "outputs": outputs, "cull": cull, "shading": shading, "shading_path": shading_path,
             "background": background, "ambient": ambient, "out": out, "lights": lights,
             "ambient_light": ambient_light, "frequency": frequency, "srgb": srgb,
-            "texture_filter": texture_filter}
+            "texture_filter": texture_filter, "normal_space": normal_space}
 
 
 def _lighting(scene: Scene, view: Any, ambient: float) -> tuple[list[tuple], tuple]:
@@ -277,6 +279,7 @@ class Renderer:
         frequency: str = "pixel",
         srgb: bool = True,
         texture_filter: str | None = None,
+        normal_space: str = "world",
     ) -> Frame:
         """Render ``scene`` seen by ``camera``; only ``outputs`` are allocated and written.
 
@@ -320,6 +323,9 @@ class Renderer:
               per 64x64 tile, forward unless the tile's triangles cover it over 1.5 times).
               The same bits either way; only speed differs (forward wins without overdraw).
               A render that asks for ``coverage`` (a diagnostic) is always deferred.
+        normal_space : the ``normal`` output's axes: "world" (default) or "camera" (the view
+              matrix's axes, OpenGL's: x right, y up, z toward the viewer; negate y and z for
+              OpenCV's x right, y down, z forward).
         """
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a softrast.Scene, got {type(scene).__name__}")
@@ -334,6 +340,7 @@ class Renderer:
         choice(shading, "shading", _SHADING)
         choice(shading_path, "shading_path", _SHADING_PATHS)
         choice(frequency, "frequency", _FREQUENCIES)
+        choice(normal_space, "normal_space", _NORMAL_SPACES)
         if not isinstance(srgb, (bool, np.bool_)):
             raise TypeError(f"srgb must be True or False, got {srgb!r:.80}")
         filter_index = -1 if texture_filter is None else _FILTERS.index(
@@ -355,7 +362,8 @@ class Renderer:
         buffers = self._core.render(draws, _spec(view, proj, camera.orthographic, camera.near,
                                                  camera.far, names, cull, model, bg, ambient_f,
                                                  out_arrays, shading_path, lights, ambient_light,
-                                                 frequency, bool(srgb), filter_index))
+                                                 frequency, bool(srgb), filter_index,
+                                                 normal_space))
         return Frame(buffers)
 
     def __repr__(self) -> str:

@@ -23,7 +23,9 @@
 //   anisotropy (1 + a % 32), the texels, then per draw u8 slots (bit 0 base colour, 1 emissive,
 //   2 normal, 3 metallic-roughness, 4 occlusion, 5 bump; bit 6: alpha mask) and F normal_scale,
 //   u8 normal_y_down (then, for the later slots: F occlusion_strength, F bump_scale; for an
-//   alpha mask: F alpha_cutoff).
+//   alpha mask: F alpha_cutoff);
+//   then u8 surface outputs (bits 0-3: barycentric, uv, position, ray_depth; bit 4: normals in
+//   camera space).
 // F (float) / D (double) values: u8 selector, then for some selectors a payload (see value()).
 // I (face index): u8 < 0xf0 => that byte % vertices, else a special value (see index()).
 // M (matrix): u8 mode: identity, translation, scale + translation, 16 raw values, mirror.
@@ -191,6 +193,23 @@ int check_frame(const Framebuffer& fb, const MeshData& mesh, std::size_t num_dra
       const float* rad = fb.get<float>(kOutRadiance) + 3 * i;
       if (rad[0] != 0.0f || rad[1] != 0.0f || rad[2] != 0.0f) fail("background radiance is 0", i);
     }
+    if (const float* b = fb.get<float>(kOutBarycentric)) {
+      const float* w = b + 3 * i;
+      if (hit == 0 && (w[0] != 0.0f || w[1] != 0.0f || w[2] != 0.0f)) fail("background barycentric is 0", i);
+      // Each weight is in [0, 1] and they sum to 1 (NaN fails), up to float rounding.
+      if (hit == 1 && !(w[0] >= 0.0f && w[1] >= 0.0f && w[2] >= 0.0f && w[0] <= 1.0f &&
+                        w[1] <= 1.0f && w[2] <= 1.0f && std::fabs(w[0] + w[1] + w[2] - 1.0f) < 1e-5f))
+        fail("barycentric weights in [0, 1] summing to 1", i);
+    }
+    for (OutputBit bit : {kOutUv, kOutPosition, kOutRayDepth}) {
+      const float* v = fb.get<float>(bit);
+      if (!v) continue;
+      const int c = kOutputLayouts[output_index(bit)].channels;
+      for (int k = 0; k < c; ++k)
+        if (hit == 0 && v[c * i + k] != 0.0f) fail("background uv / position / ray_depth is 0", i);
+    }
+    if (const float* r = fb.get<float>(kOutRayDepth))
+      if (hit == 1 && r[i] < 0.0f) fail("ray_depth not negative", i);
     if (hit == 1 && num_draws == 0) fail("a hit without draws", i);
     hits += hit == 1;
   }
@@ -330,6 +349,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
       m.alpha_cutoff = in.value_f();
     }
   }
+
+  const uint8_t surface = in.u8();
+  options.outputs |= uint32_t(surface & 15) << 8;  // kOutBarycentric ...
+  options.normal_camera = surface & 16;
 
   try {
     mesh->validate();

@@ -331,6 +331,21 @@ def seeds() -> dict[str, bytes]:
             lit=lighting(lights[:1], materials=[mats[1], mats[2]])
             + texturing(rgba, channels=4, filt=3, slots=((1 | 64, 1.0, 0, 1.0, 1.0, cutoff),
                                                           (64, 1.0, 0, 1.0, 1.0, 0.5))))
+    # Surface outputs (barycentric, uv, position, ray_depth) and camera-space normals: a sphere
+    # compared across thread counts, a grid crossing the near plane (clipped faces), orthographic.
+    surface = texturing(checker, slots=((0, 1.0, 0),)) + u8(0x1F)
+    out["surface_sphere_threads"] = scene(
+        threads=2, compare_threads=True, outputs=0xFF, shading=4, positions=sphere_p, faces=sphere_f,
+        normals=sphere_p, uvs=sphere_p[:, :2], draws=((translation((0, 0, -3)), 0, (1, 1, 1, 1)),),
+        lit=lighting(lights[:1], materials=[mats[0]]) + surface)
+    out["surface_grid_near_plane"] = scene(
+        size=(80, 60), threads=2, compare_threads=True, outputs=2 | 16, cull="none", positions=gp,
+        faces=gf, uvs=guv, view=rotation(1.5, (1, 0, 0), (0, 0.2, 0)),
+        lit=lighting(materials=[mats[0]]) + surface)
+    out["surface_ortho"] = scene(
+        ortho_cam=True, outputs=4, positions=sphere_p, faces=sphere_f,
+        draws=((translation((0, 0, -3)), 5, (1, 1, 1, 1)),),
+        lit=lighting(materials=[mats[0]]) + texturing(checker, slots=((0, 1.0, 0),)) + u8(0x0C))
     out["lit_nan_light_refused"] = scene(
         outputs=0xFF, shading=4, positions=TRI, faces=[[0, 1, 2]],
         lit=lighting([(0, (NAN, 1, 1), (0, 0, 0), (0, 0, -1), 0, 0.0, 1.0)], materials=[mats[3]]))
