@@ -342,11 +342,11 @@ Light light_from(const py::handle& h) {
 // Python string per key per render: about 1 us of a 6 us call).
 enum SpecKey { k_view, k_proj, k_orthographic, k_near, k_far, k_outputs, k_cull, k_shading,
                k_shading_path, k_background, k_ambient, k_out, k_lights, k_ambient_light,
-               k_frequency, k_srgb, k_texture_filter, k_normal_space, kNumSpecKeys };
+               k_frequency, k_srgb, k_texture_filter, k_normal_rotation, kNumSpecKeys };
 constexpr const char* kSpecKeys[kNumSpecKeys] = {
     "view", "proj", "orthographic", "near", "far", "outputs", "cull", "shading",
     "shading_path", "background", "ambient", "out", "lights", "ambient_light", "frequency",
-    "srgb", "texture_filter", "normal_space"};
+    "srgb", "texture_filter", "normal_rotation"};
 PyObject* spec_key(SpecKey key) {
   // Made on first use with the GIL held and never freed (they live as long as the interpreter).
   static PyObject* const* const keys = [] {
@@ -404,10 +404,13 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::dict& sp
   const int filter = get(k_texture_filter).cast<int>();  // -1: each texture's own
   if (filter >= int(std::size(kFilterNames))) throw py::value_error("texture_filter: unknown filter");
   options.texture_filter = filter < 0 ? kNoFilterOverride : uint8_t(filter);
-  const std::string normal_space = get(k_normal_space).cast<std::string>();
-  if (normal_space != "world" && normal_space != "camera")
-    throw py::value_error("normal_space must be 'world' or 'camera'");
-  options.normal_camera = normal_space == "camera";
+  const py::object rotation = get(k_normal_rotation);  // None: world space
+  if (!rotation.is_none()) {
+    const auto r = rotation.cast<std::array<std::array<float, 3>, 3>>();  // rows
+    options.normal_camera = true;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) options.normal_rotation[j][i] = r[i][j];  // glm: [column][row]
+  }
   // Mip chains, built once per texture, for the textures whose filter needs them.
   std::vector<Texture*> need_mips;
   for (const Draw& d : draws)

@@ -154,7 +154,8 @@ struct RenderOptions {
   Frequency frequency = Frequency::Pixel;
   bool srgb = true;  // the colour output is sRGB-encoded (IEC 61966-2-1), else linear
   uint8_t texture_filter = 0xff;  // a TextureFilter for every texture, or 0xff: each its own
-  bool normal_camera = false;  // the normal output in camera space (the view's axes), else world
+  bool normal_camera = false;  // the normal output in camera space: normal_rotation applied
+  mat3 normal_rotation{1.0f};  // world -> camera axes (the caller's camera convention)
 };
 
 // Per-vertex result of the transform stage (one draw).

@@ -211,6 +211,10 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
           std::isfinite(light.cone_scale) && std::isfinite(light.cone_offset)))
       throw std::invalid_argument("lights: a light has a value that is not finite");
   }
+  if (options.normal_camera && !(all_finite(options.normal_rotation[0]) &&
+                                 all_finite(options.normal_rotation[1]) &&
+                                 all_finite(options.normal_rotation[2])))
+    throw std::invalid_argument("normal_space: the camera rotation is not finite");
   if (!all_finite(options.ambient_light))
     throw std::invalid_argument("ambient_light is not finite");
   for (std::size_t d = 0; d < draws.size(); ++d) {
@@ -320,8 +324,7 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   shade.orthographic = camera.orthographic;
   shade.stream = plan.stream;
   shade.framebuffer = framebuffer.get();
-  const mat3 normal_rotation(glm::transpose(glm::inverse(dmat3(camera.view))));
-  shade.normal_rotation = options.normal_camera ? &normal_rotation : nullptr;
+  shade.normal_rotation = options.normal_camera ? &options.normal_rotation : nullptr;
   shade.camera_centre = dvec3(camera_to_world[3]);
   shade.sample_x = viewport_.samples.x[0];
   shade.sample_y = viewport_.samples.y[0];

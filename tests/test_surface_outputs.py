@@ -136,13 +136,20 @@ def test_normals_in_camera_space() -> None:
     r = sr.Renderer(w, h)
     world = r.render(scene, cam, outputs=("normal", "mask"))
     camera = r.render(scene, cam, outputs=("normal", "position"), normal_space="camera")
-    rot = cam.view_matrix()[:3, :3]
+    rot = cam.pose[:3, :3]  # camera -> world
     vis = world.mask
-    np.testing.assert_allclose(camera.normal[vis], world.normal[vis] @ rot.T, atol=2e-6)
+    np.testing.assert_allclose(camera.normal[vis], world.normal[vis] @ rot, atol=2e-6)
     assert (camera.normal[~vis] == 0).all()
-    # a sphere seen from outside: every visible normal faces the camera (+z in OpenGL's camera axes,
-    # towards the eye from the point)
-    to_eye = (np.array([1.5, 2.0, 2.0]) - camera.position[vis]) @ rot.T
+    # a sphere seen from outside: every visible normal faces the camera (+z in OpenGL's camera
+    # axes points back toward the eye)
+    to_eye = (np.array([1.5, 2.0, 2.0]) - camera.position[vis]) @ rot
     assert (np.einsum("nd,nd->n", camera.normal[vis], to_eye) > 0).all()
+    assert np.median(camera.normal[vis][:, 2]) > 0.5
+    # an OpenCV-convention camera: its own axes (z forward), so visible normals point to -z
+    K = cam.intrinsics(w, h)
+    cv = sr.IntrinsicsCamera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], w, h)
+    cv.look_at((1.5, 2.0, 2.0), (0.0, 0.0, 0.0))
+    f = r.render(scene, cv, outputs=("normal",), normal_space="camera")
+    np.testing.assert_allclose(f.normal[vis], camera.normal[vis] * [1, -1, -1], atol=2e-6)
     with pytest.raises(ValueError, match="normal_space"):
         r.render(scene, cam, outputs=("normal",), normal_space="eye")

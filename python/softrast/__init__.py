@@ -14,6 +14,7 @@ from .limits import get_memory_budget, set_memory_budget
 from .loaders import load_scene
 from .material import Material
 from .mesh import Mesh, PrecisionWarning, load_mesh
+from .poses import look_at_pose, orbit, sphere_poses
 from .render import Frame, Renderer
 from .scene import Scene
 from .texture import Texture, load_texture
@@ -51,5 +52,8 @@ __all__ = [
     "load_mesh",
     "load_scene",
     "load_texture",
+    "look_at_pose",
+    "orbit",
     "set_memory_budget",
+    "sphere_poses",
 ]

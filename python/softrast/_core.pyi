@@ -101,7 +101,7 @@ class Renderer:
                    (softrast.Light._core); read by the "lit" model
           ambient_light : 3 floats; frequency : one of FREQUENCIES; srgb : bool
           texture_filter : index into TEXTURE_FILTERS, or -1 (each texture's own)
-          normal_space : "world" or "camera" (the normal output's axes)
+          normal_rotation : None (normals in world space) or 3 rows of 3 floats, world -> camera
           out : dict of arrays to write into (exact dtype and shape, C-contiguous, writeable),
                 returned as they are, or None
         Each other array views C++ memory owned by its ``base`` (no copy). The GIL is released.

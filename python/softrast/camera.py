@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import abc
 import math
+import warnings
 from typing import Any
 
 import numpy as np
@@ -235,6 +236,73 @@ class Camera(abc.ABC):
             self._projections[(width, height)] = proj
         return view, proj
 
+    # -- the camera as OpenCV sees it: K, projecting points, unprojecting depth ------------------
+    # Pixel coordinates follow OpenCV: the centre of pixel (row i, col j) is at (u, v) = (j, i).
+
+    def intrinsics(self, width: int | None = None, height: int | None = None) -> npt.NDArray[np.float64]:
+        """(3, 3) float64 K = [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] in OpenCV's convention for a
+        ``width`` x ``height`` image (default: the camera's own size): a point at (x, y, z) in
+        OpenCV camera axes (x right, y down, z forward) is seen at pixel (u, v) = (fx x / z + cx,
+        fy y / z + cy). Orthographic cameras have none (ValueError)."""
+        if self.orthographic:
+            raise ValueError("an orthographic camera has no pinhole matrix K")
+        w, h = self._render_size(width, height)
+        p = self.projection_matrix(w, h)
+        return np.array([[p[0, 0] * w / 2, 0.0, (1.0 - p[0, 2]) * w / 2 - 0.5],
+                         [0.0, p[1, 1] * h / 2, (1.0 + p[1, 2]) * h / 2 - 0.5],
+                         [0.0, 0.0, 1.0]])
+
+    @property
+    def K(self) -> npt.NDArray[np.float64]:  # noqa: N802 (the standard name)
+        """``intrinsics()`` for the camera's own image size (width and height must be fixed)."""
+        return self.intrinsics()
+
+    def project(self, points: npt.ArrayLike, width: int | None = None,
+                height: int | None = None) -> npt.NDArray[np.float64]:
+        """(n, 2) float64 OpenCV pixel coordinates (u, v) of (n, 3) world points, as the renderer
+        projects them (the centre of pixel (row i, col j) is (j, i)). Points on or behind the
+        camera plane of a perspective camera give NaN."""
+        pts = real_array(points, "points")
+        if pts.ndim != 2 or pts.shape[1] != 3:
+            raise ValueError(f"points must have shape (n, 3), got {pts.shape}")
+        w, h = self._render_size(width, height)
+        clip = np.c_[pts, np.ones(len(pts))] @ (self.projection_matrix(w, h) @ self.view_matrix()).T
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ndc = clip[:, :2] / clip[:, 3:]
+        uv = np.c_[(ndc[:, 0] + 1.0) * w / 2 - 0.5, (1.0 - ndc[:, 1]) * h / 2 - 0.5]
+        if not self.orthographic:
+            uv[clip[:, 3] <= 0] = np.nan
+        return uv
+
+    def unproject(self, depth: npt.ArrayLike, space: str = "world") -> npt.NDArray[np.float64]:
+        """(h, w, 3) float64 points from a (h, w) ``depth`` image (the renderer's: distance along
+        the viewing axis; 0 = background, which gives 0): each pixel's centre pushed to its
+        depth along its ray. ``space``: "world", or "camera" -- the axes of ``pose`` (so that
+        world = pose @ camera point): OpenGL's (x right, y up, z backward, so z = -depth) for
+        ``convention="opengl"``, OpenCV's (x right, y down, z forward, z = depth) for "opencv"."""
+        choice(space, "space", ("world", "camera"))
+        d = real_array(depth, "depth")
+        if d.ndim != 2 or d.size == 0:
+            raise ValueError(f"depth must be a non-empty (h, w) image, got shape {d.shape}")
+        if not (np.isfinite(d).all() and (d >= 0).all()):
+            raise ValueError("depth must be finite and >= 0 (0 = background)")
+        h, w = d.shape
+        p = self.projection_matrix(*self._render_size(w, h))
+        j, i = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
+        x_ndc, y_ndc = (j + 0.5) * 2.0 / w - 1.0, 1.0 - (i + 0.5) * 2.0 / h
+        if self.orthographic:  # x_ndc = P00 x + P03, y_ndc = P11 y + P13
+            x, y = (x_ndc - p[0, 3]) / p[0, 0], (y_ndc - p[1, 3]) / p[1, 1]
+        else:  # x_ndc = -(P00 x + P02 z) / z with z = -depth
+            x, y = (x_ndc + p[0, 2]) * d / p[0, 0], (y_ndc + p[1, 2]) * d / p[1, 1]
+        gl = np.stack([x, y, -d], axis=-1)  # OpenGL view space
+        gl[d == 0] = 0.0
+        if space == "camera":
+            return gl * np.array([1.0, -1.0, -1.0]) if self._convention == "opencv" else gl
+        view_to_world = _rigid_inverse(self.view_matrix())
+        world = gl @ view_to_world[:3, :3].T + view_to_world[:3, 3]
+        world[d == 0] = 0.0
+        return world
+
     def _render_size(self, width: Any, height: Any) -> tuple[int, int]:
         """The image size to project for: the arguments, else the camera's own width/height."""
         w = self._width if width is None else _image_side(width, "width", optional=False)
@@ -257,6 +325,7 @@ class PerspectiveCamera(Camera):
 
     fov_y : vertical field of view in DEGREES, in (0, 180), and large enough that the projection
         is finite in float32 (at least 5.5e-33 degrees without a fixed aspect or image size).
+        A value in [0.1, 3.2) warns (UserWarning): it looks like radians.
     aspect : width / height of the view volume; None => the aspect of the rendered image.
     width, height : optional image size in pixels (informational; None if not fixed).
     near, far : clipping distances in scene units, 0 < near < far.
@@ -288,6 +357,10 @@ class PerspectiveCamera(Camera):
             least = math.degrees(2.0 * math.atan(max(widest, 1.0) / FLOAT32_MAX))
             raise ValueError(f"fov_y must be large enough for a finite projection with {by} "
                              f"(at least {least:.3g} degrees), got {fov_y!r}")
+        if 0.1 <= fov < 3.2:  # (below 0.1 degrees: a deliberate telephoto, not radians)
+            warnings.warn(f"fov_y is in degrees, got {fov_y!r}: did you pass radians (as pyrender's "
+                          f"yfov)? Then use fov_y=math.degrees(yfov) = {math.degrees(fov):.4g}",
+                          UserWarning, stacklevel=2)
         self._fov_y = fov
         self._aspect = aspect_f
 
@@ -406,11 +479,6 @@ class IntrinsicsCamera(Camera):
     @property
     def cy(self) -> float:
         return self._cy
-
-    @property
-    def K(self) -> npt.NDArray[np.float64]:  # noqa: N802 (the standard name)
-        """(3, 3) float64 calibration matrix [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]."""
-        return np.array([[self._fx, 0.0, self._cx], [0.0, self._fy, self._cy], [0.0, 0.0, 1.0]])
 
     @classmethod
     def from_opencv(cls, K: npt.ArrayLike, rvec_or_R: npt.ArrayLike, tvec: npt.ArrayLike,  # noqa: N803

@@ -83,13 +83,13 @@ def _spec(view: Any, proj: Any, orthographic: bool, near: float, far: float, out
           out: dict[str, np.ndarray] | None = None, shading_path: str = "auto",
           lights: Sequence[tuple] = (), ambient_light: Sequence[float] = (0.0, 0.0, 0.0),
           frequency: str = "pixel", srgb: bool = True, texture_filter: int = -1,
-          normal_space: str = "world") -> dict[str, Any]:
+          normal_rotation: tuple | None = None) -> dict[str, Any]:
     """The core's render spec (_core.pyi, Renderer.render): the options, already checked."""
     return {"view": view, "proj": proj, "orthographic": orthographic, "near": near, "far": far,
             "outputs": outputs, "cull": cull, "shading": shading, "shading_path": shading_path,
             "background": background, "ambient": ambient, "out": out, "lights": lights,
             "ambient_light": ambient_light, "frequency": frequency, "srgb": srgb,
-            "texture_filter": texture_filter, "normal_space": normal_space}
+            "texture_filter": texture_filter, "normal_rotation": normal_rotation}
 
 
 def _lighting(scene: Scene, view: Any, ambient: float) -> tuple[list[tuple], tuple]:
@@ -323,9 +323,10 @@ class Renderer:
               per 64x64 tile, forward unless the tile's triangles cover it over 1.5 times).
               The same bits either way; only speed differs (forward wins without overdraw).
               A render that asks for ``coverage`` (a diagnostic) is always deferred.
-        normal_space : the ``normal`` output's axes: "world" (default) or "camera" (the view
-              matrix's axes, OpenGL's: x right, y up, z toward the viewer; negate y and z for
-              OpenCV's x right, y down, z forward).
+        normal_space : the ``normal`` output's axes: "world" (default) or "camera": the axes of
+              ``camera.pose`` (OpenGL's x right, y up, z toward the viewer; OpenCV's x right,
+              y down, z forward for an ``IntrinsicsCamera(convention="opencv")``), as
+              ``camera.unproject(..., space="camera")`` gives points.
         """
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a softrast.Scene, got {type(scene).__name__}")
@@ -363,7 +364,8 @@ class Renderer:
                                                  camera.far, names, cull, model, bg, ambient_f,
                                                  out_arrays, shading_path, lights, ambient_light,
                                                  frequency, bool(srgb), filter_index,
-                                                 normal_space))
+                                                 None if normal_space == "world" else
+                                                 tuple(map(tuple, camera.pose[:3, :3].T.tolist()))))
         return Frame(buffers)
 
     def __repr__(self) -> str:
