@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from collections.abc import Iterable
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -229,6 +229,9 @@ class Renderer:
     The GIL is released while rendering, so Python threads may render concurrently (calls on one
     Renderer are serialised; use one Renderer per thread for parallelism).
 
+    Picklable (as its arguments: a new Renderer is built where it is unpickled), like Scene,
+    Mesh, cameras, lights and materials, before or after any render.
+
     Fork-safe: ``os.fork()`` (and so ``multiprocessing``'s "fork" start method) waits for renders
     in progress on other threads to end; in the child an inherited Renderer starts its own worker
     threads at its first render, renders the same bits and can be destroyed. A daemon thread
@@ -247,6 +250,12 @@ class Renderer:
             raise ValueError(f"simd must be True or False, got {simd!r}")
         self._core = _core.Renderer(w, h, int(threads), bool(simd))
         self._size = (w, h)
+        self._args = (w, h, int(threads), bool(simd))
+
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        """Pickles as its arguments: unpickling (in another process) builds a new Renderer, with
+        its own threads and scratch memory (threads=0 is again one per core there)."""
+        return (Renderer, self._args)
 
     @property
     def width(self) -> int:

@@ -67,6 +67,12 @@ class Scene:
         self._render_cache: dict[Any, Any] = {}
         self.ambient_light = ambient_light  # checked by the property
 
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickled without what renders derived from it (the core's records, rebuilt on use)."""
+        state = self.__dict__.copy()
+        state["_render_cache"] = {}
+        return state
+
     @property
     def ambient_light(self) -> tuple[float, float, float] | None:
         """RGB ambient light (linear, >= 0), or None (see Scene)."""
