@@ -176,3 +176,41 @@ def test_renders_follow_every_change_to_the_scene():
     cam.look_at((0, 0, 4), (0, 0, 0))
     np.testing.assert_array_equal(radiance(), headlit)
     assert side.any()
+
+
+def test_set_pose_and_remove_edit_the_scene_between_views():
+    """Moving or removing an instance renders as a scene built that way from scratch."""
+    import softrast as sr
+
+    tm_mesh = sr.Mesh(np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], np.float32), np.array([[0, 1, 2]]))
+    cam = sr.OrthographicCamera(xmag=3.0, ymag=3.0, width=32, height=32)
+    cam.pose = np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 5.0], [0, 0, 0, 1]])
+    r = sr.Renderer(32, 32)
+    shift = lambda x: np.array([[1, 0, 0, x], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])  # noqa: E731
+    scene = sr.Scene()
+    a = scene.add(tm_mesh, pose=shift(-1.5), instance_id=1)
+    scene.add(tm_mesh, pose=shift(1.5), instance_id=2)
+    r.render(scene, cam, outputs=("instance_id",))  # (fills the scene's render cache)
+    moved = scene.set_pose(a, shift(0.5))
+    assert moved.instance_id == 1 and moved is scene.instances[0]
+    fresh = sr.Scene()
+    fresh.add(tm_mesh, pose=shift(0.5), instance_id=1)
+    fresh.add(tm_mesh, pose=shift(1.5), instance_id=2)
+    np.testing.assert_array_equal(r.render(scene, cam, outputs=("instance_id",)).instance_id,
+                                  r.render(fresh, cam, outputs=("instance_id",)).instance_id)
+    scene.set_pose(scene.instances[1], shift(-2.0))  # by Instance
+    removed = scene.remove(1)
+    assert removed.instance_id == 1 and len(scene) == 1
+    alone = sr.Scene()
+    alone.add(tm_mesh, pose=shift(-2.0), instance_id=2)
+    np.testing.assert_array_equal(r.render(scene, cam, outputs=("instance_id",)).instance_id,
+                                  r.render(alone, cam, outputs=("instance_id",)).instance_id)
+    scene.add(tm_mesh, instance_id=2)
+    with pytest.raises(ValueError, match="names 2 instances"):
+        scene.set_pose(2, np.eye(4))
+    with pytest.raises(ValueError, match="no instance has id 7"):
+        scene.remove(7)
+    with pytest.raises(ValueError, match="not in this scene"):
+        scene.remove(removed)
+    with pytest.raises(ValueError, match="pose"):
+        scene.set_pose(scene.instances[0], np.full((4, 4), np.nan))

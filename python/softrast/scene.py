@@ -179,6 +179,42 @@ class Scene:
     def __iter__(self) -> Iterator[Instance]:
         return iter(list(self._instances))
 
+    def _index(self, instance: Instance | int) -> int:
+        """The position of ``instance`` (an Instance of this scene, or an instance id that names
+        exactly one instance)."""
+        if isinstance(instance, Instance):
+            for k, inst in enumerate(self._instances):
+                if inst is instance:
+                    return k
+            raise ValueError("instance is not in this scene (or was replaced: set_pose returns "
+                             "the new Instance)")
+        iid = integer(instance, "instance")
+        found = [k for k, inst in enumerate(self._instances) if inst.instance_id == iid]
+        if not found:
+            raise ValueError(f"instance: no instance has id {iid}")
+        if len(found) > 1:
+            raise ValueError(f"instance: id {iid} names {len(found)} instances; pass one of "
+                             "scene.instances instead")
+        return found[0]
+
+    def set_pose(self, instance: Instance | int, pose: npt.ArrayLike) -> Instance:
+        """Move one instance (an ``Instance`` of ``scene.instances``, or a unique instance id) to
+        ``pose`` (checked as ``add``'s); returns its new ``Instance`` (the scene keeps its place
+        in the drawing order). Editing a scene between views costs less than rebuilding it."""
+        k = self._index(instance)
+        model = _check_model_pose(pose)
+        old = self._instances[k]
+        self._instances[k] = Instance(old.mesh, model, old.instance_id, old.color, old.material)
+        self._render_cache.clear()
+        return self._instances[k]
+
+    def remove(self, instance: Instance | int) -> Instance:
+        """Remove one instance (an ``Instance`` of ``scene.instances``, or a unique instance id)
+        and return it."""
+        k = self._index(instance)
+        self._render_cache.clear()
+        return self._instances.pop(k)
+
     def clear(self) -> None:
         """Remove every instance and light."""
         self._instances.clear()
