@@ -1,4 +1,6 @@
-"""Batch rendering: many views of one mesh, reusing one renderer and its frame (out=)."""
+"""Batch rendering: an orbit of views of one mesh with Renderer.render_many (views rendered
+concurrently, frames yielded in order), colour + depth + the surface outputs, and each camera's
+OpenCV K and pose saved beside the images."""
 import sys
 from pathlib import Path
 
@@ -11,16 +13,24 @@ out = Path(sys.argv[1] if len(sys.argv) > 1 else "out") / "05_views"
 out.mkdir(parents=True, exist_ok=True)
 
 scene = sr.Scene()
-scene.add(sr.load_mesh(root / "assets" / "meshes" / "spot.obj"))
-renderer = sr.Renderer(256, 256)  # threads=0: all cores; the images are identical for any count
-camera = sr.PerspectiveCamera(fov_y=40.0, near=0.05, far=20.0)
+scene.add(sr.load_mesh(root / "assets" / "meshes" / "spot.obj"), instance_id=1)
+w, h = 256, 256
+renderer = sr.Renderer(w, h)  # threads=0: all cores; the images are identical for any count
 
-frame = None
-for i, angle in enumerate(np.linspace(0.0, 2.0 * np.pi, 8, endpoint=False)):
-    camera.look_at(eye=(3.0 * np.sin(angle), 1.0, 3.0 * np.cos(angle)), target=(0.0, 0.1, 0.2))
-    # out=frame renders into the previous frame's arrays: no allocation per view.
-    frame = renderer.render(scene, camera, outputs=("color", "depth", "mask"), out=frame)
+# Eight poses on a turntable around the cow, 20 degrees up, 3 units away.
+cameras = []
+for pose in sr.orbit(target=(0.0, 0.1, 0.2), radius=3.0, n=8, elevation=20.0):
+    camera = sr.PerspectiveCamera(fov_y=40.0, width=w, height=h, near=0.05, far=20.0)
+    camera.pose = pose
+    cameras.append(camera)
+
+outputs = ("color", "depth", "instance_id", "position", "uv")
+for i, frame in enumerate(renderer.render_many(scene, cameras, outputs=outputs)):
     sr.imwrite(out / f"view_{i:03d}.png", frame.color)
-    sr.imwrite(out / f"view_{i:03d}_depth.exr", frame.depth)
-    np.save(out / f"view_{i:03d}_pose.npy", camera.pose)
-print("wrote 8 views to", out)
+    sr.imwrite(out / f"view_{i:03d}_depth.exr", frame.depth[:, :, None])  # (h, w, 1): one channel
+    np.save(out / f"view_{i:03d}_position.npy", frame.position)
+# K in OpenCV's convention (pixel (row i, col j) centred at (u, v) = (j, i)) and the poses
+# (camera-to-world, OpenGL axes): camera.unproject(depth) turns a depth image back into points.
+np.savez(out / "cameras.npz", K=cameras[0].K, poses=np.stack([c.pose for c in cameras]),
+         width=w, height=h)
+print(f"wrote {len(cameras)} views to {out}")

@@ -1,7 +1,7 @@
 """Renderer and Frame: the public face of the C++ pipeline (``softrast._core``)."""
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable, Iterator
 from typing import Any, Sequence
 
 import numpy as np
@@ -376,6 +376,86 @@ class Renderer:
                                                  None if normal_space == "world" else
                                                  tuple(map(tuple, camera.pose[:3, :3].T.tolist()))))
         return Frame(buffers)
+
+    def render_many(self, scene: Scene, cameras: Iterable[Camera], outputs: str | Sequence[str] = ("color", "depth"),
+                    progress: bool = False, callback: Callable[[int, Frame], Any] | None = None,
+                    workers: int | None = None, **options: Any) -> Iterator[Frame]:
+        """Render ``scene`` from each of ``cameras`` in turn: a generator of Frames, in the
+        cameras' order, equal byte for byte to ``render(scene, camera, outputs, **options)`` in a
+        loop (any option of ``render`` but ``out``).
+
+        Views render concurrently, each on its own single-threaded renderer (``workers`` of them,
+        default: this renderer's thread count), with the GIL released, while the caller consumes
+        earlier frames: small frames, whose own passes cannot keep every core busy, then use
+        them all. At most 2 x workers frames are in flight, so 10,000 views never sit in memory.
+        The scene is uploaded once (its meshes' arrays are shared, its draw records cached);
+        ``cameras`` may be any iterable (a generator of posed cameras, say), read as needed.
+
+        progress : show a tqdm progress bar (total = len(cameras) when it has one).
+        callback : called as callback(i, frame) for each frame, before it is yielded.
+        """
+        if "out" in options:
+            raise ValueError("render_many: out= is not supported (each view gets new arrays)")
+        if not isinstance(scene, Scene):
+            raise TypeError(f"scene must be a softrast.Scene, got {type(scene).__name__}")
+        if callback is not None and not callable(callback):
+            raise TypeError(f"callback must be callable or None, got {type(callback).__name__}")
+        n_workers = self.threads if workers is None else integer(workers, "workers")
+        if not 1 <= n_workers <= _core.MAX_THREADS:
+            raise ValueError(f"workers must be in [1, {_core.MAX_THREADS}], got {n_workers}")
+        if not isinstance(progress, (bool, np.bool_)):
+            raise TypeError(f"progress must be True or False, got {progress!r:.80}")
+        w, h, _, simd = self._args
+        return self._render_many(scene, cameras, outputs, bool(progress), callback, n_workers, simd,
+                                 options)
+
+    def _render_many(self, scene, cameras, outputs, progress, callback, n_workers, simd, options):
+        import concurrent.futures
+        import threading
+
+        local = threading.local()
+        w, h = self._size
+        if n_workers == 1:
+            render = lambda cam: self.render(scene, cam, outputs, **options)  # noqa: E731
+        else:
+            def render(cam):
+                r = getattr(local, "renderer", None)
+                if r is None:
+                    r = local.renderer = Renderer(w, h, threads=1, simd=simd)
+                return r.render(scene, cam, outputs, **options)
+        total = len(cameras) if hasattr(cameras, "__len__") else None
+        bar = None
+        if progress:
+            from tqdm.auto import tqdm
+            bar = tqdm(total=total, unit="view", desc="render_many")
+        try:
+            with concurrent.futures.ThreadPoolExecutor(n_workers, "softrast-view") as pool:
+                pending: list = []
+                views = iter(cameras)
+                i = 0
+                exhausted = False
+                while True:
+                    while not exhausted and len(pending) < 2 * n_workers:
+                        cam = next(views, None)
+                        if cam is None:
+                            exhausted = True
+                            break
+                        if not isinstance(cam, Camera):
+                            raise TypeError(f"cameras[{i + len(pending)}] must be a softrast.Camera, "
+                                            f"got {type(cam).__name__}")
+                        pending.append(pool.submit(render, cam))
+                    if not pending:
+                        break
+                    frame = pending.pop(0).result()
+                    if callback is not None:
+                        callback(i, frame)
+                    if bar is not None:
+                        bar.update(1)
+                    yield frame
+                    i += 1
+        finally:
+            if bar is not None:
+                bar.close()
 
     def __repr__(self) -> str:
         return f"Renderer({self.width}x{self.height}, threads={self.threads}, isa={self.isa!r})"
