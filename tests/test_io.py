@@ -137,3 +137,58 @@ def test_imread_truncated_png(tmp_path, rng):
     (tmp_path / "cut.png").write_bytes(data[: len(data) // 2])
     with pytest.raises(ValueError, match="cut.png"):
         imread(tmp_path / "cut.png")
+
+
+@pytest.mark.parametrize("ext, compression, exact", [
+    (".png", 0, True), (".png", 1, True), (".png", 9, True),
+    (".exr", "none", True), (".exr", "zip", True), (".exr", "zips", True), (".exr", "piz", True),
+    (".exr", "rle", True), (".exr", "pxr24", False), (".exr", "dwaa", False),
+    (".tif", "none", True), (".tif", "lzw", True), (".tif", "zip", True)])
+def test_compression_round_trips(tmp_path, rng, ext, compression, exact):
+    """Every lossless codec gives the array back exactly; lossy ones (pxr24: 24-bit floats,
+    dwaa) stay close; a higher PNG level never makes a larger file of a smooth image."""
+    if ext == ".png":
+        yy, xx = np.mgrid[0:60, 0:80]
+        arr = np.dstack([xx * 3, yy * 4, (xx + yy) % 256]).astype(np.uint8)
+    else:
+        arr = (rng.random((60, 80, 1)) * 10).astype(np.float32)
+    path = tmp_path / f"c{ext}"
+    imwrite(path, arr, compression=compression)
+    back = imread(path).reshape(arr.shape)
+    if exact:
+        np.testing.assert_array_equal(back, arr)
+    else:
+        np.testing.assert_allclose(back, arr, rtol=2e-2, atol=2e-2)
+    if ext == ".png" and compression > 0:
+        stored = tmp_path / "stored.png"
+        imwrite(stored, arr, compression=0)
+        assert os.path.getsize(path) < os.path.getsize(stored)
+
+
+def test_files_are_reproducible(tmp_path, rng):
+    """The same array written twice, a second apart, gives the same bytes in every format
+    (OpenImageIO otherwise writes the time into EXR and TIFF headers)."""
+    import time
+
+    f32 = rng.random((20, 30, 1)).astype(np.float32)
+    u8 = (rng.random((20, 30, 3)) * 255).astype(np.uint8)
+    cases = [(".exr", f32), (".tif", f32), (".png", u8), (".tif", u8)]
+    first = []
+    for k, (ext, arr) in enumerate(cases):
+        imwrite(tmp_path / f"a{k}{ext}", arr)
+        first.append((tmp_path / f"a{k}{ext}").read_bytes())
+    time.sleep(1.1)
+    for k, (ext, arr) in enumerate(cases):
+        imwrite(tmp_path / f"b{k}{ext}", arr)
+        assert (tmp_path / f"b{k}{ext}").read_bytes() == first[k], ext
+
+
+@pytest.mark.parametrize("name, compression, match", [
+    ("a.png", 10, "zlib level 0-9"), ("a.png", "zip", "zlib level 0-9"), ("a.png", True, "zlib level"),
+    ("a.exr", "lzw", "compression for .exr must be one of"), ("a.tif", 3, "compression for .tif"),
+    ("a.jpg", 90, "not supported for .jpg")])
+def test_bad_compression_is_refused(tmp_path, name, compression, match):
+    arr = np.zeros((4, 4, 3), np.float32 if name.endswith(".exr") else np.uint8)
+    with pytest.raises(ValueError, match=match):
+        imwrite(tmp_path / name, arr, compression=compression)
+    assert not list(tmp_path.iterdir())

@@ -44,6 +44,31 @@ _FORMAT_CHANNELS: dict[str, frozenset[int]] = {
     ".hdr": frozenset({3}),
 }
 _OIIO_TYPE = {_U8: "uint8", _U16: "uint16", _F32: "float"}
+# imwrite(compression=): the codecs each format offers (OpenImageIO's names); PNG takes a zlib
+# level 0-9 instead.
+_COMPRESSIONS: dict[str, tuple[str, ...]] = {
+    ".exr": ("none", "rle", "zips", "zip", "piz", "pxr24", "b44", "b44a", "dwaa", "dwab"),
+    ".tif": ("none", "lzw", "zip", "packbits"),
+    ".tiff": ("none", "lzw", "zip", "packbits"),
+}
+
+
+def _compression_attribute(ext: str, compression: Any) -> tuple[str, str | int] | None:
+    """The OpenImageIO attribute (name, value) for imwrite's ``compression`` argument."""
+    if compression is None:
+        return None
+    if ext == ".png":
+        if isinstance(compression, bool) or not isinstance(compression, (int, np.integer)) \
+                or not 0 <= compression <= 9:
+            raise ValueError(f"compression for .png must be a zlib level 0-9, got {compression!r:.80}")
+        return ("png:compressionLevel", int(compression))
+    codecs = _COMPRESSIONS.get(ext)
+    if codecs is None:
+        raise ValueError(f"compression is not supported for {ext} files (only .png levels 0-9, "
+                         f"and codecs for .exr and .tif)")
+    if compression not in codecs:
+        raise ValueError(f"compression for {ext} must be one of {codecs}, got {compression!r:.80}")
+    return ("compression", str(compression))
 # Deflate expands at most 1032:1, so a PNG of n bytes decodes to at most ~1032 n bytes (plus one
 # filter byte per row). A header claiming more is corrupt => refuse before allocating pixels.
 _PNG_MAX_RATIO = 1032
@@ -55,12 +80,19 @@ def _suggest(dtype: np.dtype) -> str:
     return "use .png or .tif for uint8/uint16 data (or convert to float32 for .exr)"
 
 
-def imwrite(path: str | os.PathLike[str], array: npt.ArrayLike) -> None:
+def imwrite(path: str | os.PathLike[str], array: npt.ArrayLike, compression: str | int | None = None) -> None:
     """Write ``array`` to ``path`` atomically; the format follows the file extension.
 
     array : (h, w), (h, w, 1), (h, w, 3) or (h, w, 4); row 0 is the top of the image.
         dtype uint8, uint16, float32, float64 (stored as float32) or bool (stored as uint8 0/255).
         Channels are stored as given (gray, RGB, RGBA); RGBA is not premultiplied on the way.
+    compression : None (the format's default) or, for .png, a zlib level 0-9 (0 = stored, fast;
+        9 = smallest); for .exr one of "none", "rle", "zips", "zip", "piz", "pxr24" (lossy for
+        float32: 24 bits), "b44", "b44a", "dwaa", "dwab" (lossy); for .tif "none", "lzw", "zip",
+        "packbits". Lossless ones round-trip exactly.
+
+    Files are reproducible: the same array gives the same bytes (no write time in EXR or TIFF
+    headers).
 
     Formats are never asked to quantize: float data to an 8-bit format such as PNG raises
     ValueError (use .exr or .tif). The file is written under a temporary name in the same
@@ -93,6 +125,7 @@ def imwrite(path: str | os.PathLike[str], array: npt.ArrayLike) -> None:
     if allowed is not None and arr.dtype not in allowed:
         raise ValueError(
             f"cannot store {arr.dtype} data in a {ext} file without converting it; {_suggest(arr.dtype)}")
+    compression_attr = _compression_attribute(ext, compression)
     channels = _FORMAT_CHANNELS.get(ext)
     if channels is not None and c not in channels:
         raise ValueError(f"a {ext} file cannot store {c} channels (allowed: {sorted(channels)}); "
@@ -112,6 +145,9 @@ def imwrite(path: str | os.PathLike[str], array: npt.ArrayLike) -> None:
         spec = oiio.ImageSpec(w, h, c, _OIIO_TYPE[arr.dtype])
         # Store pixels as given: without this, PNG writers divide colour by alpha (unpremultiply).
         spec.attribute("oiio:UnassociatedAlpha", 1)
+        spec.attribute("DateTime", "")  # else EXR and TIFF headers carry the time: not reproducible
+        if compression_attr is not None:
+            spec.attribute(*compression_attr)
         if not out.open(tmp_path, spec):
             raise OSError(f"could not open {path_str!r} for writing: {out.geterror()}")
         ok = out.write_image(arr)
