@@ -17,6 +17,7 @@ from .limits import check_budget
 __all__ = ["imread", "imwrite"]
 
 _U8, _U16, _F32 = np.dtype(np.uint8), np.dtype(np.uint16), np.dtype(np.float32)
+_I32, _U32 = np.dtype(np.int32), np.dtype(np.uint32)
 
 # Pixel types each format stores exactly. Anything else would be converted silently by
 # OpenImageIO (float -> 8 bit in PNG, uint8 -> half in EXR), so we refuse it instead.
@@ -34,8 +35,8 @@ _FORMAT_DTYPES: dict[str, frozenset[np.dtype]] = {
     ".pnm": frozenset({_U8, _U16}),
     ".exr": frozenset({_F32}),
     ".hdr": frozenset({_F32}),
-    ".tif": frozenset({_U8, _U16, _F32}),
-    ".tiff": frozenset({_U8, _U16, _F32}),
+    ".tif": frozenset({_U8, _U16, _F32, _I32, _U32}),
+    ".tiff": frozenset({_U8, _U16, _F32, _I32, _U32}),
 }
 # JPEG has no alpha (OpenImageIO drops it silently); Radiance HDR is RGB only.
 _FORMAT_CHANNELS: dict[str, frozenset[int]] = {
@@ -43,7 +44,9 @@ _FORMAT_CHANNELS: dict[str, frozenset[int]] = {
     ".jpeg": frozenset({1, 3}),
     ".hdr": frozenset({3}),
 }
-_OIIO_TYPE = {_U8: "uint8", _U16: "uint16", _F32: "float"}
+_OIIO_TYPE = {_U8: "uint8", _U16: "uint16", _F32: "float", _I32: "int", _U32: "uint"}
+# Channel counts beyond gray / RGB / RGBA: two (uvs) in the formats that store any count.
+_ANY_CHANNELS = frozenset({".exr", ".tif", ".tiff"})
 # imwrite(compression=): the codecs each format offers (OpenImageIO's names); PNG takes a zlib
 # level 0-9 instead.
 _COMPRESSIONS: dict[str, tuple[str, ...]] = {
@@ -86,8 +89,9 @@ def _suggest(dtype: np.dtype) -> str:
 def imwrite(path: str | os.PathLike[str], array: npt.ArrayLike, compression: str | int | None = None) -> None:
     """Write ``array`` to ``path`` atomically; the format follows the file extension.
 
-    array : (h, w), (h, w, 1), (h, w, 3) or (h, w, 4); row 0 is the top of the image.
-        dtype uint8, uint16, float32, float64 (stored as float32) or bool (stored as uint8 0/255).
+    array : (h, w), (h, w, 1), (h, w, 3) or (h, w, 4) (.exr and .tif: (h, w, 2) too); row 0 is
+        the top of the image. dtype uint8, uint16, float32, float64 (stored as float32) or bool
+        (stored as uint8 0/255); .tif also stores int32 and uint32.
         Channels are stored as given (gray, RGB, RGBA); RGBA is not premultiplied on the way.
     compression : None (the default: zlib level 1 for .png, chosen for speed; OpenImageIO's
         default otherwise, zip for .exr) or, for .png, a zlib level 0-9 (0 = stored; 9 =
@@ -111,12 +115,15 @@ def imwrite(path: str | os.PathLike[str], array: npt.ArrayLike, compression: str
     elif arr.dtype == np.float64:
         arr = arr.astype(np.float32)
     if arr.dtype not in _OIIO_TYPE:
-        raise TypeError(f"array dtype must be uint8, uint16, float32, float64 or bool, got {arr.dtype}")
+        raise TypeError(f"array dtype must be uint8, uint16, float32, float64 or bool (or int32 / "
+                        f"uint32 for .tif), got {arr.dtype}")
     if arr.ndim == 2:
         arr = arr[:, :, np.newaxis]  # OpenImageIO mis-writes 2-D arrays => always pass (h, w, c)
-    if arr.ndim != 3 or arr.shape[2] not in (1, 3, 4):
+    any_channels = os.path.splitext(os.fspath(path_str))[1].lower() in _ANY_CHANNELS
+    if arr.ndim != 3 or arr.shape[2] not in ((1, 2, 3, 4) if any_channels else (1, 3, 4)):
         raise ValueError(
-            f"array must have shape (h, w), (h, w, 1), (h, w, 3) or (h, w, 4), got {np.shape(array)}")
+            f"array must have shape (h, w), (h, w, 1), (h, w, 3) or (h, w, 4) (or (h, w, 2) for "
+            f".exr and .tif), got {np.shape(array)}")
     h, w, c = arr.shape
     if h == 0 or w == 0:
         raise ValueError(f"array is empty: shape {np.shape(array)}")

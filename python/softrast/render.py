@@ -1,6 +1,7 @@
 """Renderer and Frame: the public face of the C++ pipeline (``softrast._core``)."""
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Iterable, Iterator
 from typing import Any, Sequence
 
@@ -57,9 +58,130 @@ class Frame:
     def as_dict(self) -> dict[str, np.ndarray]:
         return {n: getattr(self, n) for n in self.outputs}
 
+    def save(self, directory: str | os.PathLike[str], stem: str,
+             formats: dict[str, str] | None = None) -> dict[str, str]:
+        """Write each output to ``directory/{stem}_{name}.{ext}``; returns {name: path}.
+
+        formats : {output name: format} overriding the defaults, formats being
+            "png"   8-bit PNG: color, mask (0 / 255)
+            "jpg"   JPEG (lossy): color
+            "png16" 16-bit PNG: triangle_id, instance_id storing id + 1 (0 = background; ids
+                    must fit: at most 65534), coverage
+            "png16mm" 16-bit PNG of depth or ray_depth in millimetres (round half up, clipped to
+                    [1, 65535] where hit, 0 = background: lossy, for tools that want it)
+            "exr"   float32 OpenEXR (zip): every float output
+            "tif"   TIFF in the output's own dtype: every output
+            "npy"   NumPy's .npy: every output, raw (the fastest)
+        Defaults: color and mask "png"; the float outputs "exr"; triangle_id and instance_id
+        "png16" when every id fits, else "tif" (int32, the id itself); coverage "tif". Every
+        format but jpg and png16mm gives the output back exactly (``Frame.load``), and the same
+        frame gives the same bytes (files are reproducible). Each file is written atomically.
+        """
+        from .io import imwrite
+
+        if not isinstance(stem, str) or not stem or os.sep in stem:
+            raise ValueError(f"stem must be a non-empty file name part, got {stem!r:.80}")
+        formats = dict(formats or {})
+        for name, fmt in formats.items():
+            if name not in self.outputs:
+                raise ValueError(f"formats: {name!r} is not an output of this frame {self.outputs}")
+            if fmt not in _SAVE_FORMATS.get(name, ()):
+                raise ValueError(f"formats: {name!r} cannot be saved as {fmt!r}; choose from "
+                                 f"{_SAVE_FORMATS[name]}")
+        directory = os.fspath(directory)
+        written = {}
+        for name in self.outputs:
+            arr = getattr(self, name)
+            fmt = formats.get(name) or _default_format(name, arr)
+            path = os.path.join(directory, f"{stem}_{name}.{fmt if fmt not in ('png16', 'png16mm') else 'png'}")
+            if fmt == "npy":
+                _save_npy(path, arr)
+            elif fmt == "png16" and name in ("triangle_id", "instance_id"):
+                if arr.size and int(arr.max()) > 65534:
+                    raise ValueError(f"formats: {name} has ids over 65534, which png16 cannot store "
+                                     "(id + 1): use 'tif' or 'npy'")
+                imwrite(path, (arr + 1).astype(np.uint16))
+            elif fmt == "png16":  # coverage
+                if arr.size and int(arr.max()) > 65535:
+                    raise ValueError(f"formats: {name} has values over 65535: use 'tif' or 'npy'")
+                imwrite(path, arr.astype(np.uint16))
+            elif fmt == "png16mm":
+                from .opencv import depth_to_mm_uint16
+                imwrite(path, depth_to_mm_uint16(arr, scale=1000.0))
+            else:
+                imwrite(path, arr)
+            written[name] = path
+        return written
+
+    @classmethod
+    def load(cls, directory: str | os.PathLike[str], stem: str) -> "Frame":
+        """The frame ``save`` wrote as ``directory/{stem}_*``: each output as it was (png16 ids
+        less 1, masks as bool; png16mm depths in scene units, from millimetres)."""
+        from .io import imread
+
+        directory = os.fspath(directory)
+        buffers = {}
+        for name in _core.OUTPUTS:
+            for ext in ("npy", "png", "exr", "tif", "jpg"):
+                path = os.path.join(directory, f"{stem}_{name}.{ext}")
+                if not os.path.exists(path):
+                    continue
+                arr = np.load(path, allow_pickle=False) if ext == "npy" else imread(path)
+                if ext == "png" and name in ("triangle_id", "instance_id"):
+                    arr = arr.astype(np.int32) - 1
+                elif ext == "png" and name == "coverage":
+                    arr = arr.astype(np.uint32)
+                elif name == "mask" and arr.dtype != np.bool_:  # png / tif store 0 / 255
+                    arr = arr > 0
+                elif ext == "png" and arr.dtype == np.uint16 and name in ("depth", "ray_depth"):
+                    arr = arr.astype(np.float32) / np.float32(1000.0)
+                buffers[name] = arr
+                break
+        if not buffers:
+            raise FileNotFoundError(f"no outputs saved as {os.path.join(directory, stem)}_*")
+        return cls(buffers)
+
     def __repr__(self) -> str:
         shapes = ", ".join(f"{n}={getattr(self, n).shape}" for n in self.outputs)
         return f"Frame({shapes})"
+
+
+_FLOAT_OUTPUTS = tuple(r["name"] for r in _core.OUTPUT_TABLE if r["dtype"] == "float32")
+_SAVE_FORMATS: dict[str, tuple[str, ...]] = {
+    **{name: ("exr", "tif", "npy") for name in _FLOAT_OUTPUTS},
+    "depth": ("exr", "tif", "npy", "png16mm"), "ray_depth": ("exr", "tif", "npy", "png16mm"),
+    "color": ("png", "jpg", "tif", "npy"), "mask": ("png", "tif", "npy"),
+    "triangle_id": ("png16", "tif", "npy"), "instance_id": ("png16", "tif", "npy"),
+    "coverage": ("png16", "tif", "npy"),
+}
+
+
+def _default_format(name: str, arr: np.ndarray) -> str:
+    if name in ("color", "mask"):
+        return "png"
+    if name in ("triangle_id", "instance_id"):
+        return "png16" if not arr.size or int(arr.max()) <= 65534 else "tif"
+    if name == "coverage":
+        return "tif"
+    return "exr"
+
+
+def _save_npy(path: str, arr: np.ndarray) -> None:
+    """np.save, atomically (a temporary name in the same directory, then renamed)."""
+    import uuid
+
+    directory, base = os.path.split(os.path.abspath(path))
+    if not os.path.isdir(directory):
+        raise FileNotFoundError(f"directory does not exist: {directory}")
+    tmp = os.path.join(directory, f".{base}.{os.getpid()}-{uuid.uuid4().hex[:12]}.tmp")
+    try:
+        with open(tmp, "wb") as f:
+            np.save(f, np.ascontiguousarray(arr), allow_pickle=False)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise
 
 
 def _make_frame_init() -> Any:
