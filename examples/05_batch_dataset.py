@@ -1,6 +1,6 @@
 """Batch rendering: an orbit of views of one mesh with Renderer.render_many (views rendered
-concurrently, frames yielded in order), colour + depth + the surface outputs, and each camera's
-OpenCV K and pose saved beside the images."""
+concurrently, frames yielded in order), colour + depth + ids + the surface outputs saved with
+Frame.save, and each camera's OpenCV K and pose saved beside the images."""
 import sys
 from pathlib import Path
 
@@ -26,9 +26,9 @@ for pose in sr.orbit(target=(0.0, 0.1, 0.2), radius=3.0, n=8, elevation=20.0):
 
 outputs = ("color", "depth", "instance_id", "position", "uv")
 for i, frame in enumerate(renderer.render_many(scene, cameras, outputs=outputs)):
-    sr.imwrite(out / f"view_{i:03d}.png", frame.color)
-    sr.imwrite(out / f"view_{i:03d}_depth.exr", frame.depth[:, :, None])  # (h, w, 1): one channel
-    np.save(out / f"view_{i:03d}_position.npy", frame.position)
+    # view_000_color.png, view_000_depth.exr, view_000_instance_id.png (id + 1), ..._uv.exr;
+    # sr.Frame.load(out, "view_000") reads them back exactly.
+    frame.save(out, f"view_{i:03d}", formats={"position": "npy"})
 # K in OpenCV's convention (pixel (row i, col j) centred at (u, v) = (j, i)) and the poses
 # (camera-to-world, OpenGL axes): camera.unproject(depth) turns a depth image back into points.
 np.savez(out / "cameras.npz", K=cameras[0].K, poses=np.stack([c.pose for c in cameras]),

@@ -86,18 +86,20 @@ def _alpha_and_masked(scene_of, cam, w, h, filt, cutoff, **render):
     return opaque, cut
 
 
+def _plane_scene(material: sr.Material) -> sr.Scene:
+    """A 3 x 3 quad with 4 x 4 uv repeats (the plane of _opencv_plane_camera)."""
+    scene = sr.Scene()
+    scene.add(quad(material, size=1.5, uv_scale=4.0), instance_id=FRONT_ID)
+    return scene
+
+
 @pytest.mark.parametrize("filt", FILTERS)
 def test_perspective_plane_cuts_where_the_shaded_alpha_crosses(filt: str) -> None:
     """A tilted, minified plane (uv x4, mip levels and anisotropy in play): the mask keeps
     exactly the pixels whose shaded alpha (the same sample) reaches the cutoff."""
-    w, h, size = 96, 72, 1.5
+    w, h = 96, 72
     cam, _, _, _ = _opencv_plane_camera(w, h)
-
-    def scene_of(material):
-        scene = sr.Scene()
-        scene.add(quad(material, size=size, uv_scale=4.0), instance_id=FRONT_ID)
-        return scene
-
+    scene_of = _plane_scene
     # (not 0.5: texels of exactly 0.5 would tie, and the opaque radiance is the alpha times an
     # interpolated white that may be 1 - 2^-24)
     opaque, cut = _alpha_and_masked(scene_of, cam, w, h, filt, 0.47)
@@ -115,14 +117,9 @@ def test_perspective_plane_cuts_where_the_shaded_alpha_crosses(filt: str) -> Non
 
 
 def test_texture_filter_option_applies_to_the_alpha_test() -> None:
-    w, h, size = 96, 72, 1.5
+    w, h = 96, 72
     cam, _, _, _ = _opencv_plane_camera(w, h)
-
-    def scene_of(material):
-        scene = sr.Scene()
-        scene.add(quad(material, size=size, uv_scale=4.0), instance_id=FRONT_ID)
-        return scene
-
+    scene_of = _plane_scene
     opaque, cut = _alpha_and_masked(scene_of, cam, w, h, "trilinear", 0.47, texture_filter="nearest")
     expected = (opaque.instance_id == FRONT_ID) & (opaque.radiance[..., 0] >= 0.47)
     np.testing.assert_array_equal(cut.instance_id == FRONT_ID, expected)

@@ -57,6 +57,24 @@ def _poses(eyes: npt.NDArray[np.float64], target, up, convention) -> npt.NDArray
     return out
 
 
+def _common(target, radius, n, up, convention):
+    """The generators' shared arguments, checked, and an orthonormal frame (a, b, u): u along
+    up, a the azimuth-0 direction (toward +z where up allows), b = u x a."""
+    t = _vec3(target, "target")
+    r = positive_real(radius, "radius")
+    count = _count(n)
+    up_v = _vec3(up, "up")
+    if not np.linalg.norm(up_v) > 0:
+        raise ValueError("up must be a non-zero vector")
+    choice(convention, "convention", ("opengl", "opencv"))
+    u = up_v / np.linalg.norm(up_v)
+    a = np.array([0.0, 0.0, 1.0]) - u[2] * u
+    if np.linalg.norm(a) < 1e-6:
+        a = np.array([1.0, 0.0, 0.0]) - u[0] * u
+    a /= np.linalg.norm(a)
+    return t, r, count, up_v, (a, np.cross(u, a), u)
+
+
 def orbit(target: npt.ArrayLike, radius: float, n: int, elevation: float = 20.0,
           up: npt.ArrayLike = (0.0, 1.0, 0.0), start: float = 0.0,
           convention: str = "opengl") -> npt.NDArray[np.float64]:
@@ -64,24 +82,11 @@ def orbit(target: npt.ArrayLike, radius: float, n: int, elevation: float = 20.0,
     above the plane normal to ``up`` (in [-90, 90]), azimuths start + 360 k / n degrees
     (k = 0 .. n-1; azimuth 0 is the +z side of ``target`` for up = +y, increasing
     counter-clockwise seen from above)."""
-    t = _vec3(target, "target")
-    r = positive_real(radius, "radius")
-    count = _count(n)
+    t, r, count, up_v, (a, b, u) = _common(target, radius, n, up, convention)
     el = finite_real(elevation, "elevation")
     if not -90.0 <= el <= 90.0:
         raise ValueError(f"elevation must be in [-90, 90] degrees, got {elevation!r}")
     az0 = finite_real(start, "start")
-    up_v = _vec3(up, "up")
-    if not np.linalg.norm(up_v) > 0:
-        raise ValueError("up must be a non-zero vector")
-    choice(convention, "convention", ("opengl", "opencv"))
-    u = up_v / np.linalg.norm(up_v)
-    # an orthonormal frame (a, b, u): a = the azimuth-0 direction
-    a = np.array([0.0, 0.0, 1.0]) - u[2] * u
-    if np.linalg.norm(a) < 1e-6:
-        a = np.array([1.0, 0.0, 0.0]) - u[0] * u
-    a /= np.linalg.norm(a)
-    b = np.cross(u, a)
     az = np.radians(az0 + 360.0 * np.arange(count) / count)
     e = math.radians(el)
     dirs = (np.cos(e) * (np.cos(az)[:, None] * a + np.sin(az)[:, None] * b) + math.sin(e) * u)
@@ -93,19 +98,7 @@ def sphere_poses(target: npt.ArrayLike, radius: float, n: int, up: npt.ArrayLike
     """``n`` poses spread evenly over the sphere of ``radius`` around ``target`` (a Fibonacci
     lattice: equal-area bands, golden-angle azimuths), from the top (along ``up``) down;
     ``up`` stays up in each image (at the poles the roll follows the next axis)."""
-    t = _vec3(target, "target")
-    r = positive_real(radius, "radius")
-    count = _count(n)
-    up_v = _vec3(up, "up")
-    if not np.linalg.norm(up_v) > 0:
-        raise ValueError("up must be a non-zero vector")
-    choice(convention, "convention", ("opengl", "opencv"))
-    u = up_v / np.linalg.norm(up_v)
-    a = np.array([0.0, 0.0, 1.0]) - u[2] * u
-    if np.linalg.norm(a) < 1e-6:
-        a = np.array([1.0, 0.0, 0.0]) - u[0] * u
-    a /= np.linalg.norm(a)
-    b = np.cross(u, a)
+    t, r, count, up_v, (a, b, u) = _common(target, radius, n, up, convention)
     k = np.arange(count) + 0.5
     height = 1.0 - 2.0 * k / count  # equal-area bands
     ring = np.sqrt(np.maximum(0.0, 1.0 - height ** 2))
