@@ -9,7 +9,9 @@
 in interleaved rounds; frames per second, and ratios measured in the same run. Rendering only
 (no files written).
 
-    python3 benchmarks/bench_dataset.py [--views 200] [--rounds 3] [--no-pyrender]
+    python3 benchmarks/bench_dataset.py [--views 200] [--rounds 3] [--no-pyrender] [--write]
+
+``--write`` times written datasets instead: ``write_dataset`` against the encoders alone.
 """
 from __future__ import annotations
 
@@ -37,6 +39,8 @@ def main() -> None:
     ap.add_argument("--views", type=int, default=200)
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--no-pyrender", action="store_true")
+    ap.add_argument("--write", action="store_true",
+                    help="instead: written datasets (default formats) against the encoders alone")
     args = ap.parse_args()
 
     tm = trimesh.load(os.path.join(ROOT, "assets", "meshes", "spot.obj"), force="mesh", process=False)
@@ -52,6 +56,8 @@ def main() -> None:
         cam.pose = pose
         cams.append(cam)
     r = sr.Renderer(W, H, threads=2)
+    if args.write:
+        return bench_write(scene, cams, r, args)
     for cam in cams[:5]:
         r.render(scene, cam, outputs=OUTPUTS)
     list(r.render_many(scene, cams[:5], outputs=OUTPUTS))
@@ -101,6 +107,55 @@ def main() -> None:
         print(f"{name:<44}{fps:>9.1f} frames/s{fps / base:>8.2f}x the loop")
     if len(rate) > 2:
         print(f"render_many / pyrender loop: {rate['softrast render_many'] / list(rate.values())[2]:.1f}x")
+
+
+def bench_write(scene, cams, r, args) -> None:
+    """Frames/s of a written dataset (write_dataset: render_many + two writer threads, default
+    formats: colour PNG level 1, depth EXR zip, ids PNG16) against the same encoders alone (the
+    same frames, pre-rendered, saved by two threads) and a one-thread loop of render + save."""
+    import concurrent.futures
+    import shutil
+    import tempfile
+
+    pre = [r.render(scene, c, outputs=OUTPUTS) for c in cams[:20]]
+    root = tempfile.mkdtemp(prefix="sr_bench_")
+
+    def fresh(name):
+        d = os.path.join(root, name)
+        shutil.rmtree(d, ignore_errors=True)
+        os.makedirs(d)
+        return d
+
+    def encoders():
+        d = fresh("enc")
+        with concurrent.futures.ThreadPoolExecutor(2) as pool:
+            list(pool.map(lambda k: pre[k % len(pre)].save(d, f"{k:06d}"), range(len(cams))))
+
+    def dataset():
+        sr.write_dataset(scene, cams, fresh("ds"), outputs=OUTPUTS, renderer=r, resume=False)
+
+    def loop():
+        d = fresh("loop")
+        for k, c in enumerate(cams):
+            r.render(scene, c, outputs=OUTPUTS).save(d, f"{k:06d}")
+
+    cells = {"encoders alone (2 threads, pre-rendered)": encoders, "write_dataset": dataset,
+             "loop: render + save (1 thread)": loop}
+    times = {k: [] for k in cells}
+    try:
+        for _ in range(args.rounds):
+            for name, fn in cells.items():
+                t = time.perf_counter()
+                fn()
+                times[name].append(time.perf_counter() - t)
+    finally:
+        shutil.rmtree(root, ignore_errors=True)
+    rate = {k: args.views / statistics.median(v) for k, v in times.items()}
+    print(f"{args.views} views of Spot at {W}x{H}, {', '.join(OUTPUTS)}, default formats, written to "
+          f"/tmp; median of {args.rounds} interleaved rounds")
+    for name, fps in rate.items():
+        print(f"{name:<44}{fps:>9.1f} frames/s")
+    print(f"write_dataset / encoders alone: {rate['write_dataset'] / rate['encoders alone (2 threads, pre-rendered)']:.2f}")
 
 
 if __name__ == "__main__":

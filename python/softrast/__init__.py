@@ -6,6 +6,7 @@ distance along the camera's viewing axis in scene units, 0 where nothing was hit
 """
 from ._core import MAX_IMAGE_SIDE, MAX_THREADS, OUTPUT_TABLE, OUTPUTS, SUBPIXEL_BITS, TILE_SIZE_PX
 from .camera import Camera, IntrinsicsCamera, OrthographicCamera, PerspectiveCamera
+from .dataset import load_cameras, write_dataset
 from .displace import displace
 from .interop import from_pyrender
 from .io import imread, imwrite
@@ -49,6 +50,7 @@ __all__ = [
     "get_memory_budget",
     "imread",
     "imwrite",
+    "load_cameras",
     "load_mesh",
     "load_scene",
     "load_texture",
@@ -56,4 +58,5 @@ __all__ = [
     "orbit",
     "set_memory_budget",
     "sphere_poses",
+    "write_dataset",
 ]

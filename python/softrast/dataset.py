@@ -1,0 +1,202 @@
+"""Datasets: many views of a scene rendered and written to a directory, with the cameras in
+``cameras.json`` (``write_dataset``, ``load_cameras``).
+
+``write_dataset`` renders with ``Renderer.render_many`` and hands each frame to a small pool of
+writer threads (OpenImageIO releases the GIL while it encodes), so encoding overlaps rendering;
+files are written atomically, so an interrupted run leaves only complete files, and a rerun
+skips the views whose files are all there (``resume``).
+
+``cameras.json``::
+
+    {"format": "softrast cameras 1",
+     "conventions": "...",
+     "frames": [{"stem": "000000", "width": 640, "height": 480, "near": 0.05, "far": 100.0,
+                 "orthographic": false,
+                 "K": [[fx, 0, cx], [0, fy, cy], [0, 0, 1]],      # OpenCV; null if orthographic
+                 "xmag": null, "ymag": null,                      # orthographic half-extents
+                 "pose_opencv": 4x4,   # camera-to-world, axes x right, y down, z forward
+                 "pose_opengl": 4x4,   # camera-to-world, axes x right, y up, z backward
+                 "files": {"color": "000000_color.png", ...}}, ...]}
+
+K follows OpenCV: the centre of pixel (row i, col j) is at (u, v) = (j, i); a world point X is
+seen at K (R X + t) / z with [R | t] the inverse of ``pose_opencv``.
+"""
+from __future__ import annotations
+
+import concurrent.futures
+import json
+import os
+from typing import Any, Iterable, Sequence
+
+import numpy as np
+
+from .camera import Camera, IntrinsicsCamera, OrthographicCamera
+from .render import Frame, Renderer, _default_format
+from .scene import Scene
+
+__all__ = ["write_dataset", "load_cameras", "camera_record"]
+
+_GL_FROM_CV = np.diag([1.0, -1.0, -1.0, 1.0])
+_FORMAT = "softrast cameras 1"
+_CONVENTIONS = ("K: OpenCV, the centre of pixel (row i, col j) at (u, v) = (j, i). pose_opencv: "
+                "camera-to-world, camera axes x right, y down, z forward; pose_opengl: the same "
+                "pose with axes x right, y up, z backward (pyrender's, softrast's default). "
+                "near, far: clipping distances along the viewing axis; depth images hold the "
+                "distance along it.")
+
+
+def camera_record(camera: Camera, width: int | None = None, height: int | None = None) -> dict[str, Any]:
+    """The ``cameras.json`` entry of one camera (without ``stem`` and ``files``)."""
+    w, h = camera._render_size(width, height)
+    pose_cv = camera.pose @ _GL_FROM_CV if camera.convention == "opengl" else camera.pose
+    pose_gl = pose_cv @ _GL_FROM_CV
+    rec: dict[str, Any] = {"width": w, "height": h, "near": camera.near, "far": camera.far,
+                           "orthographic": bool(camera.orthographic), "K": None, "xmag": None,
+                           "ymag": None}
+    if camera.orthographic:
+        p = camera.projection_matrix(w, h)
+        rec["xmag"], rec["ymag"] = 1.0 / p[0, 0], 1.0 / p[1, 1]
+    else:
+        rec["K"] = camera.intrinsics(w, h).tolist()
+    rec["pose_opencv"] = pose_cv.tolist()
+    rec["pose_opengl"] = pose_gl.tolist()
+    return rec
+
+
+def load_cameras(path: str | os.PathLike[str]) -> list[Camera]:
+    """The cameras of a ``cameras.json`` (a file, or the dataset directory holding one), in frame
+    order: ``IntrinsicsCamera(convention="opencv")`` from K (the same projection as the camera
+    that rendered the frame, to float64 rounding) or ``OrthographicCamera``, posed, with the
+    frame's image size, near and far."""
+    p = os.fspath(path)
+    if os.path.isdir(p):
+        p = os.path.join(p, "cameras.json")
+    with open(p, encoding="utf-8") as f:
+        doc = json.load(f)
+    if not isinstance(doc, dict) or doc.get("format") != _FORMAT:
+        raise ValueError(f"{p}: not a softrast cameras.json (format {_FORMAT!r})")
+    cams: list[Camera] = []
+    for k, rec in enumerate(doc.get("frames", [])):
+        try:
+            if rec["orthographic"]:
+                cam: Camera = OrthographicCamera(rec["xmag"], rec["ymag"], width=rec["width"],
+                                                 height=rec["height"], near=rec["near"], far=rec["far"])
+                cam.pose = np.asarray(rec["pose_opengl"], dtype=np.float64)
+            else:
+                K = np.asarray(rec["K"], dtype=np.float64)
+                cam = IntrinsicsCamera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], rec["width"], rec["height"],
+                                       near=rec["near"], far=rec["far"], convention="opencv")
+                cam.pose = np.asarray(rec["pose_opencv"], dtype=np.float64)
+        except (KeyError, TypeError, ValueError, IndexError) as e:
+            raise ValueError(f"{p}: frame {k} is not a valid camera record: {e}") from e
+        cams.append(cam)
+    return cams
+
+
+def _atomic_json(path: str, doc: Any) -> None:
+    tmp = f"{path}.{os.getpid()}.tmp"
+    with open(tmp, "w", encoding="utf-8") as f:
+        json.dump(doc, f, indent=1)
+    os.replace(tmp, path)
+
+
+def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.PathLike[str],
+                  outputs: Sequence[str] = ("color", "depth", "instance_id"),
+                  formats: dict[str, str] | None = None, renderer: Renderer | None = None,
+                  writers: int | None = None, progress: bool = False, resume: bool = True,
+                  **options: Any) -> list[dict[str, str]]:
+    """Render ``scene`` from every camera and write each frame as ``Frame.save`` does
+    (``{stem}_{output}.{ext}``, stems 000000, 000001, ...), plus ``cameras.json``; returns each
+    frame's {output: path}.
+
+    cameras : posed cameras, each with its image size (all the same size: one renderer).
+    renderer : the renderer to use (default: a new one, all cores, for the cameras' size).
+    writers : encoding threads (default: the renderer's thread count); encoding overlaps
+        rendering, at most 2 frames per writer wait to be written.
+    resume : skip the views whose files all exist (a rerun after an interruption renders only
+        what is missing; files are written atomically, so none is partial).
+    options : passed to ``render`` (shading=, cull=, background=, ...).
+    """
+    cams = list(cameras)
+    if not cams:
+        raise ValueError("cameras: at least one camera is needed")
+    for k, cam in enumerate(cams):
+        if not isinstance(cam, Camera):
+            raise TypeError(f"cameras[{k}] must be a softrast.Camera, got {type(cam).__name__}")
+        if cam.width is None or cam.height is None:
+            raise ValueError(f"cameras[{k}] has no image size: give each camera width and height")
+    sizes = {(c.width, c.height) for c in cams}
+    if len(sizes) != 1:
+        raise ValueError(f"cameras: all must have one image size (one renderer), got {sorted(sizes)}")
+    (w, h), = sizes
+    directory = os.fspath(directory)
+    if not os.path.isdir(directory):
+        raise FileNotFoundError(f"directory does not exist: {directory}")
+    names = (outputs,) if isinstance(outputs, str) else tuple(outputs)
+    r = renderer if renderer is not None else Renderer(w, h)
+    if (r.width, r.height) != (w, h):
+        raise ValueError(f"renderer is {r.width}x{r.height}, the cameras {w}x{h}")
+    n_writers = r.threads if writers is None else int(writers)
+    if n_writers < 1:
+        raise ValueError(f"writers must be >= 1, got {writers!r}")
+    formats = dict(formats or {})
+    stems = [f"{k:06d}" for k in range(len(cams))]
+
+    def expected(stem: str) -> dict[str, str]:
+        # the files a view's save writes (ids fall back to .tif only when they do not fit in png16)
+        out = {}
+        for name in names:
+            fmt = formats.get(name) or _default_format(name, np.zeros(0))
+            ext = "png" if fmt in ("png16", "png16mm") else fmt
+            out[name] = os.path.join(directory, f"{stem}_{name}.{ext}")
+        return out
+
+    def complete(stem: str) -> dict[str, str] | None:
+        paths = expected(stem)
+        for name, path in list(paths.items()):
+            if not os.path.exists(path):
+                alt = os.path.splitext(path)[0] + ".tif"  # large ids
+                if name in ("triangle_id", "instance_id") and os.path.exists(alt):
+                    paths[name] = alt
+                    continue
+                return None
+        return paths
+
+    done: dict[int, dict[str, str]] = {}
+    todo = []
+    for k, stem in enumerate(stems):
+        paths = complete(stem) if resume else None
+        if paths is not None:
+            done[k] = paths
+        else:
+            todo.append(k)
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+        bar = tqdm(total=len(cams), initial=len(done), unit="view", desc="write_dataset")
+    try:
+        with concurrent.futures.ThreadPoolExecutor(n_writers, "softrast-writer") as pool:
+            pending: list[tuple[int, concurrent.futures.Future]] = []
+
+            def drain(limit: int) -> None:
+                while len(pending) > limit:
+                    k, fut = pending.pop(0)
+                    done[k] = fut.result()
+                    if bar is not None:
+                        bar.update(1)
+
+            views: Iterable[Frame] = r.render_many(scene, [cams[k] for k in todo], outputs=names,
+                                                   **options)
+            for k, frame in zip(todo, views):
+                pending.append((k, pool.submit(frame.save, directory, stems[k], formats)))
+                drain(2 * n_writers)
+            drain(0)
+    finally:
+        if bar is not None:
+            bar.close()
+    doc = {"format": _FORMAT, "conventions": _CONVENTIONS,
+           "frames": [dict(camera_record(c), stem=stems[k],
+                           files={n: os.path.basename(p) for n, p in done[k].items()})
+                      for k, c in enumerate(cams)]}
+    _atomic_json(os.path.join(directory, "cameras.json"), doc)
+    return [done[k] for k in range(len(cams))]

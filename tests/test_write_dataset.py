@@ -1,0 +1,103 @@
+"""write_dataset and cameras.json (issue 22): every view written as Frame.save writes it,
+equal to render(); cameras.json read back by load_cameras into cameras that project the same;
+resume after an interruption rewrites only what is missing."""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+import softrast as sr
+
+OUTPUTS = ("color", "depth", "instance_id")
+
+
+def _scene():
+    tm = trimesh.creation.icosphere(subdivisions=3)
+    scene = sr.Scene()
+    scene.add(sr.Mesh(tm.vertices, tm.faces), instance_id=2)
+    scene.add(sr.Mesh(tm.vertices * 0.4, tm.faces), pose=np.array(
+        [[1, 0, 0, 1.3], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]]), instance_id=6)
+    return scene
+
+
+def _cams(n=6, w=48, h=36):
+    cams = []
+    for pose in sr.orbit((0.3, 0.0, 0.0), 4.0, n, elevation=20.0):
+        cam = sr.PerspectiveCamera(fov_y=45.0, width=w, height=h, near=0.1, far=20.0)
+        cam.pose = pose
+        cams.append(cam)
+    return cams
+
+
+def test_write_dataset_writes_what_render_gives(tmp_path):
+    scene, cams = _scene(), _cams()
+    r = sr.Renderer(48, 36, threads=2)
+    paths = sr.write_dataset(scene, cams, tmp_path, outputs=OUTPUTS, renderer=r, progress=True)
+    assert len(paths) == 6 and all(set(p) == set(OUTPUTS) for p in paths)
+    for k, cam in enumerate(cams):
+        back = sr.Frame.load(tmp_path, f"{k:06d}")
+        ref = r.render(scene, cam, outputs=OUTPUTS)
+        for name in OUTPUTS:
+            np.testing.assert_array_equal(getattr(back, name), getattr(ref, name))
+    doc = json.loads((tmp_path / "cameras.json").read_text())
+    assert doc["format"] == "softrast cameras 1" and len(doc["frames"]) == 6
+    assert doc["frames"][3]["files"]["color"] == "000003_color.png"
+    loaded = sr.load_cameras(tmp_path)
+    pts = np.random.default_rng(0).normal(size=(40, 3))
+    for cam, again in zip(cams, loaded):
+        assert isinstance(again, sr.IntrinsicsCamera) and again.convention == "opencv"
+        np.testing.assert_allclose(again.K, cam.K, atol=1e-9)
+        np.testing.assert_allclose(again.project(pts), cam.project(pts), atol=1e-9)
+        # the recorded pose in either convention is the camera's
+        np.testing.assert_allclose(again.view_matrix(), cam.view_matrix(), atol=1e-12)
+        f1 = r.render(scene, cam, outputs=("instance_id",)).instance_id
+        f2 = r.render(scene, again, outputs=("instance_id",)).instance_id
+        assert (f1 == f2).mean() > 0.995
+
+
+def test_orthographic_cameras_round_trip(tmp_path):
+    cam = sr.OrthographicCamera(xmag=2.0, ymag=1.5, width=40, height=30, near=0.5, far=9.0)
+    cam.look_at((0.0, 1.0, 4.0), (0.0, 0.0, 0.0))
+    sr.write_dataset(_scene(), [cam], tmp_path, outputs=("depth",))
+    (again,) = sr.load_cameras(tmp_path / "cameras.json")
+    assert isinstance(again, sr.OrthographicCamera) and (again.xmag, again.ymag) == (2.0, 1.5)
+    np.testing.assert_allclose(again.pose, cam.pose, atol=1e-12)
+    assert (again.near, again.far, again.width, again.height) == (0.5, 9.0, 40, 30)
+
+
+def test_resume_rewrites_only_what_is_missing(tmp_path):
+    scene, cams = _scene(), _cams()
+    first = sr.write_dataset(scene, cams, tmp_path, outputs=OUTPUTS)
+    read = lambda p: Path(p).read_bytes()  # noqa: E731
+    before = {p: (os.stat(p).st_mtime_ns, read(p)) for d in first for p in d.values()}
+    os.remove(first[2]["depth"])  # as if interrupted while writing view 2
+    again = sr.write_dataset(scene, cams, tmp_path, outputs=OUTPUTS)
+    assert again == first
+    for p, (mtime, data) in before.items():
+        assert read(p) == data  # the same bytes
+        if not p.startswith(os.path.join(str(tmp_path), "000002_")):
+            assert os.stat(p).st_mtime_ns == mtime, p  # untouched
+
+
+def test_write_dataset_checks_its_arguments(tmp_path):
+    scene = _scene()
+    with pytest.raises(ValueError, match="at least one camera"):
+        sr.write_dataset(scene, [], tmp_path)
+    with pytest.raises(ValueError, match="no image size"):
+        sr.write_dataset(scene, [sr.PerspectiveCamera()], tmp_path)
+    with pytest.raises(ValueError, match="one image size"):
+        sr.write_dataset(scene, _cams(2) + _cams(1, 32, 24), tmp_path)
+    with pytest.raises(TypeError, match=r"cameras\[0\]"):
+        sr.write_dataset(scene, ["cam"], tmp_path)
+    with pytest.raises(FileNotFoundError):
+        sr.write_dataset(scene, _cams(1), tmp_path / "missing")
+    with pytest.raises(ValueError, match="renderer is 10x10"):
+        sr.write_dataset(scene, _cams(1), tmp_path, renderer=sr.Renderer(10, 10))
+    (tmp_path / "bad.json").write_text('{"format": "other"}')
+    with pytest.raises(ValueError, match="not a softrast cameras.json"):
+        sr.load_cameras(tmp_path / "bad.json")
