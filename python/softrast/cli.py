@@ -6,7 +6,16 @@
                     [--shading auto|unlit|lambert|phong|blinn_phong|pbr|normal|uv]
                     [--frequency pixel|vertex|face] [--linear] [--threads N]
 
+    softrast batch MESH [MESH ...] --out DIR [--views 24] [--orbit ELEVATION | --sphere |
+                   --poses POSES.npy|.json] [--intrinsics K.npy] [--outputs color,depth,instance_id]
+                   [--formats depth=npy,...] [--size 640x480] [--fov 45] [--workers W] [--no-resume]
+
+    softrast --version
+
 Without --eye the camera frames the whole mesh from the front (+z) and slightly above (+y).
+``batch`` writes each mesh's views to DIR/<mesh file stem>/ with ``softrast.write_dataset``
+(files, cameras.json), showing progress, and ends with a summary line; a rerun skips complete
+views. Every argument is checked before anything is written.
 Errors print one line to stderr and exit with status 2; Ctrl-C prints one line and exits 130.
 """
 from __future__ import annotations
@@ -66,18 +75,28 @@ def _positive_float(text: str) -> float:
     return v
 
 
-def _threads(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"must be >= 0 (0 = one per core), got {text!r}")
-    return v
+def _int_at_least(minimum: int, note: str = ""):
+    """An argparse type: an integer >= minimum."""
+    def parse(text: str) -> int:
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+        if v < minimum:
+            raise argparse.ArgumentTypeError(f"must be >= {minimum}{note}, got {text!r}")
+        return v
+    return parse
+
+
+_threads = _int_at_least(0, " (0 = one per core)")
+_count = _int_at_least(1)
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from . import __version__
+
     parser = _Parser(prog="softrast", description="softrast: a CPU software rasterizer.")
+    parser.add_argument("--version", action="version", version=f"softrast {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     r = sub.add_parser("render", help="render a mesh file to images",
                        description="Render a mesh file (OBJ, PLY, STL, GLB, ...) to image files.")
@@ -110,7 +129,65 @@ def build_parser() -> argparse.ArgumentParser:
                    help="base colour texture (sRGB) sampled at the mesh's uvs; replaces the file's")
     r.add_argument("--texture-filter", choices=_core.TEXTURE_FILTERS, default=None,
                    help="one filter for every texture (default: each texture's own, trilinear)")
+
+    b = sub.add_parser("batch", help="render many views of mesh files into a dataset",
+                       description="Render views of each mesh file into DIR/<mesh stem>/: one file "
+                       "per output and view ({view:06d}_{output}.{ext}, as Frame.save writes) and a "
+                       "cameras.json (K in OpenCV's convention, poses in OpenCV and OpenGL axes). "
+                       "A rerun skips the views whose files are all there.")
+    b.add_argument("meshes", nargs="+", metavar="MESH", help="mesh files (OBJ, PLY, GLB, ...)")
+    b.add_argument("--out", required=True, metavar="DIR", help="dataset directory (created if missing)")
+    b.add_argument("--views", type=_count, default=24, metavar="N", help="views per mesh (default 24)")
+    where = b.add_mutually_exclusive_group()
+    where.add_argument("--orbit", type=_elevation, default=None, metavar="ELEVATION",
+                       help="a turntable at this elevation in degrees (the default, at 20)")
+    where.add_argument("--sphere", action="store_true", help="views spread evenly over a sphere")
+    where.add_argument("--poses", metavar="FILE", help="camera-to-world poses (OpenGL axes): an "
+                       "(n, 4, 4) .npy, or a cameras.json; --views is then their number")
+    b.add_argument("--intrinsics", metavar="K.npy", help="a (3, 3) OpenCV K for every view (default: --fov)")
+    b.add_argument("--outputs", type=_outputs, default=("color", "depth", "instance_id"),
+                   metavar="NAMES", help="comma-separated outputs (default color,depth,instance_id)")
+    b.add_argument("--formats", type=_formats, default={}, metavar="NAME=FMT,...",
+                   help="file formats by output, e.g. depth=npy,color=jpg (default: Frame.save's)")
+    b.add_argument("--size", type=_size, default=(640, 480), metavar="WxH", help="image size (default 640x480)")
+    b.add_argument("--fov", type=float, default=45.0, help="vertical field of view in degrees (default 45)")
+    b.add_argument("--workers", type=_threads, default=0, help="render threads, 0 = one per core (default)")
+    b.add_argument("--no-resume", action="store_true", help="render every view, even those already written")
+    b.add_argument("--up-axis", choices=("y", "z"), default="y", help="the files' up axis (default y)")
     return parser
+
+
+def _elevation(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected degrees, got {text!r}") from None
+    if not -90.0 <= v <= 90.0:
+        raise argparse.ArgumentTypeError(f"must be in [-90, 90] degrees, got {text!r}")
+    return v
+
+
+def _outputs(text: str) -> tuple[str, ...]:
+    names = tuple(n.strip() for n in text.split(",") if n.strip())
+    bad = [n for n in names if n not in _core.OUTPUTS]
+    if not names or bad:
+        raise argparse.ArgumentTypeError(f"unknown output {bad[0] if bad else text!r}; choose from "
+                                         f"{','.join(_core.OUTPUTS)}")
+    return names
+
+
+def _formats(text: str) -> dict[str, str]:
+    from .render import _SAVE_FORMATS
+
+    out = {}
+    for item in (t.strip() for t in text.split(",") if t.strip()):
+        name, _, fmt = item.partition("=")
+        if name not in _SAVE_FORMATS or fmt not in _SAVE_FORMATS[name]:
+            raise argparse.ArgumentTypeError(
+                f"{item!r}: expected OUTPUT=FORMAT with a format of that output "
+                f"({name}: {'/'.join(_SAVE_FORMATS.get(name, ())) or 'no such output'})")
+        out[name] = fmt
+    return out
 
 
 def frame_camera(bounds: np.ndarray, fov_y: float, width: int, height: int,
@@ -188,6 +265,90 @@ def _render(args: argparse.Namespace) -> None:
         imwrite(files[name], getattr(frame, name))
 
 
+def _batch(args: argparse.Namespace) -> None:
+    import os
+    import time
+
+    from .camera import IntrinsicsCamera, PerspectiveCamera
+    from .dataset import load_cameras, write_dataset
+    from .mesh import load_mesh
+    from .poses import orbit, sphere_poses
+    from .render import Renderer
+    from .scene import Scene
+
+    width, height = args.size
+    # Everything is checked before anything is written.
+    if not 0.0 < args.fov < 180.0:
+        raise CliError(f"--fov must be in (0, 180) degrees, got {args.fov}")
+    for path in args.meshes:
+        if not os.path.isfile(path):
+            raise CliError(f"mesh file not found: {path}")
+    stems = [os.path.splitext(os.path.basename(p))[0] for p in args.meshes]
+    if len(set(stems)) != len(stems):
+        raise CliError("two mesh files have the same name: their datasets would share a directory")
+    for name, fmt in args.formats.items():
+        if name not in args.outputs:
+            raise CliError(f"--formats: {name} is not in --outputs ({','.join(args.outputs)})")
+    poses = None
+    if args.poses is not None:
+        try:
+            if args.poses.endswith(".json"):
+                poses = np.stack([c.view_matrix() for c in load_cameras(args.poses)])
+                poses = np.linalg.inv(poses)  # camera-to-world, OpenGL axes
+            else:
+                poses = np.load(args.poses, allow_pickle=False)
+        except (OSError, ValueError) as e:
+            raise CliError(f"--poses: {e}") from None
+        if poses.ndim != 3 or poses.shape[1:] != (4, 4) or not np.isfinite(poses).all():
+            raise CliError(f"--poses: expected finite (n, 4, 4) camera-to-world poses, got shape {poses.shape}")
+    K = None
+    if args.intrinsics is not None:
+        try:
+            K = np.load(args.intrinsics, allow_pickle=False)
+        except (OSError, ValueError) as e:
+            raise CliError(f"--intrinsics: {e}") from None
+        if K.shape != (3, 3) or not np.isfinite(K).all():
+            raise CliError(f"--intrinsics: expected a finite (3, 3) K, got shape {K.shape}")
+    try:
+        os.makedirs(args.out, exist_ok=True)
+    except OSError as e:
+        raise CliError(f"--out: {e}") from None
+
+    renderer = Renderer(width, height, threads=args.workers)
+    total, start = 0, time.perf_counter()
+    for path, stem in zip(args.meshes, stems):
+        scene = Scene()
+        scene.add(load_mesh(path, up_axis=args.up_axis), instance_id=0)
+        eye, target, near, far = frame_camera(scene.bounds, args.fov, width, height)
+        radius = float(np.linalg.norm(eye - target))
+        if poses is not None:
+            view_poses = poses
+        elif args.sphere:
+            view_poses = sphere_poses(target, radius, args.views)
+        else:
+            view_poses = orbit(target, radius, args.views, elevation=20.0 if args.orbit is None else args.orbit)
+        near = min(near, 1e-3 * radius) if poses is not None else near
+        far = max(far, 10.0 * radius) if poses is not None else far
+        cams = []
+        for pose in view_poses:
+            if K is not None:
+                cam = IntrinsicsCamera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], width, height, near=near,
+                                       far=far, convention="opencv")
+                cam.pose = pose @ np.diag([1.0, -1.0, -1.0, 1.0])  # OpenGL axes -> OpenCV's
+            else:
+                cam = PerspectiveCamera(fov_y=args.fov, width=width, height=height, near=near, far=far)
+                cam.pose = pose
+            cams.append(cam)
+        directory = os.path.join(args.out, stem)
+        os.makedirs(directory, exist_ok=True)
+        write_dataset(scene, cams, directory, outputs=args.outputs, formats=args.formats,
+                      renderer=renderer, progress=True, resume=not args.no_resume)
+        total += len(cams)
+    seconds = time.perf_counter() - start
+    print(f"softrast batch: {total} views of {len(args.meshes)} mesh(es) in {seconds:.1f} s "
+          f"({total / max(seconds, 1e-9):.1f} views/s) -> {args.out}")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit status (0 ok, 2 error, 130 interrupted)."""
     parser = build_parser()
@@ -201,6 +362,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         if args.command == "render":
             _render(args)
+        elif args.command == "batch":
+            _batch(args)
     except (CliError, OSError, ValueError, TypeError, RuntimeError) as exc:
         # RuntimeError: the system refused a worker thread (Renderer names `threads`).
         print(f"softrast: error: {exc}", file=sys.stderr)
