@@ -6,7 +6,7 @@ distance along the camera's viewing axis in scene units, 0 where nothing was hit
 """
 from ._core import MAX_IMAGE_SIDE, MAX_THREADS, OUTPUT_TABLE, OUTPUTS, SUBPIXEL_BITS, TILE_SIZE_PX
 from .camera import Camera, IntrinsicsCamera, OrthographicCamera, PerspectiveCamera
-from .dataset import load_cameras, write_dataset
+from .dataset import DatasetJob, load_cameras, render_dataset, write_dataset
 from .displace import displace
 from .interop import from_pyrender
 from .io import imread, imwrite
@@ -25,6 +25,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Camera",
+    "DatasetJob",
     "DirectionalLight",
     "Frame",
     "IntrinsicsCamera",
@@ -56,6 +57,7 @@ __all__ = [
     "load_texture",
     "look_at_pose",
     "orbit",
+    "render_dataset",
     "set_memory_budget",
     "sphere_poses",
     "write_dataset",

@@ -26,6 +26,7 @@ from __future__ import annotations
 import concurrent.futures
 import json
 import os
+from dataclasses import dataclass, field
 from typing import Any, Iterable, Sequence
 
 import numpy as np
@@ -34,7 +35,7 @@ from .camera import Camera, IntrinsicsCamera, OrthographicCamera
 from .render import Frame, Renderer, _default_format
 from .scene import Scene
 
-__all__ = ["write_dataset", "load_cameras", "camera_record"]
+__all__ = ["write_dataset", "load_cameras", "camera_record", "DatasetJob", "render_dataset"]
 
 _GL_FROM_CV = np.diag([1.0, -1.0, -1.0, 1.0])
 _FORMAT = "softrast cameras 1"
@@ -104,7 +105,7 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
                   outputs: Sequence[str] = ("color", "depth", "instance_id"),
                   formats: dict[str, str] | None = None, renderer: Renderer | None = None,
                   writers: int | None = None, progress: bool = False, resume: bool = True,
-                  **options: Any) -> list[dict[str, str]]:
+                  first: int = 0, cameras_json: bool = True, **options: Any) -> list[dict[str, str]]:
     """Render ``scene`` from every camera and write each frame as ``Frame.save`` does
     (``{stem}_{output}.{ext}``, stems 000000, 000001, ...), plus ``cameras.json``; returns each
     frame's {output: path}.
@@ -115,6 +116,8 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
         rendering, at most 2 frames per writer wait to be written.
     resume : skip the views whose files all exist (a rerun after an interruption renders only
         what is missing; files are written atomically, so none is partial).
+    first : the index of the first camera's view (its stem); for a shard of a larger job.
+    cameras_json : write cameras.json (False for a shard: ``render_dataset`` writes it whole).
     options : passed to ``render`` (shading=, cull=, background=, ...).
     """
     cams = list(cameras)
@@ -140,7 +143,7 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
     if n_writers < 1:
         raise ValueError(f"writers must be >= 1, got {writers!r}")
     formats = dict(formats or {})
-    stems = [f"{k:06d}" for k in range(len(cams))]
+    stems = [f"{first + k:06d}" for k in range(len(cams))]
 
     def expected(stem: str) -> dict[str, str]:
         # the files a view's save writes (ids fall back to .tif only when they do not fit in png16)
@@ -194,9 +197,102 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
     finally:
         if bar is not None:
             bar.close()
+    paths = [done[k] for k in range(len(cams))]
+    if cameras_json:
+        _write_cameras_json(directory, cams, stems, paths)
+    return paths
+
+
+def _write_cameras_json(directory: str, cams: Sequence[Camera], stems: Sequence[str],
+                        paths: Sequence[dict[str, str]]) -> None:
     doc = {"format": _FORMAT, "conventions": _CONVENTIONS,
-           "frames": [dict(camera_record(c), stem=stems[k],
-                           files={n: os.path.basename(p) for n, p in done[k].items()})
-                      for k, c in enumerate(cams)]}
+           "frames": [dict(camera_record(c), stem=stem,
+                           files={n: os.path.basename(p) for n, p in files.items()})
+                      for c, stem, files in zip(cams, stems, paths)]}
     _atomic_json(os.path.join(directory, "cameras.json"), doc)
-    return [done[k] for k in range(len(cams))]
+
+
+@dataclass(frozen=True)
+class DatasetJob:
+    """A dataset to render: every mesh file from every camera, into ``out_dir/<mesh file
+    stem>/`` (as ``write_dataset`` writes one). Picklable: shards of it run anywhere.
+
+    meshes : mesh file paths (readable where the shards run).
+    cameras : posed cameras, each with its image size (one size for all).
+    outputs : output names; formats : {output: format} as ``Frame.save`` takes.
+    shard_size : views per shard (a shard is one mesh x a run of cameras).
+    options : ``render`` options (shading=, cull=, ...).
+    """
+
+    meshes: tuple
+    cameras: tuple
+    outputs: tuple = ("color", "depth", "instance_id")
+    out_dir: str = "."
+    formats: dict = field(default_factory=dict)
+    shard_size: int = 16
+    options: dict = field(default_factory=dict)
+
+    def __init__(self, meshes: Sequence[str | os.PathLike[str]], cameras: Sequence[Camera],
+                 outputs: Sequence[str] = ("color", "depth", "instance_id"),
+                 out_dir: str | os.PathLike[str] = ".", formats: dict[str, str] | None = None,
+                 shard_size: int = 16, **options: Any) -> None:
+        s = object.__setattr__
+        s(self, "meshes", tuple(os.fspath(m) for m in meshes))
+        s(self, "cameras", tuple(cameras))
+        s(self, "outputs", (outputs,) if isinstance(outputs, str) else tuple(outputs))
+        s(self, "out_dir", os.fspath(out_dir))
+        s(self, "formats", dict(formats or {}))
+        s(self, "shard_size", int(shard_size))
+        s(self, "options", dict(options))
+        if not self.meshes or not self.cameras:
+            raise ValueError("DatasetJob needs at least one mesh and one camera")
+        if self.shard_size < 1:
+            raise ValueError(f"shard_size must be >= 1, got {shard_size!r}")
+        stems = [os.path.splitext(os.path.basename(m))[0] for m in self.meshes]
+        if len(set(stems)) != len(stems):
+            raise ValueError("meshes: two files have the same name (their directories would clash)")
+
+    def shards(self) -> list[tuple[int, int, int]]:
+        """(mesh index, first camera, end camera) of each shard."""
+        return [(m, a, min(a + self.shard_size, len(self.cameras)))
+                for m in range(len(self.meshes)) for a in range(0, len(self.cameras), self.shard_size)]
+
+    def directory(self, m: int) -> str:
+        return os.path.join(self.out_dir, os.path.splitext(os.path.basename(self.meshes[m]))[0])
+
+
+def _render_shard(job: DatasetJob, shard: tuple[int, int, int]) -> list[dict[str, str]]:
+    """Runs one shard (in whatever process the executor gives it): load, render, write."""
+    from .mesh import load_mesh
+
+    m, a, b = shard
+    scene = Scene()
+    scene.add(load_mesh(job.meshes[m]), instance_id=0)
+    directory = job.directory(m)
+    os.makedirs(directory, exist_ok=True)
+    cams = job.cameras[a:b]
+    renderer = Renderer(cams[0].width, cams[0].height, threads=1)
+    return write_dataset(scene, cams, directory, outputs=job.outputs, formats=job.formats,
+                         renderer=renderer, first=a, cameras_json=False, **job.options)
+
+
+def render_dataset(job: DatasetJob, executor: concurrent.futures.Executor | None = None
+                   ) -> list[list[dict[str, str]]]:
+    """Run ``job``'s shards on ``executor`` (any ``concurrent.futures.Executor``: a
+    ``ProcessPoolExecutor``, or a Dask cluster's ``client.get_executor()``; None: one process,
+    here), then write each mesh's ``cameras.json``. Returns, per mesh, each view's
+    {output: path}. The files are the same, byte for byte, whichever executor runs it."""
+    os.makedirs(job.out_dir, exist_ok=True)
+    shards = job.shards()
+    if executor is None:
+        results = [_render_shard(job, s) for s in shards]
+    else:
+        futures = [executor.submit(_render_shard, job, s) for s in shards]
+        results = [f.result() for f in futures]
+    per_mesh: list[list[dict[str, str]]] = [[] for _ in job.meshes]
+    for (m, _, _), paths in zip(shards, results):
+        per_mesh[m].extend(paths)
+    stems = [f"{k:06d}" for k in range(len(job.cameras))]
+    for m in range(len(job.meshes)):
+        _write_cameras_json(job.directory(m), job.cameras, stems, per_mesh[m])
+    return per_mesh
