@@ -237,11 +237,23 @@ std::vector<py::ssize_t> output_shape(const OutputLayout& layout, int width, int
   return shape;
 }
 
-// Wraps one framebuffer output as a NumPy array that owns it (via a capsule): no copy.
-py::array hand_over(Framebuffer& fb, int index) {
+// Wraps one framebuffer output as a NumPy array that owns it (via a capsule): no copy. When the
+// array (and every view of it) is gone, its buffer goes back to the renderer's pool for the next
+// render of that size (framebuffer.hpp, BufferPool), or is freed if the pool is full.
+struct HandedOver {
+  std::shared_ptr<BufferPool> pool;
+  std::byte* data;
+  std::size_t bytes;
+};
+py::array hand_over(Framebuffer& fb, int index, const std::shared_ptr<BufferPool>& pool) {
   const OutputLayout& layout = kOutputLayouts[index];
+  const std::size_t bytes = std::size_t(fb.width) * std::size_t(fb.height) * layout.bytes_per_pixel();
   std::byte* data = fb.release(index);
-  py::capsule owner(data, [](void* p) { free_frame_buffer(static_cast<std::byte*>(p)); });
+  auto* held = new HandedOver{pool, data, bytes};
+  py::capsule owner(held, [](void* p) {
+    std::unique_ptr<HandedOver> h(static_cast<HandedOver*>(p));
+    h->pool->give(h->data, h->bytes);
+  });
   return py::array(output_dtype(layout), output_shape(layout, fb.width, fb.height), {}, data, owner);
 }
 
@@ -462,7 +474,7 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::dict& sp
   for (int i = 0; i < kNumOutputs; ++i) {
     const OutputLayout& layout = kOutputLayouts[i];
     if (!(options.outputs & layout.bit)) continue;
-    result[layout.name] = external[i] ? out_dict[layout.name] : hand_over(*fb, i);
+    result[layout.name] = external[i] ? out_dict[layout.name] : hand_over(*fb, i, self.buffer_pool());
   }
   return result;
 }

@@ -237,7 +237,9 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
                                 " bytes, over the limit of " + std::to_string(kMaxFramebufferBytes));
 
   std::lock_guard<std::mutex> lock(mutex_);
-  auto framebuffer = std::make_unique<Framebuffer>(width(), height(), options.outputs, external);
+  buffer_pool_->hold_at_least(2 * plan.bytes);
+  auto framebuffer = std::make_unique<Framebuffer>(width(), height(), options.outputs, external,
+                                                   buffer_pool_.get());
   const ClipPlanes planes(camera, width(), height());
 
   // Vertices: transform and project, parallel over blocks of every draw.

@@ -43,6 +43,10 @@ class Renderer {
                                       const RenderOptions& options,
                                       std::byte* const* external = nullptr);
 
+  // Where released output buffers wait for the next render (framebuffer.hpp): it holds up to
+  // two frames of the largest size rendered. Shared: a buffer may outlive the renderer.
+  const std::shared_ptr<BufferPool>& buffer_pool() const { return buffer_pool_; }
+
  private:
   Viewport viewport_;
   ThreadPool pool_;
@@ -56,6 +60,7 @@ class Renderer {
   // and only by workers that take part (ThreadPool::parallel_for).
   std::vector<std::unique_ptr<TileScratch>> tile_scratch_;
   std::vector<std::unique_ptr<ShadeScratch>> shade_scratch_;
+  std::shared_ptr<BufferPool> buffer_pool_ = std::make_shared<BufferPool>(0);
 };
 
 void validate_camera(const CameraParams& camera);
