@@ -76,8 +76,14 @@ def test_resume_rewrites_only_what_is_missing(tmp_path):
     read = lambda p: Path(p).read_bytes()  # noqa: E731
     before = {p: (os.stat(p).st_mtime_ns, read(p)) for d in first for p in d.values()}
     os.remove(first[2]["depth"])  # as if interrupted while writing view 2
+    # a killed run (SIGKILL) can leave hidden temporaries: they are removed, others' files are not
+    stale = [tmp_path / ".000002_depth.exr.4242-0123456789ab.tmp.exr", tmp_path / "cameras.json.4242.tmp"]
+    for p in stale:
+        p.write_bytes(b"partial")
+    (tmp_path / ".keep.tmp").write_bytes(b"not ours")
     again = sr.write_dataset(scene, cams, tmp_path, outputs=OUTPUTS)
     assert again == first
+    assert not any(p.exists() for p in stale) and (tmp_path / ".keep.tmp").exists()
     for p, (mtime, data) in before.items():
         assert read(p) == data  # the same bytes
         if not p.startswith(os.path.join(str(tmp_path), "000002_")):

@@ -94,6 +94,20 @@ def load_cameras(path: str | os.PathLike[str]) -> list[Camera]:
     return cams
 
 
+def _remove_stale_temporaries(directory: str, stems: Sequence[str]) -> None:
+    """Removes the hidden temporary files a killed run left (imwrite's ``.{file}.{pid}-{id}.tmp*``
+    and cameras.json's ``cameras.json.{pid}.tmp``) for this dataset's views: an interrupted
+    write never replaced a file, so they hold nothing."""
+    prefixes = tuple(f".{stem}_" for stem in stems)
+    for name in os.listdir(directory):
+        if (name.startswith(prefixes) and ".tmp" in name) or \
+                (name.startswith("cameras.json.") and name.endswith(".tmp")):
+            try:
+                os.remove(os.path.join(directory, name))
+            except FileNotFoundError:
+                pass
+
+
 def _atomic_json(path: str, doc: Any) -> None:
     tmp = f"{path}.{os.getpid()}.tmp"
     with open(tmp, "w", encoding="utf-8") as f:
@@ -115,7 +129,8 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
     writers : encoding threads (default: the renderer's thread count); encoding overlaps
         rendering, at most 2 frames per writer wait to be written.
     resume : skip the views whose files all exist (a rerun after an interruption renders only
-        what is missing; files are written atomically, so none is partial).
+        what is missing; files are written atomically, so none is partial; the hidden temporary
+        files a killed run can leave are removed).
     first : the index of the first camera's view (its stem); for a shard of a larger job.
     cameras_json : write cameras.json (False for a shard: ``render_dataset`` writes it whole).
     options : passed to ``render`` (shading=, cull=, background=, ...).
@@ -165,6 +180,7 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
                 return None
         return paths
 
+    _remove_stale_temporaries(directory, stems)
     done: dict[int, dict[str, str]] = {}
     todo = []
     for k, stem in enumerate(stems):
