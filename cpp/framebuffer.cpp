@@ -50,11 +50,6 @@ void BufferPool::hold_at_least(std::size_t bytes) {
   max_bytes_ = std::max(max_bytes_, bytes);
 }
 
-std::size_t BufferPool::cached_bytes() {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return cached_;
-}
-
 Framebuffer::Framebuffer(int w, int h, uint32_t out, std::byte* const* external, BufferPool* pool)
     : width(w), height(h), outputs(out) {
   for (int i = 0; i < kNumOutputs; ++i) {

@@ -120,7 +120,6 @@ class BufferPool {
   // Keeps `p` (`bytes` long, from allocate_frame_buffer) for take(), or frees it when full.
   void give(std::byte* p, std::size_t bytes);
   void hold_at_least(std::size_t bytes);  // raises the limit (never lowers it)
-  std::size_t cached_bytes();
 
  private:
   std::mutex mutex_;

@@ -527,24 +527,31 @@ class Renderer:
             raise ValueError(f"workers must be in [1, {_core.MAX_THREADS}], got {n_workers}")
         if not isinstance(progress, (bool, np.bool_)):
             raise TypeError(f"progress must be True or False, got {progress!r:.80}")
-        w, h, _, simd = self._args
-        return self._render_many(scene, cameras, outputs, bool(progress), callback, n_workers, simd,
-                                 options)
+        return self._render_many(scene, cameras, outputs, bool(progress), callback, n_workers,
+                                 self._args[3], options)
 
     def _render_many(self, scene, cameras, outputs, progress, callback, n_workers, simd, options):
         import concurrent.futures
-        import threading
+        import queue
 
-        local = threading.local()
-        w, h = self._size
         if n_workers == 1:
             render = lambda cam: self.render(scene, cam, outputs, **options)  # noqa: E731
         else:
+            # Single-threaded renderers kept on this one for later calls (their threads and
+            # scratch memory are made once); each view borrows one.
+            spares = self.__dict__.setdefault("_view_renderers", [])
+            while len(spares) < n_workers:
+                spares.append(Renderer(*self._size, threads=1, simd=simd))
+            idle: queue.SimpleQueue = queue.SimpleQueue()
+            for r in spares[:n_workers]:
+                idle.put(r)
+
             def render(cam):
-                r = getattr(local, "renderer", None)
-                if r is None:
-                    r = local.renderer = Renderer(w, h, threads=1, simd=simd)
-                return r.render(scene, cam, outputs, **options)
+                r = idle.get()
+                try:
+                    return r.render(scene, cam, outputs, **options)
+                finally:
+                    idle.put(r)
         total = len(cameras) if hasattr(cameras, "__len__") else None
         bar = None
         if progress:
