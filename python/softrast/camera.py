@@ -22,7 +22,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._checks import FLOAT32_MAX, affine_pose, choice, finite_real, image_side, positive_real, real_array
+from ._checks import FLOAT32_MAX, affine_pose, choice, finite_real, image_side, integer, positive_real, real_array
 
 __all__ = ["Camera", "PerspectiveCamera", "OrthographicCamera", "IntrinsicsCamera"]
 
@@ -70,17 +70,6 @@ def _rigid_inverse(m: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
     inv[:3, :3] = m[:3, :3].T
     inv[:3, 3] = -m[:3, :3].T @ m[:3, 3]
     return inv
-
-
-def _check_no_distortion(dist: Any) -> None:
-    if dist is None:
-        return
-    d = real_array(dist, "dist").reshape(-1)
-    if d.size not in (4, 5, 8, 12, 14):
-        raise ValueError(f"dist must hold 4, 5, 8, 12 or 14 OpenCV coefficients, got {d.size}")
-    if np.any(d != 0.0):
-        raise ValueError("dist: lens distortion is not supported yet (issue 19); pass None or zeros "
-                         f"(got {d.tolist()})")
 
 
 def _rotation(value: Any) -> npt.NDArray[np.float64]:
@@ -445,8 +434,15 @@ class IntrinsicsCamera(Camera):
     """
 
     def __init__(self, fx: float, fy: float, cx: float, cy: float, width: int, height: int,
-                 near: float = 0.05, far: float = 100.0, convention: str = "opencv") -> None:
+                 near: float = 0.05, far: float = 100.0, convention: str = "opencv",
+                 dist: npt.ArrayLike | None = None, oversample: int = 2) -> None:
         choice(convention, "convention", ("opencv", "opengl"))
+        from .distortion import check_dist
+
+        self._dist = check_dist(dist)
+        self._oversample = integer(oversample, "oversample")
+        if not 1 <= self._oversample <= 16:
+            raise ValueError(f"oversample must be an int in [1, 16], got {oversample!r}")
         w = _image_side(width, "width", optional=False)
         h = _image_side(height, "height", optional=False)
         super().__init__(near, far, w, h)
@@ -468,6 +464,77 @@ class IntrinsicsCamera(Camera):
     def fx(self) -> float:
         return self._fx
 
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickled without the rays a distorted render cached (rebuilt on use)."""
+        state = self.__dict__.copy()
+        state.pop("_rays_cache", None)
+        return state
+
+    @property
+    def dist(self) -> npt.NDArray[np.float64] | None:
+        """OpenCV distortion coefficients (k1, k2, p1, p2, k3[, k4, k5, k6[, s1, s2, s3, s4]]), as
+        few as hold every non-zero one (at least five), or None: an ideal pinhole."""
+        if self._dist is None:
+            return None
+        n = 5 if not self._dist[5:].any() else 8 if not self._dist[8:].any() else 12
+        return self._dist[:n].copy()
+
+    @property
+    def dist_coefficients(self) -> npt.NDArray[np.float64] | None:
+        """All 12 coefficients (read-only), or None without distortion."""
+        return self._dist
+
+    @property
+    def oversample(self) -> int:
+        """With ``dist``: the ideal view a render samples is this many times finer than the
+        output (``softrast.distortion``); a silhouette is placed to 0.71 / oversample pixels."""
+        return self._oversample
+
+    def project(self, points: npt.ArrayLike, width: int | None = None,
+                height: int | None = None) -> npt.NDArray[np.float64]:
+        """(n, 2) float64 OpenCV pixel coordinates (u, v) of (n, 3) world points, lens distortion
+        included (``cv2.projectPoints`` with ``to_opencv()``'s K, R, t, dist); points on or behind
+        the camera plane give NaN."""
+        if self._dist is None:
+            return super().project(points, width, height)
+        from .distortion import distort
+
+        pts = real_array(points, "points")
+        if pts.ndim != 2 or pts.shape[1] != 3:
+            raise ValueError(f"points must have shape (n, 3), got {pts.shape}")
+        self.projection_matrix(width, height)  # checks the size: K is for one image size
+        k, rot, t, _ = self.to_opencv()
+        cam = pts @ rot.T + t
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xd, yd = distort(cam[:, 0] / cam[:, 2], cam[:, 1] / cam[:, 2], self._dist)
+        uv = np.c_[k[0, 0] * xd + k[0, 2], k[1, 1] * yd + k[1, 2]]
+        uv[~(cam[:, 2] > 0)] = np.nan
+        return uv
+
+    def unproject(self, depth: npt.ArrayLike, space: str = "world") -> npt.NDArray[np.float64]:
+        if self._dist is None:
+            return super().unproject(depth, space)
+        from .distortion import undistort
+
+        choice(space, "space", ("world", "camera"))
+        d = real_array(depth, "depth")
+        if d.ndim != 2 or d.size == 0:
+            raise ValueError(f"depth must be a non-empty (h, w) image, got shape {d.shape}")
+        if not (np.isfinite(d).all() and (d >= 0).all()):
+            raise ValueError("depth must be finite and >= 0 (0 = background)")
+        h, w = d.shape
+        self.projection_matrix(w, h)  # checks the size: K is for one image size
+        k, rot, t, _ = self.to_opencv()
+        j, i = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
+        x, y, valid = undistort((j - k[0, 2]) / k[0, 0], (i - k[1, 2]) / k[1, 1], self._dist)
+        cv = np.stack([np.where(valid, x, 0.0) * d, np.where(valid, y, 0.0) * d, d], axis=-1)
+        cv[(d == 0) | ~valid] = 0.0
+        if space == "camera":
+            return cv if self._convention == "opencv" else cv * np.array([1.0, -1.0, -1.0])
+        world = (cv - t) @ rot  # R^T (x - t)
+        world[(d == 0) | ~valid] = 0.0
+        return world
+
     @property
     def fy(self) -> float:
         return self._fy
@@ -483,7 +550,7 @@ class IntrinsicsCamera(Camera):
     @classmethod
     def from_opencv(cls, K: npt.ArrayLike, rvec_or_R: npt.ArrayLike, tvec: npt.ArrayLike,  # noqa: N803
                     width: int, height: int, dist: npt.ArrayLike | None = None,
-                    near: float = 0.05, far: float = 100.0) -> "IntrinsicsCamera":
+                    near: float = 0.05, far: float = 100.0, oversample: int = 2) -> "IntrinsicsCamera":
         """A camera from an OpenCV calibration: ``x_cam = R @ X_world + t``, pixel ``K @ x_cam``.
 
         K : (3, 3) [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] in OpenCV's pixel coordinates (pixel
@@ -492,9 +559,11 @@ class IntrinsicsCamera(Camera):
             return it) or a (3, 3) rotation matrix, world-to-camera.
         tvec : 3 numbers, world-to-camera translation (OpenCV's ``tvec``).
         width, height : the image size K was calibrated for, pixels.
-        dist : OpenCV distortion coefficients (k1, k2, p1, p2[, k3[, k4, k5, k6]]); only None or
-            all zeros for now: lens distortion is not supported yet (issue 19), a non-zero
-            coefficient raises ValueError.
+        dist : OpenCV distortion coefficients (k1, k2, p1, p2[, k3[, k4, k5, k6[, s1, s2, s3,
+            s4[, tauX, tauY]]]]), or None; renders see through the distorted lens
+            (``softrast.distortion``; a tilted sensor, tauX or tauY non-zero, is refused).
+        oversample : with ``dist``, how much finer than the output the ideal view is sampled
+            (default 2; see ``softrast.distortion``).
         near, far : clipping distances along the viewing axis (scene units).
 
         Returns an ``IntrinsicsCamera(convention="opencv")`` whose pose is the inverse of [R | t]:
@@ -509,13 +578,12 @@ class IntrinsicsCamera(Camera):
         if k[0, 1] != 0.0 or k[1, 0] != 0.0 or k[2, 0] != 0.0 or k[2, 1] != 0.0 or k[2, 2] != 1.0:
             raise ValueError("K must be [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] (no skew), got "
                              f"{k.tolist()}")
-        _check_no_distortion(dist)
         rot = _rotation(rvec_or_R)
         t = real_array(tvec, "tvec").reshape(-1)
         if t.shape != (3,) or not np.isfinite(t).all():
             raise ValueError(f"tvec must be 3 finite numbers, got {np.asarray(tvec).tolist()}")
         cam = cls(k[0, 0], k[1, 1], k[0, 2], k[1, 2], width, height, near=near, far=far,
-                  convention="opencv")
+                  convention="opencv", dist=dist, oversample=oversample)
         pose = np.eye(4)
         pose[:3, :3] = rot.T
         pose[:3, 3] = -rot.T @ t
@@ -525,15 +593,16 @@ class IntrinsicsCamera(Camera):
     def to_opencv(self) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64],
                                  npt.NDArray[np.float64], npt.NDArray[np.float64]]:
         """(K, R, t, dist) for OpenCV: ``x_cam = R @ X_world + t``, pixels ``K @ x_cam``, (3, 3),
-        (3, 3), (3,) and (5,) float64; ``cv2.Rodrigues(R)[0]`` gives an ``rvec``. ``dist`` is
-        zeros (softrast renders an ideal pinhole). Works for either ``convention``: an "opengl"
+        (3, 3), (3,) and (5,) (or (8,), (12,)) float64; ``cv2.Rodrigues(R)[0]`` gives an ``rvec``.
+        ``dist`` is the camera's (``dist``), zeros for an ideal pinhole. Works for either ``convention``: an "opengl"
         camera's principal point is shifted by half a pixel to OpenCV's pixel-centre coordinates
         and its pose's y and z axes flipped, so the same world point lands on the same pixel.
         """
         half = 0.0 if self._convention == "opencv" else 0.5
         k = np.array([[self._fx, 0.0, self._cx - half], [0.0, self._fy, self._cy - half], [0.0, 0.0, 1.0]])
         view_cv = _GL_FROM_CV @ self.view_matrix()  # world -> OpenCV camera axes
-        return k, view_cv[:3, :3].copy(), view_cv[:3, 3].copy(), np.zeros(5)
+        dist = self.dist
+        return k, view_cv[:3, :3].copy(), view_cv[:3, 3].copy(), np.zeros(5) if dist is None else dist
 
     def projection_matrix(self, width: int | None = None, height: int | None = None) -> npt.NDArray[np.float64]:
         w, h = self._render_size(width, height)

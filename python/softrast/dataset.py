@@ -13,6 +13,7 @@ skips the views whose files are all there (``resume``).
      "frames": [{"stem": "000000", "width": 640, "height": 480, "near": 0.05, "far": 100.0,
                  "orthographic": false,
                  "K": [[fx, 0, cx], [0, fy, cy], [0, 0, 1]],      # OpenCV; null if orthographic
+                 "dist": [k1, k2, p1, p2, k3, ...],               # OpenCV; null if none
                  "xmag": null, "ymag": null,                      # orthographic half-extents
                  "pose_opencv": 4x4,   # camera-to-world, axes x right, y down, z forward
                  "pose_opengl": 4x4,   # camera-to-world, axes x right, y up, z backward
@@ -52,13 +53,15 @@ def camera_record(camera: Camera, width: int | None = None, height: int | None =
     pose_cv = camera.pose @ _GL_FROM_CV if camera.convention == "opengl" else camera.pose
     pose_gl = pose_cv @ _GL_FROM_CV
     rec: dict[str, Any] = {"width": w, "height": h, "near": camera.near, "far": camera.far,
-                           "orthographic": bool(camera.orthographic), "K": None, "xmag": None,
-                           "ymag": None}
+                           "orthographic": bool(camera.orthographic), "K": None, "dist": None,
+                           "xmag": None, "ymag": None}
     if camera.orthographic:
         p = camera.projection_matrix(w, h)
         rec["xmag"], rec["ymag"] = 1.0 / p[0, 0], 1.0 / p[1, 1]
     else:
         rec["K"] = camera.intrinsics(w, h).tolist()
+        dist = getattr(camera, "dist", None)
+        rec["dist"] = None if dist is None else dist.tolist()
     rec["pose_opencv"] = pose_cv.tolist()
     rec["pose_opengl"] = pose_gl.tolist()
     return rec
@@ -86,7 +89,8 @@ def load_cameras(path: str | os.PathLike[str]) -> list[Camera]:
             else:
                 K = np.asarray(rec["K"], dtype=np.float64)
                 cam = IntrinsicsCamera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], rec["width"], rec["height"],
-                                       near=rec["near"], far=rec["far"], convention="opencv")
+                                       near=rec["near"], far=rec["far"], convention="opencv",
+                                       dist=rec.get("dist"))
                 cam.pose = np.asarray(rec["pose_opencv"], dtype=np.float64)
         except (KeyError, TypeError, ValueError, IndexError) as e:
             raise ValueError(f"{p}: frame {k} is not a valid camera record: {e}") from e

@@ -482,6 +482,13 @@ class Renderer:
         if not 0.0 <= ambient_f <= 1.0:  # NaN fails too
             raise ValueError(f"ambient must be in [0, 1], got {ambient!r}")
 
+        if getattr(camera, "_dist", None) is not None:  # an IntrinsicsCamera with lens distortion
+            from .distortion import render_distorted
+
+            return render_distorted(self, scene, camera, names, {
+                "cull": cull, "shading": shading, "background": background, "ambient": ambient,
+                "shading_path": shading_path, "frequency": frequency, "srgb": srgb,
+                "texture_filter": texture_filter, "normal_space": normal_space}, out)
         out_arrays = _out_arrays(out, names)
         new = names if not out_arrays else [n for n in names if n not in out_arrays]  # out= reused
         if new:
