@@ -162,7 +162,6 @@ class _Rays:
         jj, ii = np.meshgrid(np.arange(width, dtype=np.float64), np.arange(height, dtype=np.float64))
         x, y, valid = undistort((jj - cx) / fx, (ii - cy) / fy, camera.dist_coefficients)
         self.valid = valid
-        self.x, self.y = x, y
         if not valid.any():
             raise ValueError("dist: no pixel of this camera sees anything (the distortion model "
                              "has no undistorted point for any pixel centre)")
@@ -182,31 +181,30 @@ class _Rays:
         # Pixel jj of the ideal view has its centre at u = u0 - 1/2 + (jj + 1/2) / s, so its
         # OpenCV K has fx * s and cx' = s (cx - u0 + 1/2) - 1/2.
         cxs, cys = s * (cx - u0 + 0.5) - 0.5, s * (cy - v0 + 0.5) - 0.5
-        self._sample_to_normalized = (1.0 / (s * fx), -cxs / (s * fx), 1.0 / (s * fy), -cys / (s * fy))
+        self.sample_to_normalized = (1.0 / (s * fx), -cxs / (s * fx), 1.0 / (s * fy), -cys / (s * fy))
         half = 0.0 if camera.convention == "opencv" else 0.5  # an "opengl" K is measured from the corner
         self.camera = IntrinsicsCamera(fx * s, fy * s, cxs + half, cys + half, self.width, self.height,
                                        near=camera.near, far=camera.far, convention=camera.convention)
         us, vs = s * (u - u0 + 0.5) - 0.5, s * (v - v0 + 0.5) - 0.5  # ray positions in the view
         us, vs = np.where(valid, us, 0.0), np.where(valid, vs, 0.0)
-        self.nearest = (np.clip(np.floor(vs + 0.5), 0, self.height - 1).astype(np.intp) * self.width
-                        + np.clip(np.floor(us + 0.5), 0, self.width - 1).astype(np.intp))
+        # Flat per-pixel arrays for the core's passes (_core._distortion_resolve / _bilinear).
+        self.valid_flat = np.ascontiguousarray(valid.reshape(-1))
+        self.nearest = (np.clip(np.floor(vs + 0.5), 0, self.height - 1).astype(np.int64) * self.width
+                        + np.clip(np.floor(us + 0.5), 0, self.width - 1).astype(np.int64)).reshape(-1)
         j0, i0 = np.floor(us), np.floor(vs)
-        fu, fv = (us - j0).astype(np.float32)[..., None], (vs - i0).astype(np.float32)[..., None]
+        fu, fv = (us - j0).astype(np.float32).reshape(-1), (vs - i0).astype(np.float32).reshape(-1)
         one = np.float32(1.0)
-        self.weights = ((one - fu) * (one - fv), fu * (one - fv), (one - fu) * fv, fu * fv)
-        j0 = np.clip(j0, 0, self.width - 2).astype(np.intp)
-        i0 = np.clip(i0, 0, self.height - 2).astype(np.intp)
-        self.corner = i0 * self.width + j0  # top-left of the bilinear 2x2
-        # The rays in world space (through OpenCV camera axes), from the camera centre.
-        self.directions_cv = np.stack([np.where(valid, x, 0.0), np.where(valid, y, 0.0),
-                                       np.ones_like(x)], axis=-1)
+        self.weights = np.stack([(one - fu) * (one - fv), fu * (one - fv), (one - fu) * fv, fu * fv])
+        j0 = np.clip(j0, 0, self.width - 2).astype(np.int64)
+        i0 = np.clip(i0, 0, self.height - 2).astype(np.int64)
+        self.corner = (i0 * self.width + j0).reshape(-1)  # top-left of the bilinear 2x2
+        # Each pixel's ray in OpenCV camera axes, (x', y', 1).
+        self.directions = np.ascontiguousarray(np.stack(
+            [np.where(valid, x, 0.0), np.where(valid, y, 0.0), np.ones_like(x)], axis=-1).reshape(-1, 3))
+        self.view_size = self.width * self.height
 
-
-    def sample_directions(self, samples: npt.NDArray[Any]) -> npt.NDArray[np.float64]:
-        """(n, 3) rays (OpenCV camera axes, z = 1) through the centres of ideal-view samples."""
-        i, j = np.divmod(samples, self.width)
-        ax, bx, ay, by = self._sample_to_normalized
-        return np.stack([j * ax + bx, i * ay + by, np.ones(samples.size)], axis=-1)
+    def core_args(self) -> tuple[Any, ...]:
+        return (self.valid_flat, self.nearest, self.corner, self.directions, self.width, self.view_size)
 
 
 def _rays(camera: Any, width: int, height: int) -> _Rays:
@@ -239,7 +237,7 @@ def _shadow_scene(scene: Any) -> Any:
 
 _REFINED = ("depth", "ray_depth", "position", "barycentric")
 _BILINEAR = ("color", "radiance")
-_HIT_TOLERANCE = 1e-9  # barycentric slack of a ray on a shared edge
+_GL_FROM_CV = np.diag([1.0, -1.0, -1.0, 1.0])
 
 
 def render_distorted(renderer: Any, scene: Any, camera: Any, names: Any, options: dict[str, Any],
@@ -267,23 +265,28 @@ def render_distorted(renderer: Any, scene: Any, camera: Any, names: Any, options
     frame = big.render(view_scene, rays.camera, inner, **options)
 
     valid = rays.valid
-    flat = {n: getattr(frame, n).reshape(rays.width * rays.height, -1) for n in inner}
-    hits = _resolve(scene, camera, rays, flat) if resolve else None
+    hits = None
+    if resolve:
+        surface = any(n in _REFINED for n in wanted)
+        pose_cv = camera.pose if camera.convention == "opencv" else camera.pose @ _GL_FROM_CV
+        hits = _core._distortion_resolve(
+            *rays.core_args(), rays.sample_to_normalized, frame.triangle_id, frame.instance_id,
+            [(inst.mesh._core_data(), tuple(inst.pose.reshape(-1))) for inst in scene._instances],
+            tuple(pose_cv[:3, :3].reshape(-1)), tuple(pose_cv[:3, 3]), surface)
     table = {row["name"]: row for row in _core.OUTPUT_TABLE}
     result: dict[str, np.ndarray] = {}
     for name in wanted:
         row = table[name]
         shape = (h, w) + ((row["channels"],) if row["channels"] > 1 else ())
-        src = flat[name]
+        src = getattr(frame, name)
         if name in _BILINEAR:
-            c, wt = rays.corner, rays.weights
-            value = (src[c] * wt[0] + src[c + 1] * wt[1]) + (src[c + rays.width] * wt[2]
-                                                             + src[c + rays.width + 1] * wt[3])
-            if name == "color":
-                value = np.floor(value + np.float32(0.5))
-            value = value.astype(row["dtype"]).reshape(shape)
+            value = np.empty(shape, row["dtype"])
+            _core._distortion_bilinear(*rays.core_args(), rays.weights, src, value)
+        elif name in _REFINED:
+            value = hits[name].astype(row["dtype"]).reshape(shape)
+            value[~hits["covered"].reshape(h, w)] = 0
         else:
-            value = src[hits.sample].astype(row["dtype"], copy=False).reshape(shape)
+            value = np.take(src.reshape(rays.view_size, -1), hits["sample"], axis=0).reshape(shape)
         if name == "color":
             bg = np.floor(np.clip(np.asarray(options["background"], np.float32), 0, 1) * np.float32(255.0)
                           + np.float32(0.5)).astype(np.uint8)
@@ -296,16 +299,6 @@ def render_distorted(renderer: Any, scene: Any, camera: Any, names: Any, options
         else:
             value[~valid] = row["background"]
         result[name] = value
-    if hits is not None:
-        rows, cols = hits.rows, hits.cols
-        if "depth" in result:
-            result["depth"][rows, cols] = hits.t
-        if "ray_depth" in result:
-            result["ray_depth"][rows, cols] = hits.ray_depth
-        if "position" in result:
-            result["position"][rows, cols] = hits.position
-        if "barycentric" in result:
-            result["barycentric"][rows, cols] = hits.barycentric
     out_arrays = _out_arrays(out, wanted)
     if out_arrays:
         for name, arr in out_arrays.items():
@@ -316,120 +309,3 @@ def render_distorted(renderer: Any, scene: Any, camera: Any, names: Any, options
             arr[...] = mine
             result[name] = arr
     return Frame(result)
-
-
-def _cross(a: npt.NDArray[np.float64], b: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-    """Row-wise cross products of (n, 3) arrays (np.cross is several times slower on these)."""
-    out = np.empty_like(a)
-    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
-    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
-    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    return out
-
-
-def _dot(a: npt.NDArray[np.float64], b: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-    return np.einsum("ij,ij->i", a, b)
-
-
-def _intersect(scene: Any, index: npt.NDArray[Any], face: npt.NDArray[Any], dirs: npt.NDArray[np.float64],
-               centre: npt.NDArray[np.float64]) -> tuple[Any, Any, Any]:
-    """Rays from ``centre`` along ``dirs`` against instance ``index``'s face ``face`` (float64,
-    Moeller-Trumbore, relative to the camera centre so that far scenes keep their digits):
-    (t, the face's barycentric weights of the ray's point on its plane, its posed corners)."""
-    n = index.size
-    t = np.full(n, np.nan)
-    bary = np.zeros((n, 3))
-    corners = np.zeros((n, 3, 3))
-    for k in np.unique(index):
-        sel = np.nonzero(index == k)[0]
-        inst = scene._instances[int(k)]
-        local = inst.mesh.positions[inst.mesh.faces[face[sel]]].astype(np.float64)  # (m, 3, 3)
-        world = local @ inst.pose[:3, :3].T + (inst.pose[:3, 3] - centre)
-        e1, e2 = world[:, 1] - world[:, 0], world[:, 2] - world[:, 0]
-        d = dirs[sel]
-        pvec = _cross(d, e2)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            inv = 1.0 / _dot(e1, pvec)
-            tvec = -world[:, 0]
-            b1 = _dot(tvec, pvec) * inv
-            qvec = _cross(tvec, e1)
-            b2 = _dot(d, qvec) * inv
-            t[sel] = _dot(e2, qvec) * inv
-        bary[sel] = np.stack([1.0 - b1 - b2, b1, b2], axis=-1)
-        corners[sel] = world
-    return t, bary, corners
-
-
-class _Hits:
-    """Per covered output pixel (rows, cols): the sample whose outputs it takes (``sample``, for
-    every pixel) and its surface point on the pixel's own ray."""
-
-    sample: npt.NDArray[Any]
-    rows: npt.NDArray[Any]
-    cols: npt.NDArray[Any]
-    t: npt.NDArray[np.float64]
-    ray_depth: npt.NDArray[np.float64]
-    position: npt.NDArray[np.float64]
-    barycentric: npt.NDArray[np.float64]
-
-
-def _resolve(scene: Any, camera: Any, rays: _Rays, flat: dict[str, np.ndarray]) -> _Hits:
-    """Which surface each output pixel sees, on its own ray.
-
-    The candidates are the triangles of the sample nearest the ray's point in the ideal view
-    and of the four around it (bilinear's). The pixel sees the nearest one its ray hits
-    (float64); when the ray hits none of them (it passes beside a silhouette, or through a
-    triangle smaller than a sample), it keeps the nearest sample's triangle at that sample's
-    point: off the pixel's ray by at most half a sample diagonal, the silhouette bound."""
-    tri = flat["triangle_id"].reshape(-1)
-    idx = flat["instance_id"].reshape(-1)
-    pose_cv = camera.pose if camera.convention == "opencv" else camera.pose @ np.diag([1.0, -1.0, -1.0, 1.0])
-    centre, rot = pose_cv[:3, 3], pose_cv[:3, :3]
-    valid = rays.valid.reshape(-1)
-    nearest = rays.nearest.reshape(-1)
-    corner = rays.corner.reshape(-1)
-    rw = rays.width
-    sample = nearest.copy()
-    candidates = valid & ((tri[nearest] >= 0) | (tri[corner] >= 0) | (tri[corner + 1] >= 0)
-                          | (tri[corner + rw] >= 0) | (tri[corner + rw + 1] >= 0))
-    pix = np.nonzero(candidates)[0]
-    dirs = rays.directions_cv.reshape(-1, 3)[pix] @ rot.T  # world space, unit camera-z component
-    best_t = np.full(pix.size, np.inf)
-    best_b = np.zeros((pix.size, 3))
-    found = np.zeros(pix.size, bool)
-    for k, cand in enumerate((nearest, corner, corner + 1, corner + rw, corner + rw + 1)):
-        c = cand[pix]
-        # the nearest sample for all; its neighbours only where the nearest one's triangle missed
-        todo = np.nonzero((tri[c] >= 0) & (~found if k else True))[0]
-        if not todo.size:
-            continue
-        t, b, _ = _intersect(scene, idx[c[todo]], tri[c[todo]], dirs[todo], centre)
-        hit = (b >= -_HIT_TOLERANCE).all(axis=1) & (t > 0.0) & (t < best_t[todo])
-        sel = todo[hit]
-        best_t[sel], best_b[sel], sample[pix[sel]] = t[hit], b[hit], c[sel]
-        found[sel] = True
-    # Missed every candidate: the nearest sample's triangle (if any), at the sample's own point
-    # (its centre's ray meets the triangle: it covered it), at most half a sample diagonal away.
-    miss = np.nonzero(~found & (tri[nearest[pix]] >= 0))[0]
-    chosen = nearest[pix[miss]]
-    ray = rays.sample_directions(chosen) @ rot.T
-    t, b, corners = _intersect(scene, idx[chosen], tri[chosen], ray, centre)
-    grazing = ~np.isfinite(t)  # a ray in the triangle's plane: its centroid
-    b[grazing] = 1.0 / 3.0
-    b = np.clip(b, 0.0, 1.0)  # the vertex snap can leave a sample's ray just outside its triangle
-    b /= b.sum(axis=1, keepdims=True)
-    point = np.einsum("ij,ijk->ik", b, corners)  # relative to the camera centre
-    exact = ~grazing & (t > 0.0)
-    point[exact] = t[exact, None] * ray[exact]
-
-    found_at = np.nonzero(found)[0]
-    keep = np.concatenate([found_at, miss])
-    hits = _Hits()
-    hits.sample = sample.reshape(rays.valid.shape)
-    hits.rows, hits.cols = np.divmod(pix[keep], rays.valid.shape[1])
-    hits.barycentric = np.concatenate([best_b[found_at], b])
-    points = np.concatenate([best_t[found_at, None] * dirs[found_at], point])  # camera-centred
-    hits.position = points + centre
-    hits.t = points @ rot[:, 2]  # along the viewing axis (OpenCV's +z)
-    hits.ray_depth = np.sqrt(np.einsum("ij,ij->i", points, points))
-    return hits
