@@ -26,6 +26,9 @@ table, not across runs):
             core's sr::Renderer::render, so Python is left out): repeatable under any load. With
             --ab-old PATH also the Lambert rows' instructions, old build (softrast importable
             from PATH) vs this checkout's python/
+  distortion issue 19: a camera with lens distortion (a strong barrel, oversample 1, 2, 4)
+            against the same camera without it, ico6 at 640x480: colour only (bilinear gathers),
+            colour+depth and every geometric output (each pixel's ray resolved in float64)
   overhead  Python cost per call: a 1x1 render of a 1-triangle scene
   memory    peak RSS of rendering the 1.3M-face sphere at 1024x1024 (a fresh subprocess) against
             the mesh's own arrays plus the framebuffers
@@ -56,7 +59,7 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FOV_Y_DEG, NEAR, FAR = 45.0, 0.05, 100.0
 SILHOUETTE_FRACTION = 0.8  # as bench_vs_pyrender.py: the sphere spans 0.8 of the image height
 ALL_OUTPUTS = sr.OUTPUTS
-SECTIONS = ("faces", "pixels", "outputs", "paths", "order", "threads", "lit", "litcg", "textures",
+SECTIONS = ("faces", "pixels", "outputs", "paths", "order", "threads", "lit", "litcg", "textures", "distortion",
             "overhead", "memory", "callgrind")
 
 
@@ -519,6 +522,34 @@ def section_litcg(opts):
             n2 = new_res[k_srgb][0]
             k_srgb += 1
             print(f"{label + ' sRGB':<30}{o:>14,.0f}{n2:>14,.0f}{n2 / o:>9.4f}")
+
+
+class DistortionJob(Job):
+    """ico6 at 640x480 through an IntrinsicsCamera with (or without) a strong barrel distortion."""
+
+    def __init__(self, key, dist, oversample, outputs):
+        super().__init__(key, 6, 640, 480, outputs=outputs)
+        K = np.array([[420.0, 0.0, 319.5], [0.0, 420.0, 239.5], [0.0, 0.0, 1.0]])
+        self.cam = sr.IntrinsicsCamera.from_opencv(K, np.zeros(3), np.zeros(3), 640, 480, dist=dist, near=NEAR,
+                                                   far=FAR, oversample=oversample)
+        self.cam.look_at(eye=(0.0, 0.0, 0.8 * camera_distance()), target=(0.0, 0.0, 0.0), up=(0.0, 1.0, 0.0))
+        self.kwargs = dict(outputs=outputs)
+        self.frame = self.renderer.render(self.scene, self.cam, **self.kwargs)
+
+
+def section_distortion(opts):
+    print("\n## Lens distortion (issue 19): ico6 640x480, strong barrel (k1 -0.3, k2 0.1), 2 threads, out=")
+    barrel = np.array([-0.3, 0.1, 0.0005, -0.0005, -0.02])
+    outs = {"color": ("color",), "c+d": ("color", "depth"),
+            "geometry": ("depth", "normal", "triangle_id", "instance_id", "position", "barycentric")}
+    cams = [("pinhole", None, 1), ("dist s=1", barrel, 1), ("dist s=2", barrel, 2), ("dist s=4", barrel, 4)]
+    jobs = [DistortionJob((c, o), d, s, outs[o]) for c, d, s in cams for o in outs]
+    run_interleaved(jobs, opts.target, opts.rounds)
+    by = {j.key: j for j in jobs}
+    print(f"{'camera':<12}" + "".join(f"{o + ' ms':>14}{'x pinhole':>11}" for o in outs))
+    for c, _, _ in cams:
+        print(f"{c:<12}" + "".join(f"{by[(c, o)].ms:>14.2f}{by[(c, o)].ms / by[('pinhole', o)].ms:>11.1f}"
+                                   for o in outs))
 
 
 def section_overhead(opts):
