@@ -505,11 +505,11 @@ DistortionRays distortion_rays(const py::array& valid, const py::array& nearest,
   rays.corner = checked<int64_t>(corner, "corner", rays.n, 0);
   rays.directions = checked<double>(directions, "directions", rays.n, 3);
   std::copy(sample_to_normalized.begin(), sample_to_normalized.end(), rays.sample_to_normalized);
-  for (int64_t p = 0; p < rays.n; ++p)  // every index a gather or the resolve reads is in the view
-    if (rays.valid[p] && (rays.nearest[p] < 0 || rays.nearest[p] >= view_size || rays.corner[p] < 0 ||
-                          rays.corner[p] % view_width == view_width - 1 ||
-                          rays.corner[p] + view_width + 1 >= view_size))
-      throw py::value_error("nearest / corner: index outside the view");
+  bool inside = true;  // every index a gather or the resolve reads is in the view
+  for (int64_t p = 0; p < rays.n; ++p)
+    inside &= !rays.valid[p] || (rays.nearest[p] >= 0 && rays.nearest[p] < view_size && rays.corner[p] >= 0 &&
+                                 rays.corner[p] + view_width + 1 < view_size);
+  if (!inside) throw py::value_error("nearest / corner: index outside the view");
   return rays;
 }
 
@@ -518,7 +518,7 @@ py::dict distortion_resolve(const py::array& valid, const py::array& nearest, co
                             const std::array<double, 4>& sample_to_normalized, const py::array& triangle_id,
                             const py::array& instance_id, const py::list& instances,
                             const std::array<double, 9>& camera_to_world, const std::array<double, 3>& centre,
-                            bool surface) {
+                            bool surface, int threads) {
   const DistortionRays rays = distortion_rays(valid, nearest, corner, directions, view_width, view_size,
                                               sample_to_normalized);
   const int32_t* tri = checked<int32_t>(triangle_id, "triangle_id", view_size / view_width, view_width);
@@ -560,7 +560,8 @@ py::dict distortion_resolve(const py::array& valid, const py::array& nearest, co
   }
   {
     py::gil_scoped_release release;
-    resolve_distorted(rays, tri, inst, ray_instances, rot, dvec3(centre[0], centre[1], centre[2]), hits);
+    resolve_distorted(rays, tri, inst, std::move(ray_instances), rot, dvec3(centre[0], centre[1], centre[2]),
+                      hits, threads);
   }
   return result;
 }
@@ -730,7 +731,7 @@ PYBIND11_MODULE(_core, m) {
   // Lens distortion's per-pixel passes (python/softrast/distortion.py), hence the underscores.
   m.def("_distortion_resolve", &distortion_resolve, "valid"_a, "nearest"_a, "corner"_a, "directions"_a,
         "view_width"_a, "view_size"_a, "sample_to_normalized"_a, "triangle_id"_a, "instance_id"_a,
-        "instances"_a, "camera_to_world"_a, "centre"_a, "surface"_a,
+        "instances"_a, "camera_to_world"_a, "centre"_a, "surface"_a, "threads"_a,
         "Per output pixel: the view sample it takes and, with surface, its point on its own ray.");
   m.def("_distortion_bilinear", &distortion_bilinear, "valid"_a, "nearest"_a, "corner"_a, "directions"_a,
         "view_width"_a, "view_size"_a, "weights"_a, "src"_a, "out"_a,

@@ -26,6 +26,10 @@ struct DistortionRays {
 struct RayInstance {
   const MeshData* mesh = nullptr;
   dmat4 model{1.0};  // model -> world
+  // Set by resolve_distorted: the inverse of model's 3x3 (0 if singular) and the camera centre
+  // in model space.
+  dmat3 inverse_linear{1.0};
+  dvec3 origin{0.0};
 };
 
 // Per output pixel: the view sample whose outputs it takes (the nearest one where nothing covers
@@ -40,11 +44,12 @@ struct DistortionHits {
 };
 
 // camera_to_world: OpenCV camera axes to world (its columns), centre: the camera centre. The
-// triangle and instance ids are the view's outputs (-1 = background). Throws
-// std::invalid_argument for an id that names no instance or face.
+// triangle and instance ids are the view's outputs (-1 = background). On `threads` threads
+// (each writes its own pixels: the same bits for any count). Throws std::invalid_argument for
+// an id that names no instance or face.
 void resolve_distorted(const DistortionRays& rays, const int32_t* triangle_id, const int32_t* instance,
-                       const std::vector<RayInstance>& instances, const dmat3& camera_to_world,
-                       const dvec3& centre, const DistortionHits& hits);
+                       std::vector<RayInstance> instances, const dmat3& camera_to_world,
+                       const dvec3& centre, const DistortionHits& hits, int threads);
 
 // out[p] = (s[c] w0 + s[c + 1] w1) + (s[c + W] w2 + s[c + W + 1] w3) per channel, c = corner[p],
 // in float32; for uint8 rounded half up. Pixels without a ray are left alone.

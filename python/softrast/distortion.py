@@ -272,7 +272,7 @@ def render_distorted(renderer: Any, scene: Any, camera: Any, names: Any, options
         hits = _core._distortion_resolve(
             *rays.core_args(), rays.sample_to_normalized, frame.triangle_id, frame.instance_id,
             [(inst.mesh._core_data(), tuple(inst.pose.reshape(-1))) for inst in scene._instances],
-            tuple(pose_cv[:3, :3].reshape(-1)), tuple(pose_cv[:3, 3]), surface)
+            tuple(pose_cv[:3, :3].reshape(-1)), tuple(pose_cv[:3, 3]), surface, renderer.threads)
     table = {row["name"]: row for row in _core.OUTPUT_TABLE}
     result: dict[str, np.ndarray] = {}
     for name in wanted:
