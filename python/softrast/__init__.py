@@ -8,7 +8,7 @@ from ._core import MAX_IMAGE_SIDE, MAX_THREADS, OUTPUT_TABLE, OUTPUTS, SUBPIXEL_
 from .camera import Camera, IntrinsicsCamera, OrthographicCamera, PerspectiveCamera
 from .dataset import DatasetJob, load_cameras, render_dataset, write_dataset
 from .displace import displace
-from .interop import from_pyrender
+from .interop import from_pyrender, to_pyrender
 from .io import imread, imwrite
 from .light import DirectionalLight, Light, PointLight, SpotLight
 from .limits import get_memory_budget, set_memory_budget
@@ -20,6 +20,7 @@ from .render import Frame, Renderer
 from .scene import Scene
 from .texture import Texture, load_texture
 from . import opencv  # noqa: E402 (helpers; cv2 is imported only when draw_outline runs)
+from . import nv  # noqa: E402
 
 __version__ = "0.1.0"
 
@@ -60,5 +61,6 @@ __all__ = [
     "render_dataset",
     "set_memory_budget",
     "sphere_poses",
+    "to_pyrender",
     "write_dataset",
 ]
