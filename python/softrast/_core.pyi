@@ -59,6 +59,15 @@ class MeshData:
     @property
     def num_faces(self) -> int: ...
 
+def _distortion_resolve(valid: Any, nearest: Any, corner: Any, directions: Any, view_width: int, view_size: int,
+                        sample_to_normalized: Any, triangle_id: Any, instance_id: Any, instances: list,
+                        camera_to_world: Any, centre: Any, surface: bool, threads: int) -> dict:
+    """Lens distortion (python/softrast/distortion.py): per output pixel, the view sample it takes
+    ("sample", "covered") and, with surface, its point on its own ray ("depth", "ray_depth",
+    "position", "barycentric", float64)."""
+def _distortion_bilinear(valid: Any, nearest: Any, corner: Any, directions: Any, view_width: int,
+                         view_size: int, weights: Any, src: Any, out: Any) -> None:
+    """out[p] = the bilinear interpolation of the view output src at pixel p's ray."""
 def _fail_thread_start(n: int) -> None:
     """Testing only: the n-th worker thread started from now on fails (0 = off)."""
 
