@@ -1,6 +1,7 @@
 // Clip stage: Sutherland-Hodgman in homogeneous clip space.
 #include "clip.hpp"
 
+#include <algorithm>
 #include <tuple>
 #include <utility>
 
@@ -21,19 +22,31 @@ bool precedes(const ClipPoint& a, const ClipPoint& b) {
          std::tie(b.p_clip.x, b.p_clip.y, b.p_clip.z, b.p_clip.w, b.depth_view);
 }
 
-// Point where the segment a-b crosses the plane (da, db: signed distances of a and b).
-ClipPoint intersect(const ClipPoint& a_in, const ClipPoint& b_in, double da_in, double db_in) {
+// Point where the segment a-b crosses `plane` (da, db: the float positions' signed distances,
+// which decided that it does). The crossing is found on the double positions, whose distances
+// are exact to double rounding; should they put it outside the segment (an endpoint within float
+// rounding of the plane), it is clamped to the endpoint.
+ClipPoint intersect(const ClipPoint& a_in, const ClipPoint& b_in, double da_in, double db_in, int plane,
+                    const ClipPlanes& planes) {
   const bool swap = precedes(b_in, a_in);  // canonical order => same bits from either triangle
   const ClipPoint& a = swap ? b_in : a_in;
   const ClipPoint& b = swap ? a_in : b_in;
-  const double da = swap ? db_in : da_in;
-  const double db = swap ? da_in : db_in;
-  const double t = da / (da - db);
-  auto lerp = [t](double u, double v) { return float(u + t * (v - u)); };
+  const double da_f = swap ? db_in : da_in;
+  const double db_f = swap ? da_in : db_in;
+  const double da = planes.distance(plane, a.p_clip_d, a.depth_view_d);
+  const double db = planes.distance(plane, b.p_clip_d, b.depth_view_d);
+  double t = da / (da - db);
+  if (!(t >= 0.0 && t <= 1.0)) t = da_f / (da_f - db_f);  // same side in double, or not finite
+  t = std::clamp(t, 0.0, 1.0);
+  auto lerp = [t](double u, double v) { return u + t * (v - u); };
   ClipPoint p;
-  for (int k = 0; k < 4; ++k) p.p_clip[k] = lerp(a.p_clip[k], b.p_clip[k]);
-  p.depth_view = lerp(a.depth_view, b.depth_view);
-  for (int k = 0; k < 3; ++k) p.bary_source[k] = lerp(a.bary_source[k], b.bary_source[k]);
+  for (int k = 0; k < 4; ++k) {
+    p.p_clip_d[k] = lerp(a.p_clip_d[k], b.p_clip_d[k]);
+    p.p_clip[k] = float(p.p_clip_d[k]);
+  }
+  p.depth_view_d = lerp(a.depth_view_d, b.depth_view_d);
+  p.depth_view = float(p.depth_view_d);
+  for (int k = 0; k < 3; ++k) p.bary_source[k] = float(lerp(a.bary_source[k], b.bary_source[k]));
   return p;
 }
 
@@ -58,7 +71,7 @@ int clip_triangle(const ClipPoint in[3], uint8_t planes_mask, const ClipPlanes& 
       const bool in_cur = d_cur >= 0.0, in_nxt = d_nxt >= 0.0;
       if (m + 2 > kMaxClipPoints) return 0;  // pathological sliver => drop
       if (in_cur) next[m++] = cur;
-      if (in_cur != in_nxt) next[m++] = intersect(cur, nxt, d_cur, d_nxt);
+      if (in_cur != in_nxt) next[m++] = intersect(cur, nxt, d_cur, d_nxt, plane, planes);
     }
     std::swap(poly, next);
     n = m < 3 ? 0 : m;

@@ -27,13 +27,16 @@ struct ClipPlanes {
   ClipPlanes(const CameraParams& camera, int width, int height);
 
   double distance(int plane, const vec4& p_clip, float depth_view) const {
+    return distance(plane, dvec4(p_clip), double(depth_view));
+  }
+  double distance(int plane, const dvec4& p_clip, double depth_view) const {
     switch (plane) {
-      case 0: return double(depth_view) - near;
-      case 1: return far - double(depth_view);
-      case 2: return double(p_clip.x) - ndc_x_min * p_clip.w;
-      case 3: return ndc_x_max * p_clip.w - double(p_clip.x);
-      case 4: return ndc_y_max * p_clip.w - double(p_clip.y);  // NDC y up = window y down
-      default: return double(p_clip.y) - ndc_y_min * p_clip.w;
+      case 0: return depth_view - near;
+      case 1: return far - depth_view;
+      case 2: return p_clip.x - ndc_x_min * p_clip.w;
+      case 3: return ndc_x_max * p_clip.w - p_clip.x;
+      case 4: return ndc_y_max * p_clip.w - p_clip.y;  // NDC y up = window y down
+      default: return p_clip.y - ndc_y_min * p_clip.w;
     }
   }
 
@@ -52,6 +55,8 @@ struct ClipPlanes {
 // number of polygon vertices written to `out` (0 or 3..kMaxClipPoints), in the input's winding.
 // A new vertex on an edge shared by two triangles is computed from the edge's endpoints in a
 // canonical order, so both triangles get bit-identical vertices: clipping keeps meshes watertight.
+// Which side of a plane a point is on is decided on its float position (as the vertex pass
+// decided which faces to clip); where a new point lies, on the double positions.
 int clip_triangle(const ClipPoint in[3], uint8_t planes_mask, const ClipPlanes& planes,
                   ClipPoint out[kMaxClipPoints]);
 

@@ -165,10 +165,16 @@ struct ClipVertex {
 };
 
 // Clip-space vertex carried through clipping with its barycentric weights in the source triangle.
+// The float position is what the rest of the pipeline reads (a corner of the face keeps exactly
+// the vertex pass's bits, so clipped and unclipped neighbours share their snapped vertices); the
+// double one is where clipping computes the points it creates, from the corners transformed in
+// double.
 struct ClipPoint {
   vec4 p_clip;
   float depth_view;
   vec3 bary_source;  // weights of the original triangle's corners (linear in clip space)
+  dvec4 p_clip_d;
+  double depth_view_d;
 };
 
 // A triangle ready for rasterization: everything per-triangle that the tile pass reads, in one

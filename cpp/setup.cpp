@@ -167,9 +167,13 @@ void clip_and_setup(const ivec3& face, uint8_t planes_mask, const SetupParams& p
                     uint32_t prim, SetupChunk& out) {
   ClipPoint in[3];
   for (int k = 0; k < 3; ++k) {
-    const ClipVertex c = transform_point(*params.transform, params.mesh->positions[face[k]]);
+    const vec3& position = params.mesh->positions[face[k]];
+    const ClipVertex c = transform_point(*params.transform, position);
     in[k].p_clip = c.p_clip;
     in[k].depth_view = c.depth_view;
+    const ClipVertexD d = transform_point_d(*params.transform, position);
+    in[k].p_clip_d = d.p_clip;
+    in[k].depth_view_d = d.depth_view;
     in[k].bary_source = vec3(0.0f);
     in[k].bary_source[k] = 1.0f;
   }

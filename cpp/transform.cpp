@@ -56,6 +56,8 @@ DrawTransform make_draw_transform(const dmat4& model, const CameraParams& camera
   const dmat4 model_view = camera.view * model;  // double: large translations cancel here
   xf.model_view = mat4(model_view);
   xf.proj = mat4(camera.proj);
+  xf.model_view_d = model_view;
+  xf.proj_d = camera.proj;
   const dmat3 m3(model);
   double det = glm::determinant(m3);
   // 0 in double can be an underflow (a mirror scaled by 1e-120: det -1e-360); the scaled

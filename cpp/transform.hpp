@@ -10,6 +10,8 @@ namespace sr {
 struct DrawTransform {
   mat4 model_view;         // model -> view
   mat4 proj;               // view -> clip
+  dmat4 model_view_d;      // the same in double, for the points clipping creates (clip.cpp)
+  dmat4 proj_d;
   dmat3 normal_to_world;   // inverse-transpose of the model's 3x3 (double: normals may be huge),
                            // its cofactor matrix where that does not exist (transform.cpp)
   bool mirrored = false;   // det(model) < 0: the winding flips, so front/back facing swap too
@@ -32,6 +34,17 @@ DrawTransform make_draw_transform(const dmat4& model, const CameraParams& camera
     out.p_clip[r] = (c[0][r] * v[0] + c[1][r] * v[1]) + (c[2][r] * v[2] + c[3][r] * v[3]);
   out.depth_view = -v[2];
   return out;
+}
+
+// The same point in double (clip.cpp: where clipping cuts an edge, its endpoints' float rounding
+// would be magnified: a ground plane 1e6 units wide cut at a near plane 0.05 from the camera).
+struct ClipVertexD {
+  dvec4 p_clip;
+  double depth_view;
+};
+inline ClipVertexD transform_point_d(const DrawTransform& xf, const vec3& p) {
+  const dvec4 v = xf.model_view_d * dvec4(double(p.x), double(p.y), double(p.z), 1.0);
+  return {xf.proj_d * v, -v.z};
 }
 
 }  // namespace sr
