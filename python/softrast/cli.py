@@ -10,6 +10,8 @@
                    --poses POSES.npy|.json] [--intrinsics K.npy] [--outputs color,depth,instance_id]
                    [--formats depth=npy,...] [--size 640x480] [--fov 45] [--workers W] [--no-resume]
 
+    softrast report --out DIR [--quick]
+
     softrast --version
 
 Without --eye the camera frames the whole mesh from the front (+z) and slightly above (+y).
@@ -154,6 +156,16 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--workers", type=_threads, default=0, help="render threads, 0 = one per core (default)")
     b.add_argument("--no-resume", action="store_true", help="render every view, even those already written")
     b.add_argument("--up-axis", choices=("y", "z"), default="y", help="the files' up axis (default y)")
+
+    rp = sub.add_parser("report", help="measure error against run time for each quality knob",
+                        description="Sweep each quality knob (tessellation, shading frequency and "
+                        "model, threads, texture filter, max_anisotropy) on reference scenes with exact "
+                        "references, and write DIR/report.csv (long format), DIR/report.md and "
+                        "DIR/error_vs_time.png. Needs matplotlib and scikit-image "
+                        "(pip install softrast[report]).")
+    rp.add_argument("--out", required=True, metavar="DIR", help="report directory (created if missing)")
+    rp.add_argument("--quick", action="store_true",
+                    help="fewer knob values and repetitions on 128x128 images: under a minute (CI)")
     return parser
 
 
@@ -349,6 +361,21 @@ def _batch(args: argparse.Namespace) -> None:
           f"({total / max(seconds, 1e-9):.1f} views/s) -> {args.out}")
 
 
+def _report(args: argparse.Namespace) -> None:
+    import time
+
+    from . import report
+
+    start = time.perf_counter()
+    try:
+        paths = report.run(args.out, quick=args.quick,
+                           log=lambda message: print(f"softrast report: {message}", flush=True))
+    except ImportError as e:  # matplotlib or scikit-image missing: the message names it
+        raise CliError(str(e)) from None
+    print(f"softrast report: {'quick' if args.quick else 'full'} sweep in "
+          f"{time.perf_counter() - start:.1f} s -> {', '.join(paths.values())}")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit status (0 ok, 2 error, 130 interrupted)."""
     parser = build_parser()
@@ -364,6 +391,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             _render(args)
         elif args.command == "batch":
             _batch(args)
+        elif args.command == "report":
+            _report(args)
     except (CliError, OSError, ValueError, TypeError, RuntimeError) as exc:
         # RuntimeError: the system refused a worker thread (Renderer names `threads`).
         print(f"softrast: error: {exc}", file=sys.stderr)
