@@ -103,11 +103,11 @@ bool rasterize_masked(const AlphaTest& test, const SetupChunk& chunk, uint32_t r
       // The same key as every raster path: barycentric weights from the exact edge values.
       const float f0 = float(e0 + b0), f1 = float(e1 + b1), f2 = float(e2 + b2);
       const float key = f0 * k0 + f1 * k1 + f2 * k2;
-      if (!coverage && !(key > s.key[i])) continue;  // hidden: the test would not change that
+      if (!coverage && !(key > s.key[i] * s.tie)) continue;  // hidden: the test would not change that
       if (!alpha) alpha.emplace(test, chunk, record);
       if (!alpha->passes(test, f0, f1, f2)) continue;
       if (coverage) ++s.coverage[i];
-      if (key > s.key[i]) {  // strict: on a tie the earlier triangle stays
+      if (key > s.key[i] * s.tie) {  // on a tie (kTieFactor*) the earlier triangle stays
         s.key[i] = key;
         s.visible[i] = index;
         won = true;

@@ -73,6 +73,11 @@ void resolve_range(const DistortionRays& rays, const int32_t* triangle_id, const
     const int64_t nearest = rays.nearest[p];
     out.sample[p] = nearest;
     out.covered[p] = 0;
+    // Zeros where nothing is seen (background), every output written for every pixel.
+    if (out.depth) out.depth[p] = 0.0;
+    if (out.ray_depth) out.ray_depth[p] = 0.0;
+    if (out.position) std::fill(out.position + 3 * p, out.position + 3 * p + 3, 0.0);
+    if (out.barycentric) std::fill(out.barycentric + 3 * p, out.barycentric + 3 * p + 3, 0.0);
     if (!rays.valid[p]) continue;
     const double* d = rays.directions + 3 * p;
     const dvec3 dir = camera_to_world * dvec3(d[0], d[1], d[2]);

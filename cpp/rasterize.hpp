@@ -25,11 +25,22 @@ constexpr int kTilePixels = kTileSizePx * kTileSizePx;
 // Allocate default-initialised (new TileScratch): clear() writes what a tile reads, so zeroing
 // would only page-fault `coverage` in a first frame that does not ask for it.
 constexpr int kTileScratchPixels = kMaxSamples * kTilePixels + kTileSizePx + simd::kLanes;
+// The depth test's tie rule: a fragment wins only when its key exceeds the pixel's key times
+// this factor (set per render), so a surface must be nearer by more than 2^-20 of its depth
+// (about 1e-6) to hide one drawn before it. Keys of one plane computed from different triangles
+// differ by rounding (a few units of float32's last place): coplanar geometry then keeps the
+// triangle drawn first, as an exact tie does, instead of z-fighting. Perspective keys (1/w) are
+// positive, orthographic ones (-depth) negative: each needs its own side of 1. -inf (nothing
+// drawn) times either is -inf.
+constexpr float kTieFactorPerspective = 1.0f + 0x1p-20f;
+constexpr float kTieFactorOrthographic = 1.0f - 0x1p-20f;
+
 struct TileScratch {
   float key[kTileScratchPixels];         // depth key of the nearest fragment so far (larger = closer)
   uint32_t visible[kTileScratchPixels];  // index into `triangles`, or kNoTriangle
   uint32_t coverage[kTileScratchPixels]; // fragments before the depth test
   std::vector<VisibleTriangle> triangles;  // binned triangles of this tile, in primitive order
+  float tie = kTieFactorPerspective;      // the render's tie factor (above)
 
   void clear(bool want_coverage);  // before a tile: nothing drawn
 };
@@ -156,7 +167,7 @@ SR_INLINE void rasterize_large(const TriangleSetup& t, int x0, int x1, int y0, i
         if constexpr (kCoverage) ++s.coverage[i];
         // key = sum_k E_k * key_k / area2: barycentric weights from the exact edge values.
         const float key = float(e0 + b0) * k0 + float(e1 + b1) * k1 + float(e2 + b2) * k2;
-        if (key > s.key[i]) {  // strict: on a tie the earlier triangle stays
+        if (key > s.key[i] * s.tie) {  // on a tie (kTieFactor*) the earlier triangle stays
           s.key[i] = key;
           s.visible[i] = index;
           won = true;
@@ -205,7 +216,7 @@ SR_INLINE void depth_test(i8 covered, int i, f8 e0, f8 e1, f8 e2, const Triangle
     store_lanes<kPairs>(s.coverage + i, load_lanes<kPairs, i8>(s.coverage + i) - covered);
   const f8 key = e0 * lanes.key_k[0] + e1 * lanes.key_k[1] + e2 * lanes.key_k[2];
   const f8 old = load_lanes<kPairs, f8>(s.key + i);
-  const i8 win = covered & (key > old);  // strict: on a tie the earlier triangle stays
+  const i8 win = covered & (key > old * splat(s.tie));  // on a tie (kTieFactor*) the earlier one stays
   store_lanes<kPairs>(s.key + i, win ? key : old);
   store_lanes<kPairs>(s.visible + i, win ? lanes.index : load_lanes<kPairs, i8>(s.visible + i));
   if constexpr (Hook::kShades)

@@ -336,6 +336,7 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
     if (!tile_scratch_[worker]) tile_scratch_[worker].reset(new TileScratch);
     if (!shade_scratch_[worker]) shade_scratch_[worker].reset(new ShadeScratch);
     TileScratch& scratch = *tile_scratch_[worker];
+    scratch.tie = camera.orthographic ? kTieFactorOrthographic : kTieFactorPerspective;
     bool forward = plan.forward_allowed;
     if (plan.estimate_overdraw) {
       // Forward shading shades every fragment that wins the depth test, deferred each visible

@@ -83,3 +83,56 @@ def test_ground_plane_depth_is_exact_to_the_stated_bound(half: float, bound: flo
     rel = np.abs(depth[seen] - t[seen]) / t[seen]
     print(f"half-size {half:g}: depth within 50 units, max relative error {rel.max():.2e}")
     assert rel.max() <= bound
+
+
+def _coplanar_triangles(rng: np.random.Generator, n: int) -> np.ndarray:
+    """n random overlapping triangles on one tilted plane through the origin, (n, 3, 3)."""
+    normal = np.array([0.2, 1.0, 0.3]) / np.linalg.norm([0.2, 1.0, 0.3])
+    u = np.cross(normal, [1.0, 0.0, 0.0])
+    u /= np.linalg.norm(u)
+    v = np.cross(normal, u)
+    centres = rng.uniform(-0.6, 0.6, (n, 1, 2))
+    pts = centres + rng.normal(0.0, 0.45, (n, 3, 2))
+    return pts[..., :1] * u + pts[..., 1:] * v
+
+
+@pytest.mark.parametrize("orthographic", [False, True])
+def test_coplanar_triangles_keep_the_one_drawn_first(orthographic: bool) -> None:
+    """Keys of one plane computed from different triangles differ by rounding; the tie rule
+    (a surface must be nearer by 2^-20 of its depth) gives every overlap to the first drawn."""
+    rng = np.random.default_rng(5)
+    tris = _coplanar_triangles(rng, 300)
+    w, h = 256, 192
+    cam = (sr.OrthographicCamera(xmag=1.6, ymag=1.2, near=0.05, far=100.0) if orthographic
+           else sr.PerspectiveCamera(fov_y=50.0, near=0.05, far=100.0))
+    cam.look_at((0.5, 2.0, 3.0), (0.0, 0.0, 0.0), up=(0.0, 1.0, 0.0))
+    r = sr.Renderer(w, h)
+    first = np.full((h, w), -1)
+    for k in range(len(tris) - 1, -1, -1):  # each alone: where it covers, the earliest so far
+        s = sr.Scene()
+        s.add(sr.Mesh(tris[k], [[0, 1, 2]]))
+        first[r.render(s, cam, "mask", cull="none").mask] = k
+    s = sr.Scene()
+    s.add(sr.Mesh(tris.reshape(-1, 3), np.arange(3 * len(tris)).reshape(-1, 3)))
+    got = r.render(s, cam, "triangle_id", cull="none").triangle_id
+    overlap = first >= 0
+    lost = int((got[overlap] != first[overlap]).sum())
+    print(f"{'orthographic' if orthographic else 'perspective'}: {int(overlap.sum())} pixels, "
+          f"{lost} not won by the first triangle drawn")
+    assert overlap.sum() > 0.2 * w * h and lost == 0
+
+
+@pytest.mark.parametrize("gap", [1e-4, 4e-6])
+@pytest.mark.parametrize("near_first", [True, False])
+def test_parallel_planes_a_little_apart_keep_the_nearer_in_front(gap: float, near_first: bool) -> None:
+    """Beyond the tie rule's 2^-20 (9.5e-7) of the depth, the nearer surface wins in any order:
+    planes 1e-4 and 4e-6 apart (relative) at distance 1000, near/far 1e-6 / 1e6."""
+    cam = sr.PerspectiveCamera(fov_y=4.0, near=1e-6, far=1e6)
+    cam.look_at((0.0, 0.0, 1000.0), (0.0, 0.0, 0.0), up=(0.0, 1.0, 0.0))
+    s = sr.Scene()
+    quad = np.array([[-60.0, -60, 0], [60, -60, 0], [60, 60, 0], [-60, 60, 0]])
+    planes = [(1, 1000.0 * gap), (2, 0.0)] if near_first else [(2, 0.0), (1, 1000.0 * gap)]
+    for iid, z in planes:  # instance 1 is the nearer plane
+        s.add(sr.Mesh(quad + [0, 0, z], [[0, 1, 2], [0, 2, 3]]), instance_id=iid)
+    ids = sr.Renderer(64, 48).render(s, cam, "instance_id").instance_id
+    assert (ids == 1).all()

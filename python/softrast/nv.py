@@ -14,7 +14,8 @@ pass of ``rasterize`` and ``interpolate`` is provided: no gradients, no ``textur
   weighs ``tri[id, 1]``: an attribute interpolates as ``u a0 + v a1 + (1 - u - v) a2``
   (perspective-correct). All four are 0 where no triangle covers the pixel centre.
 * Triangles are clipped to ``-w <= z <= w`` (OpenGL's near and far planes) and depth-tested on
-  z/w, nearer (smaller) winning; an exact tie keeps the earlier triangle, as OpenGL's GL_LESS.
+  z/w, nearer (smaller) winning; a tie keeps the earlier triangle, as OpenGL's GL_LESS does (softrast
+  counts fragments within 2^-20 of the depth as tied: README, "Ties and coplanar geometry").
   Both windings are drawn (no back-face culling).
 
 How: coverage and visibility come from softrast's exact fixed-point rasterizer (8 sub-pixel
