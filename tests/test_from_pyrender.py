@@ -36,7 +36,7 @@ from scipy import ndimage
 
 import softrast as sr
 
-from test_pbr_vs_pyrender import INSTALL_HINT
+from pyrender_runner import INSTALL_HINT, run_pyrender_child
 
 CHILD = pathlib.Path(__file__).resolve().parent / "pyrender_interop_child.py"
 W, H = 320, 240
@@ -53,17 +53,8 @@ def rendered(tmp_path_factory) -> pathlib.Path:
     out = tmp_path_factory.mktemp("pyrender_interop")
     # The child imports softrast too, so it keeps the environment as it is: under the sanitizer
     # run (.ci/sanitize) the ASan runtime must stay preloaded for softrast's sanitized core.
-    env = dict(os.environ)
-    env["PYOPENGL_PLATFORM"] = "osmesa"
     parent = str(pathlib.Path(sr.__file__).resolve().parent.parent)
-    try:
-        proc = subprocess.run([sys.executable, str(CHILD), parent, str(out)], env=env,
-                              capture_output=True, text=True, timeout=300)
-    except subprocess.TimeoutExpired as exc:
-        pytest.fail(f"the pyrender child ({CHILD.name}) did not finish in {exc.timeout} s")
-    if proc.returncode == 3:
-        pytest.fail(f"{INSTALL_HINT}\n{proc.stderr.strip()}")
-    assert proc.returncode == 0, f"the pyrender child failed (exit {proc.returncode}):\n{proc.stderr[-4000:]}"
+    run_pyrender_child(CHILD, [parent, out], timeout=300)
     return out
 
 

@@ -24,23 +24,16 @@ import json
 import math
 import os
 import pathlib
-import subprocess
-import sys
 
 import numpy as np
-import pytest
 import trimesh
 from scipy import ndimage
 
 import softrast as sr
+from pyrender_runner import run_pyrender_child
 from shading_reference import pyrender_encode
 
 CHILD = pathlib.Path(__file__).resolve().parent / "pyrender_child.py"
-INSTALL_HINT = (
-    "pyrender 0.1.45 with OSMesa is required by this test (it is never skipped). Install it with "
-    "`bash .ci/install --test` (Debian packages libosmesa6 libgl1, then "
-    "`pip install pyrender==0.1.45` and `pip install 'PyOpenGL>=3.1.10'` over pyrender's pin), "
-    "or `bash benchmarks/setup_baselines.sh`.")
 W, H = 320, 240
 FOV_Y_DEG = 40.0
 NEAR, FAR = 0.5, 30.0
@@ -95,17 +88,8 @@ def render_pyrender(spec: dict, tmp_path: pathlib.Path) -> tuple[np.ndarray, np.
     spec_path.write_text(json.dumps(spec))
     out = tmp_path / "pyrender_out"
     out.mkdir()
-    env = {k: v for k, v in os.environ.items() if k not in _DROP_ENV}
-    env["PYOPENGL_PLATFORM"] = "osmesa"
-    try:
-        proc = subprocess.run([sys.executable, str(CHILD), str(spec_path), str(out)], env=env,
-                              capture_output=True, text=True, timeout=180)
-    except subprocess.TimeoutExpired as exc:
-        pytest.fail(f"the pyrender child ({CHILD.name}) did not finish in {exc.timeout} s")
-    if proc.returncode == 3:
-        pytest.fail(f"{INSTALL_HINT}\n{proc.stderr.strip()}")
-    assert proc.returncode == 0, (f"the pyrender child failed (exit {proc.returncode}); "
-                                  f"{INSTALL_HINT}\nstderr:\n{proc.stderr[-4000:]}")
+    run_pyrender_child(CHILD, [spec_path, out], timeout=180,
+                       env={k: v for k, v in os.environ.items() if k not in _DROP_ENV})
     return np.load(out / "color.npy"), np.load(out / "depth.npy")
 
 

@@ -41,7 +41,7 @@ from scipy import ndimage
 
 import softrast as sr
 from shading_reference import pyrender_encode
-from test_pbr_vs_pyrender import INSTALL_HINT
+from pyrender_runner import INSTALL_HINT, run_pyrender_child
 
 CHILD = pathlib.Path(__file__).resolve().parent / "pyrender_to_child.py"
 W, H = 320, 240
@@ -267,16 +267,8 @@ def results(tmp_path_factory) -> dict[str, dict]:
     jobs_path = out / "jobs.pkl"
     jobs_path.write_bytes(pickle.dumps(jobs))
     # The child imports softrast too: it keeps the environment (see test_from_pyrender.py).
-    env = dict(os.environ, PYOPENGL_PLATFORM="osmesa")
     parent = str(pathlib.Path(sr.__file__).resolve().parent.parent)
-    try:
-        proc = subprocess.run([sys.executable, str(CHILD), parent, str(jobs_path), str(out)], env=env,
-                              capture_output=True, text=True, timeout=600)
-    except subprocess.TimeoutExpired as exc:
-        pytest.fail(f"the pyrender child ({CHILD.name}) did not finish in {exc.timeout} s")
-    if proc.returncode == 3:
-        pytest.fail(f"{INSTALL_HINT}\n{proc.stderr.strip()}")
-    assert proc.returncode == 0, f"the pyrender child failed (exit {proc.returncode}):\n{proc.stderr[-4000:]}"
+    run_pyrender_child(CHILD, [parent, jobs_path, out], timeout=600)
     loaded = {}
     for job in jobs:
         result = pickle.loads((out / f"{job['name']}.pkl").read_bytes())

@@ -72,6 +72,16 @@ def _rigid_inverse(m: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
     return inv
 
 
+def _depth_image(depth: Any) -> npt.NDArray[np.float64]:
+    """``unproject``'s depth argument, checked: a non-empty (h, w) image, finite and >= 0."""
+    d = real_array(depth, "depth")
+    if d.ndim != 2 or d.size == 0:
+        raise ValueError(f"depth must be a non-empty (h, w) image, got shape {d.shape}")
+    if not (np.isfinite(d).all() and (d >= 0).all()):
+        raise ValueError("depth must be finite and >= 0 (0 = background)")
+    return d
+
+
 def _rotation(value: Any) -> npt.NDArray[np.float64]:
     """A (3, 3) rotation from a Rodrigues vector (3 numbers) or a rotation matrix (checked)."""
     arr = real_array(value, "rvec_or_R")
@@ -270,11 +280,7 @@ class Camera(abc.ABC):
         world = pose @ camera point): OpenGL's (x right, y up, z backward, so z = -depth) for
         ``convention="opengl"``, OpenCV's (x right, y down, z forward, z = depth) for "opencv"."""
         choice(space, "space", ("world", "camera"))
-        d = real_array(depth, "depth")
-        if d.ndim != 2 or d.size == 0:
-            raise ValueError(f"depth must be a non-empty (h, w) image, got shape {d.shape}")
-        if not (np.isfinite(d).all() and (d >= 0).all()):
-            raise ValueError("depth must be finite and >= 0 (0 = background)")
+        d = _depth_image(depth)
         h, w = d.shape
         p = self.projection_matrix(*self._render_size(w, h))
         j, i = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
@@ -512,16 +518,15 @@ class IntrinsicsCamera(Camera):
         return uv
 
     def unproject(self, depth: npt.ArrayLike, space: str = "world") -> npt.NDArray[np.float64]:
+        """As ``Camera.unproject``, each pixel's point on its own (distorted) ray: OpenCV's model
+        inverted at the pixel centre (``softrast.distortion.undistort``); pixels no ray reaches
+        give 0."""
         if self._dist is None:
             return super().unproject(depth, space)
         from .distortion import undistort
 
         choice(space, "space", ("world", "camera"))
-        d = real_array(depth, "depth")
-        if d.ndim != 2 or d.size == 0:
-            raise ValueError(f"depth must be a non-empty (h, w) image, got shape {d.shape}")
-        if not (np.isfinite(d).all() and (d >= 0).all()):
-            raise ValueError("depth must be finite and >= 0 (0 = background)")
+        d = _depth_image(depth)
         h, w = d.shape
         self.projection_matrix(w, h)  # checks the size: K is for one image size
         k, rot, t, _ = self.to_opencv()
