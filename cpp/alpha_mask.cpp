@@ -21,6 +21,7 @@ AlphaKind alpha_kind(const Draw& draw, uint8_t filter_override, AlphaTest& test)
                                                        : t->filter;
   test.alpha = draw.color.a;
   test.cutoff = m.alpha_cutoff;
+  test.uv_periodic_axes = interp::uv_periodic_axes(m);
   if (texture_alpha || !mesh.colors.empty()) return AlphaKind::Masked;
   // One alpha for the whole draw.
   return draw.color.a >= m.alpha_cutoff ? AlphaKind::Opaque : AlphaKind::Invisible;
@@ -58,6 +59,7 @@ struct TriangleAlpha {
     }
     if (test.texture) {
       interp::triangle_attributes<2>(mesh, t, a, chunk, uv);
+      interp::reduce_uv_period(uv, test.uv_periodic_axes);
       interp::attribute_derivatives<2>(t, a, uv, sum_dx, sum_dy, uv_dx, uv_dy);
     }
   }

@@ -24,6 +24,7 @@ struct AlphaTest {
   TextureFilter filter = TextureFilter::Nearest;
   float alpha = 1.0f;                // the draw colour's, where the mesh has no vertex colours
   float cutoff = 0.5f;
+  uint8_t uv_periodic_axes = 0;      // the material's (interp::reduce_uv_period), as shading uses
 };
 
 // What a draw's material makes of it: drawn opaque (no test), masked, or not drawn at all (a

@@ -71,6 +71,32 @@ inline void triangle_attributes(const MeshData& mesh, const TriangleSetup& t,
       out[k][j] = weights[k].x * src[0][j] + weights[k].y * src[1][j] + weights[k].z * src[2][j];
 }
 
+// Texture coordinates far from 0 lose their fraction in float32 (at 1e6 they step by 1/16) when
+// interpolated, before the wrap reduces them. Along an axis where every texture of the draw wraps
+// periodically (uv_periodic_axes), an even integer near the triangle's first uv is
+// taken from all three: the same texels, the fraction kept. Derivatives do not change.
+// Bit 0 (u) / bit 1 (v): every texture of the material wraps periodically along that axis
+// (repeat, period 1, or mirror, period 2), so its uvs may be shifted by an even integer.
+inline uint8_t uv_periodic_axes(const Material& m) {
+  uint8_t axes = 3;
+  for (const Texture* t : {m.base_color_texture, m.emissive_texture, m.normal_texture,
+                           m.metallic_roughness_texture, m.occlusion_texture, m.bump_texture}) {
+    if (!t) continue;
+    if (t->wrap_u == Wrap::Clamp) axes &= uint8_t(~1u);
+    if (t->wrap_v == Wrap::Clamp) axes &= uint8_t(~2u);
+  }
+  return axes;
+}
+
+inline void reduce_uv_period(float (*uv)[2], uint8_t periodic_axes) {
+  for (int j = 0; j < 2; ++j) {
+    if (!(periodic_axes & (1u << j))) continue;
+    const float offset = 2.0f * std::floor(uv[0][j] * 0.5f);
+    if (offset == 0.0f || !std::isfinite(offset)) continue;
+    for (int k = 0; k < 3; ++k) uv[k][j] -= offset;
+  }
+}
+
 // Screen derivatives of a record's unnormalised perspective weights b_k = E_k persp_k: of their
 // sum (sum_dx, sum_dy) and of the attributes they weight (attr_dx, attr_dy). E_k (edge
 // kEdgeStart[k] -> kEdgeEnd[k], the weight of vertex k) steps by -dy * one per pixel in x and
@@ -167,6 +193,8 @@ SR_INLINE void prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTri
       if (attributes) triangle_attributes<Model::kAttributes>(mesh, t, a, *vt.chunk, s.attr);
     uniform_color = s.color[0] == s.color[1] && s.color[0] == s.color[2];
   }
+  if constexpr (Model::kAttributesIfTextured)  // uvs for sampling (not the uv model's colours)
+    if (attributes) reduce_uv_period(s.attr, uv_periodic_axes(d.material));
   if (kNormals && d.world_normals) {
     // A zero vertex normal (a file's, or one a singular pose collapses) falls back to the face
     // normal, so that shading never loses the surface's orientation (one check per triangle).

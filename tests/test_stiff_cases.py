@@ -825,28 +825,31 @@ def test_16384x1_texture_nearest_repeat_small_uvs() -> None:
     _check_varying_uv(0.0)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "BUG: uvs are interpolated for texture sampling in float32 as b0*u0 + b1*u1 + b2*u2 "
-    "(cpp/shade_kernels.hpp) with weights that do not sum to exactly 1, so a triangle whose three "
-    "uvs are all 1e6 + 0.5 samples at 1e6 + 0.4375 or 1e6 + 0.5625 (one float32 ulp) on some pixels: "
-    "texels 7168 / 9216 instead of 8192 of a 16384-wide texture, while the uv output (interpolated "
-    "in double, cpp/outputs.cpp) is exactly 1e6 + 0.5 there"))
 def test_16384x1_texture_constant_uv_at_1e6() -> None:
-    """Quads whose corners all carry the same uv, 1e6 + frac (exact in float32), must read the
-    texel floor(frac * 16384) at every pixel (README: uvs of 1e6 keep working)."""
+    """Quads whose corners all carry the same uv, 1e6 + frac (exact in float32), read the texel
+    floor(frac * 16384) at every pixel. (Before each triangle's uvs were reduced by an even
+    integer for periodic wraps, float32 interpolation at 1e6 read texels 7168 / 9216 for 8192.)"""
     _check_constant_uv(1e6)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "BUG: a uv running from 1e6 to 1e6 + 1 across the image is interpolated in float32 (spacing "
-    "1/16 at 1e6) before the wrap reduces it, so a 16384-wide texture shows only texels that are "
-    "multiples of 1024 (columns 0-7 read 0, 0, 1024, 1024, ... instead of 128, 384, 640, ...); "
-    "reducing each triangle's uvs by an integer period (or interpolating relative to vertex 0) "
-    "before interpolating would keep the fraction"))
 def test_16384x1_texture_varying_uv_at_1e6() -> None:
     """u from 1e6 to 1e6 + 1 (and from -1e6 - 1 to -1e6) across 64 columns: column j reads
-    texel 256 j + 128, the texel its exact uv maps to (the corners' uvs are exact in float32)."""
+    texel 256 j + 128, the texel its exact uv maps to (the corners' uvs are exact in float32).
+    (Before the reduction, only multiples of 1024 were read: 1/16 steps of u at 1e6.)"""
     _check_varying_uv(1e6)
+
+
+@pytest.mark.parametrize("wrap", ["mirror", "clamp"])
+def test_16384x1_texture_at_1e6_mirror_and_clamp(wrap: str) -> None:
+    """Mirror has period 2, so 1e6 (even) to 1e6 + 1 reads as 0 to 1 does; clamp is not
+    periodic (its uvs are never shifted), so every pixel reads the edge texel."""
+    img, _ = _wide_texture()
+    tex = sr.Texture(img, srgb=False, filter="nearest", wrap=wrap)
+    uvs = np.array([[1e6, 0.5], [1e6 + 1.0, 0.5], [1e6 + 1.0, 0.5], [1e6, 0.5]])
+    f = _textured_render(tex, _SCREEN_QUAD, [[0, 1, 2], [0, 2, 3]], uvs)
+    got = _texel_read(f.radiance)
+    want = 256 * np.arange(W_TEX) + 128 if wrap == "mirror" else np.full(W_TEX, N_WIDE - 1)
+    assert (got == want[None, :]).all(), got[0, :8].tolist()
 
 
 # ---------------------------------------------------------------------------------- 7. overdraw
