@@ -108,37 +108,45 @@ def undistort(xd: npt.ArrayLike, yd: npt.ArrayLike, d: npt.NDArray[np.float64]) 
     strong barrel distortion, which a lens does not see); x and y are NaN there."""
     xd = np.asarray(xd, dtype=np.float64)
     yd = np.asarray(yd, dtype=np.float64)
+    shape = np.broadcast(xd, yd).shape
+    xd, yd = np.broadcast_to(xd, shape).reshape(-1), np.broadcast_to(yd, shape).reshape(-1)
     x, y = xd.copy(), yd.copy()
+    tolerance = _TOLERANCE * (1.0 + np.hypot(xd, yd))
     with np.errstate(all="ignore"):  # diverging points become NaN and are marked invalid
         fx, fy = distort(x, y, d)
         fx, fy = fx - xd, fy - yd
         res = np.hypot(fx, fy)
+        # Newton's steps on the points not converged yet, damped (a step that does not reduce
+        # the residual is halved, up to 8 times); a point whose step cannot be made to reduce
+        # it is dropped (it stays invalid): beyond a fold no solution exists.
+        live = np.nonzero(~(res <= tolerance))[0]
         for _ in range(_NEWTON_STEPS):
-            live = ~(res <= _TOLERANCE * (1.0 + np.hypot(xd, yd)))
-            if not live.any():
+            if not live.size:
                 break
-            a, b, c, e, _den = _jacobian(x, y, d)
+            lx, ly, lfx, lfy, lres = x[live], y[live], fx[live], fy[live], res[live]
+            a, b, c, e, _den = _jacobian(lx, ly, d)
             det = a * e - b * c
-            dx = (e * fx - b * fy) / det
-            dy = (a * fy - c * fx) / det
-            step = np.where(live, 1.0, 0.0)
-            nx, ny = x - step * dx, y - step * dy
+            dx = (e * lfx - b * lfy) / det
+            dy = (a * lfy - c * lfx) / det
+            step = np.ones(live.size)
+            nx, ny = lx - dx, ly - dy
             gx, gy = distort(nx, ny, d)
-            gx, gy = gx - xd, gy - yd
+            gx, gy = gx - xd[live], gy - yd[live]
             new = np.hypot(gx, gy)
-            for _half in range(8):  # damped: halve a step that does not reduce the residual
-                worse = live & ~(new < res)
+            for _half in range(8):
+                worse = ~(new < lres)
                 if not worse.any():
                     break
                 step = np.where(worse, step * 0.5, step)
-                nx, ny = x - step * dx, y - step * dy
+                nx, ny = lx - step * dx, ly - step * dy
                 gx, gy = distort(nx, ny, d)
-                gx, gy = gx - xd, gy - yd
+                gx, gy = gx - xd[live], gy - yd[live]
                 new = np.hypot(gx, gy)
-            ok = live & (new < res)
-            x, y = np.where(ok, nx, x), np.where(ok, ny, y)
-            fx, fy, res = np.where(ok, gx, fx), np.where(ok, gy, fy), np.where(ok, new, res)
-        valid = (res <= _TOLERANCE * (1.0 + np.hypot(xd, yd))) & np.isfinite(x) & np.isfinite(y)
+            ok = new < lres
+            idx = live[ok]
+            x[idx], y[idx], fx[idx], fy[idx], res[idx] = nx[ok], ny[ok], gx[ok], gy[ok], new[ok]
+            live = idx[~(res[idx] <= tolerance[idx])]
+        valid = (res <= tolerance) & np.isfinite(x) & np.isfinite(y)
         # The lens sees the sheet of the model around the axis: the Jacobian stays positive all
         # the way from the centre to the point (beyond a fold, or where the radial factor turns
         # negative and mirrors points through the axis, the model describes no real ray).
@@ -148,8 +156,9 @@ def undistort(xd: npt.ArrayLike, yd: npt.ArrayLike, d: npt.NDArray[np.float64]) 
         r2 = x * x + y * y
         k1, k2, _, _, k3 = d[:5]
         valid &= (1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))) > 0.0
-    x = np.where(valid, x, np.nan)
-    y = np.where(valid, y, np.nan)
+    x = np.where(valid, x, np.nan).reshape(shape)
+    y = np.where(valid, y, np.nan).reshape(shape)
+    valid = valid.reshape(shape)
     return x, y, valid
 
 
