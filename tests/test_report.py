@@ -190,8 +190,9 @@ def test_quick_report_csv_is_long_format(quick_report):
     assert {v for k, v, _ in keys if k == "tessellation"} == {str(k) for k in report.QUICK.subdivisions}
     assert {v for k, v, _ in keys if k == "texture_filter"} == set(sr.texture.FILTERS)
     for r in rows:
-        assert math.isfinite(float(r["error"])) and float(r["time_ms"]) > 0.0
-        assert float(r["time_spread_ms"]) >= 0.0 and r["scene"] in ("sphere", "checker")
+        # every cell holds a number (times are measurements only: nothing is asserted about them)
+        assert all(math.isfinite(float(r[k])) for k in ("error", "time_ms", "time_spread_ms"))
+        assert r["scene"] in ("sphere", "checker")
         assert r["reference"] and r["better"] in ("lower", "higher")
     # The one reference that is a render says so.
     labelled = {r["reference"] for r in rows if r["metric"] == "rmse_box"}
