@@ -180,12 +180,15 @@ SR_INLINE void rasterize_large(const TriangleSetup& t, int x0, int x1, int y0, i
   if (won) hook.large_won(index);
 }
 
-// A triangle's per-pixel constants in every lane: edge biases, depth-key weights, its index.
+// A triangle's per-pixel constants in every lane: edge biases, depth-key weights, its index, the
+// tie factor.
 struct TriangleLanes {
   i8 bias[3];
   f8 key_k[3];
   i8 index;
-  SR_INLINE TriangleLanes(const TriangleSetup& t, uint32_t i) : index(splat(int32_t(i))) {
+  f8 tie;  // the render's tie factor (TileScratch::tie)
+  SR_INLINE TriangleLanes(const TriangleSetup& t, uint32_t i, float tie_factor)
+      : index(splat(int32_t(i))), tie(splat(tie_factor)) {
     for (int k = 0; k < 3; ++k) {
       bias[k] = splat(int32_t(t.bias[k]));
       key_k[k] = splat(t.key_over_area[k]);
@@ -216,7 +219,7 @@ SR_INLINE void depth_test(i8 covered, int i, f8 e0, f8 e1, f8 e2, const Triangle
     store_lanes<kPairs>(s.coverage + i, load_lanes<kPairs, i8>(s.coverage + i) - covered);
   const f8 key = e0 * lanes.key_k[0] + e1 * lanes.key_k[1] + e2 * lanes.key_k[2];
   const f8 old = load_lanes<kPairs, f8>(s.key + i);
-  const i8 win = covered & (key > old * splat(s.tie));  // on a tie (kTieFactor*) the earlier one stays
+  const i8 win = covered & (key > old * lanes.tie);  // on a tie (kTieFactor*) the earlier one stays
   store_lanes<kPairs>(s.key + i, win ? key : old);
   store_lanes<kPairs>(s.visible + i, win ? lanes.index : load_lanes<kPairs, i8>(s.visible + i));
   if constexpr (Hook::kShades)
@@ -233,7 +236,7 @@ template <typename Pattern, bool kCoverage, typename Hook>
 SR_INLINE void rasterize_small(const TriangleSetup& t, int x0, int x1, int y0, int y1,
                                const TileRect& rect, uint32_t index, TileScratch& s, Hook& hook) {
   SmallEdges edges(edge_equations<Pattern>(t, x0, y0));
-  const TriangleLanes lanes(t, index);
+  const TriangleLanes lanes(t, index, s.tie);
   const i8 lane = lane_index();
   const int width = x1 - x0 + 1;
   for (int y = y0; y <= y1; ++y, edges.next_row()) {
@@ -253,7 +256,7 @@ template <typename Pattern, bool kCoverage, typename Hook>
 SR_INLINE void rasterize_pairs(const TriangleSetup& t, int x0, int x1, int y0, int y1,
                                const TileRect& rect, uint32_t index, TileScratch& s, Hook& hook) {
   SmallEdgePairs edges(edge_equations<Pattern>(t, x0, y0));
-  const TriangleLanes lanes(t, index);
+  const TriangleLanes lanes(t, index, s.tie);
   const i8 lane = lane_index(), row = lane >> 2;
   const i8 in_box_x = (lane & 3) < x1 - x0 + 1;
   for (int y = y0; y <= y1; y += 2, edges.next_rows()) {
