@@ -5,6 +5,7 @@ Run ``bash benchmarks/setup_baselines.sh`` once first, then::
     python3 benchmarks/bench_vs_pyrender.py [--quick] [--rows 0,1,4] [--json out.json]
     python3 benchmarks/bench_vs_pyrender.py --lit [--lit-only] [--png DIR]    # issue 16's lit rows
     python3 benchmarks/bench_vs_pyrender.py --textured [--png DIR]            # issue 17's rows
+    python3 benchmarks/bench_vs_pyrender.py --aa [--png DIR]                  # issue 18's msaa rows
     python3 benchmarks/bench_vs_pyrender.py --ab OLD_PYTHONPATH [--rows 1,2,3,4]  # Lambert A/B
 
 Scenes: trimesh icospheres (radius 1, smooth normals) seen by a 45-degree perspective camera at a
@@ -648,6 +649,67 @@ def report_textured(results: list[dict]) -> None:
           "\n textured time; untex x: pyrender's textured time over it)")
 
 
+# ----------------------------------------------------------------- anti-aliasing (issue 18)
+
+AA_ROWS = [(6, 640, 480), (6, 1024, 1024)]
+AA_GOAL = 20.0  # issue 18: msaa=4 colour+depth >= 20x pyrender (which always renders 4x MSAA)
+AA_MODES = [("msaa1", {}), ("msaa4", dict(msaa=4)), ("msaa8", dict(msaa=8)),
+            ("msaa16", dict(msaa=16)), ("ssaa2", dict(ssaa=2)), ("ssaa4", dict(ssaa=4))]
+
+
+def run_aa(pyrender, target_s, n_min, n_max, rounds, png_dir, quick) -> list[dict]:
+    """The Lambert rows' scene, colour+depth: pyrender's OffscreenRenderer (its offscreen pass
+    draws into a 4-sample framebuffer and resolves it, on OSMesa as on EGL: renderer.py,
+    _configure_main_framebuffer) against softrast at each anti-aliasing level, 2 threads, out=."""
+    results = []
+    for sub, w, h in AA_ROWS:
+        if quick and w * h > 640 * 480:
+            continue
+        base = trimesh.creation.icosphere(subdivisions=sub, radius=1.0)
+        cells: list[Cell] = []
+        pr = None
+        if pyrender is not None:
+            pr = PyrenderRow(pyrender, base, w, h)
+            cells.append(pr.cells()[0])
+        srow = SoftrastRow(base, w, h, threads=(2,))
+        r, s, cam = srow.renderers[2], srow.scene, srow.cam
+        for label, mode in AA_MODES:
+            f = r.render(s, cam, outputs=("color", "depth"), **mode)
+            cells.append(Cell(f"softrast t2 {label}", lambda f=f, mode=mode: r.render(
+                s, cam, outputs=("color", "depth"), out=f, **mode)))
+            if png_dir:
+                os.makedirs(png_dir, exist_ok=True)
+                sr.imwrite(os.path.join(png_dir, f"aa_ico{sub}_{w}x{h}_{label}.png"), f.color)
+        if png_dir and pr is not None:
+            sr.imwrite(os.path.join(png_dir, f"aa_ico{sub}_{w}x{h}_pyrender.png"),
+                       pr.renderer.render(pr.scene)[0])
+        run_interleaved(cells, target_s, n_min, n_max, rounds)
+        results.append({"row": f"ico{sub} {w}x{h}", "coverage": srow.coverage,
+                        "ms": {c.name: c.median_ms for c in cells}})
+        if pr is not None:
+            pr.close()
+        print(f"  done aa ico{sub} {w}x{h}: " + ", ".join(f"{k} {v:.2f}" for k, v in results[-1]["ms"].items()),
+              flush=True)
+    return results
+
+
+def report_aa(results: list[dict]) -> None:
+    get = lambda r, k: r["ms"].get(k, float("nan"))  # noqa: E731
+    print("\nAnti-aliasing rows (issue 18): median ms per colour+depth frame, softrast t2 out=;"
+          "\npyrender always renders 4x MSAA")
+    head = (f"{'row':<16}{'pyrender':>9}" + "".join(f"{label:>8}" for label, _ in AA_MODES)
+            + f"{'x pyr m4':>9}{'m4/m1':>7}  goal >= {AA_GOAL:.0f}x")
+    print(head)
+    print("-" * len(head))
+    for r in results:
+        pyr, m1, m4 = get(r, "pyrender color+depth"), get(r, "softrast t2 msaa1"), get(r, "softrast t2 msaa4")
+        x = ratio(pyr, m4)
+        verdict = "n/a" if x != x else ("MET" if x >= AA_GOAL else f"NOT MET (short by {AA_GOAL / x:.2f}x)")
+        print(f"{r['row']:<16}{fmt(pyr, 9)}" + "".join(fmt(get(r, f"softrast t2 {label}"), 8, 2)
+                                                    for label, _ in AA_MODES)
+              + f"{fmt(x, 9)}{fmt(ratio(m4, m1), 7, 2)}  {verdict}")
+
+
 # ------------------------------------------------------------------ Lambert A/B (old vs new)
 
 
@@ -808,6 +870,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--lit-only", action="store_true", help="run only the lit rows")
     ap.add_argument("--textured", action="store_true",
                     help="only issue 17's textured rows (textured Spot, BoxTextured)")
+    ap.add_argument("--aa", action="store_true", help="only issue 18's anti-aliasing rows")
     ap.add_argument("--png", help="write each lit row's colour image from each renderer into this directory")
     ap.add_argument("--ab", metavar="OLD_PYTHONPATH",
                     help="only the Lambert A/B: the old build (softrast importable from this path) vs "
@@ -849,7 +912,7 @@ def main(argv: list[str] | None = None) -> int:
             with open(args.json, "w") as fh:
                 json.dump({"ab": ab}, fh, indent=1)
         return 0
-    if args.lit_only or args.textured:
+    if args.lit_only or args.textured or args.aa:
         rows = []
 
     pyrender, pyrender_error = (None, "skipped (--no-pyrender)") if args.no_pyrender else import_pyrender()
@@ -900,6 +963,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"  done ico{sub} {w}x{h}: "
               + ", ".join(f"{k} {v:.2f}" for k, v in res["ms"].items()), flush=True)
 
+    if args.aa:
+        report_aa(run_aa(pyrender, target_s, n_min, n_max, rounds, args.png, args.quick))
+        return 0
     if args.textured:
         report_textured(run_textured(pyrender, target_s, n_min, n_max, rounds, args.png, args.quick))
         return 0

@@ -3,6 +3,7 @@
 #include "distortion.hpp"
 #include "framebuffer.hpp"
 #include "pipeline.hpp"
+#include "multisample.hpp"
 #include "renderer.hpp"
 #include "texture.hpp"
 
@@ -355,11 +356,12 @@ Light light_from(const py::handle& h) {
 // Python string per key per render: about 1 us of a 6 us call).
 enum SpecKey { k_view, k_proj, k_orthographic, k_near, k_far, k_outputs, k_cull, k_shading,
                k_shading_path, k_background, k_ambient, k_out, k_lights, k_ambient_light,
-               k_frequency, k_srgb, k_texture_filter, k_normal_rotation, kNumSpecKeys };
+               k_frequency, k_srgb, k_texture_filter, k_normal_rotation, k_msaa, k_ssaa,
+               kNumSpecKeys };
 constexpr const char* kSpecKeys[kNumSpecKeys] = {
     "view", "proj", "orthographic", "near", "far", "outputs", "cull", "shading",
     "shading_path", "background", "ambient", "out", "lights", "ambient_light", "frequency",
-    "srgb", "texture_filter", "normal_rotation"};
+    "srgb", "texture_filter", "normal_rotation", "msaa", "ssaa"};
 PyObject* spec_key(SpecKey key) {
   // Made on first use with the GIL held and never freed (they live as long as the interpreter).
   static PyObject* const* const keys = [] {
@@ -374,7 +376,7 @@ PyObject* spec_key(SpecKey key) {
 // Python cannot check (array memory, overlaps) or the core needs for safety is checked here
 // and in Renderer::render. Keys: view, proj (4x4 float64), orthographic, near, far, outputs
 // (names), cull, shading, shading_path (names), background (3 floats), ambient, out (dict of
-// arrays or None).
+// arrays or None), and optionally msaa, ssaa (ints, default 1).
 py::dict render(Renderer& self, const py::sequence& draws_in, const py::dict& spec) {
   std::vector<Draw> draws;
   for (std::size_t d = 0; d < py::len(draws_in); ++d) {
@@ -417,6 +419,11 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::dict& sp
   const int filter = get(k_texture_filter).cast<int>();  // -1: each texture's own
   if (filter >= int(std::size(kFilterNames))) throw py::value_error("texture_filter: unknown filter");
   options.texture_filter = filter < 0 ? kNoFilterOverride : uint8_t(filter);
+  // Anti-aliasing, optional (1: off); counts are checked by Renderer::render.
+  for (const SpecKey key : {k_msaa, k_ssaa}) {
+    PyObject* value = PyDict_GetItem(spec.ptr(), spec_key(key));
+    if (value) (key == k_msaa ? options.msaa : options.ssaa) = py::handle(value).cast<int>();
+  }
   const py::object rotation = get(k_normal_rotation);  // None: world space
   if (!rotation.is_none()) {
     const auto r = rotation.cast<std::array<std::array<float, 3>, 3>>();  // rows
@@ -729,6 +736,16 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("num_faces", [](const MeshData& m) { return m.faces.size(); });
 
   // Lens distortion's per-pixel passes (python/softrast/distortion.py), hence the underscores.
+  m.def("_sample_pattern",
+        [](int msaa, int ssaa) {
+          const SamplePattern p = ssaa > 1 ? ssaa_pattern(ssaa) : msaa_pattern(msaa);
+          std::vector<std::pair<int32_t, int32_t>> xy;
+          for (int i = 0; i < p.count; ++i) xy.emplace_back(p.x[i], p.y[i]);
+          return xy;
+        },
+        "msaa"_a, "ssaa"_a,
+        "The sample offsets of an anti-aliasing mode, from each pixel's top-left corner in fixed "
+        "point (1 / 2**SUBPIXEL_BITS px), in sample order (multisample.hpp).");
   m.def("_distortion_resolve", &distortion_resolve, "valid"_a, "nearest"_a, "corner"_a, "directions"_a,
         "view_width"_a, "view_size"_a, "sample_to_normalized"_a, "triangle_id"_a, "instance_id"_a,
         "instances"_a, "camera_to_world"_a, "centre"_a, "surface"_a, "threads"_a,

@@ -75,6 +75,9 @@ inline constexpr OutputLayout kOutputLayouts[kNumOutputs] = {
      "(h, w) float32: Euclidean distance from the camera centre to the visible point in scene "
      "units (orthographic cameras: from the image plane along the rays, = depth), 0 = "
      "background"},
+    {kOutAlpha, "alpha", DType::F32, 1, 4, 0.0, OutputPass::Resolve,
+     "(h, w) float32: fraction of the pixel's samples covered, in [0, 1] (without anti-aliasing "
+     "1 where the pixel centre is covered, else 0); radiance is premultiplied by it"},
 };
 
 constexpr bool output_table_is_consistent() {

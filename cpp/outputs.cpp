@@ -1,6 +1,8 @@
 // Outputs: resolve (depth from keys, ids from the visibility buffer) and write a tile's rows.
 #include "outputs.hpp"
 
+#include "multisample.hpp"
+
 #include <cmath>
 #include <cstring>
 #include <immintrin.h>
@@ -238,9 +240,12 @@ SR_TARGET_AVX2 void write_rgb_stream(const uint32_t* rgb, const uint32_t* visibl
 // and what they interpolate, into each requested surface output (null = not requested).
 // Scalar: surface outputs are for datasets, and a triangle's records are fetched once per run
 // of pixels it owns.
+// With anti-aliasing (`representative` and `pattern` not null), each pixel at its representative
+// sample.
 void write_surface_row(const ShadeParams& p, const TileScratch& raster, const uint32_t* visible,
                        int x0, int y, int n, float* bary_out, float* uv_out, float* position_out,
-                       float* ray_depth_out) {
+                       float* ray_depth_out, const uint8_t* representative,
+                       const SamplePattern* pattern) {
   uint32_t current = kNoTriangle;
   const TriangleSetup* t = nullptr;
   const TriangleShading* a = nullptr;
@@ -266,7 +271,9 @@ void write_surface_row(const ShadeParams& p, const TileScratch& raster, const ui
       d = &p.draws[t->draw];
       face = d->mesh->faces[t->prim];
     }
-    const EdgeEquations eq = edge_equations_at(*t, x0 + x, y, p.sample_x, p.sample_y);
+    const int32_t sx = pattern ? pattern->x[representative[x]] : p.sample_x;
+    const int32_t sy = pattern ? pattern->y[representative[x]] : p.sample_y;
+    const EdgeEquations eq = edge_equations_at(*t, x0 + x, y, sx, sy);
     double b[3], sum = 0.0;
     for (int k = 0; k < 3; ++k) sum += b[k] = double(eq.origin[k]) * double(a->persp[k]);
     dvec3 w(0.0);  // weights of the face's corners
@@ -298,7 +305,7 @@ void write_surface_row(const ShadeParams& p, const TileScratch& raster, const ui
 }  // namespace
 
 void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
-                const ShadeScratch& shaded, Isa isa) {
+                const ShadeScratch& shaded, Isa isa, const ResolvedSamples* samples) {
   const Framebuffer& fb = *p.framebuffer;
   const std::size_t width = std::size_t(fb.width);
   const int n = rect.x1 - rect.x0;
@@ -321,6 +328,7 @@ void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& r
   float* const uv = fb.get<float>(kOutUv);
   float* const position = fb.get<float>(kOutPosition);
   float* const ray_depth = fb.get<float>(kOutRayDepth);
+  float* const alpha = fb.get<float>(kOutAlpha);
   const bool surface = barycentric || uv || position || ray_depth;
   const auto encode_row = isa == Isa::Avx2 ? encode_row_avx2 : encode_row_generic;
   uint32_t packed[kTileSizePx] = {};  // (encode_row skips groups with nothing visible)
@@ -328,7 +336,13 @@ void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& r
     const int row = (y - rect.y0) * kTileSizePx;
     const std::size_t o = std::size_t(y) * width + std::size_t(rect.x0);
     const uint32_t* visible = raster.visible + row;
-    if (coverage) std::memcpy(coverage + o, raster.coverage + row, sizeof(uint32_t) * n);
+    if (coverage)
+      std::memcpy(coverage + o, (samples ? samples->coverage : raster.coverage) + row,
+                  sizeof(uint32_t) * n);
+    if (alpha) {
+      if (samples) std::memcpy(alpha + o, samples->alpha + row, sizeof(float) * n);
+      else for (int x = 0; x < n; ++x) alpha[o + x] = visible[x] != kNoTriangle ? 1.0f : 0.0f;
+    }
     if (depth) resolve_depth(raster.key + row, visible, n, p.orthographic, depth + o);
     if (mask)
       for (int x = 0; x < n; ++x) mask[o + x] = visible[x] != kNoTriangle;
@@ -358,14 +372,22 @@ void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& r
     if (surface)
       write_surface_row(p, raster, visible, rect.x0, y, n, barycentric ? barycentric + 3 * o : nullptr,
                         uv ? uv + 2 * o : nullptr, position ? position + 3 * o : nullptr,
-                        ray_depth ? ray_depth + o : nullptr);
+                        ray_depth ? ray_depth + o : nullptr,
+                        samples ? samples->representative + row : nullptr,
+                        samples ? samples->pattern : nullptr);
     const float* rgb[3] = {shaded.rgb[0] + row, shaded.rgb[1] + row, shaded.rgb[2] + row};
     if (color) {
       const uint32_t background = p.background[0] | p.background[1] << 8 | p.background[2] << 16;
       encode_row(rgb[0], rgb[1], rgb[2], visible, n, p.srgb, packed);
       write_rgb(packed, visible, n, background, color + 3 * o);
     }
-    if (radiance) write_radiance_row(rgb[0], rgb[1], rgb[2], visible, n, radiance + 3 * o);
+    if (radiance) {
+      if (samples)  // premultiplied: without the background the colour output mixes in
+        write_radiance_row(samples->radiance[0] + row, samples->radiance[1] + row,
+                           samples->radiance[2] + row, visible, n, radiance + 3 * o);
+      else
+        write_radiance_row(rgb[0], rgb[1], rgb[2], visible, n, radiance + 3 * o);
+    }
   }
   if (stream) _mm_sfence();  // order the non-temporal stores before the tile is done
 }

@@ -12,8 +12,13 @@ namespace sr {
 // from one render to the next, gets slower (+15%).
 constexpr std::size_t kStreamFrameBytes = std::size_t(12) << 20;
 
-// Copies the tile's values to every requested output of params.framebuffer.
+struct ResolvedSamples;  // multisample.hpp
+
+// Copies the tile's values to every requested output of params.framebuffer. `samples` (null
+// without anti-aliasing) gives a multisampled tile's alpha, premultiplied radiance, coverage and
+// each pixel's representative sample, where its surface outputs are read; `raster` then holds
+// the representative's entries and `shaded` the colour output's linear values.
 void write_tile(const ShadeParams& params, const TileRect& rect, const TileScratch& raster,
-                const ShadeScratch& shaded, Isa isa);
+                const ShadeScratch& shaded, Isa isa, const ResolvedSamples* samples = nullptr);
 
 }  // namespace sr

@@ -58,8 +58,9 @@ enum OutputBit : uint32_t {
   kOutUv = 1u << 9,
   kOutPosition = 1u << 10,
   kOutRayDepth = 1u << 11,
+  kOutAlpha = 1u << 12,
 };
-constexpr int kNumOutputs = 12;
+constexpr int kNumOutputs = 13;
 // The outputs read from the visible surface point (outputs.cpp, write_surface_row): they need
 // each triangle's TriangleShading, as shading does.
 constexpr uint32_t kSurfaceOutputs = kOutBarycentric | kOutUv | kOutPosition | kOutRayDepth;
@@ -156,6 +157,10 @@ struct RenderOptions {
   uint8_t texture_filter = 0xff;  // a TextureFilter for every texture, or 0xff: each its own
   bool normal_camera = false;  // the normal output in camera space: normal_rotation applied
   mat3 normal_rotation{1.0f};  // world -> camera axes (the caller's camera convention)
+  // Anti-aliasing (multisample.hpp): msaa samples per pixel (1, 2, 4, 8, 16; shaded once per
+  // pixel per triangle) or an ssaa x ssaa grid (each sample shaded); not both above 1.
+  int msaa = 1;
+  int ssaa = 1;
 };
 
 // Per-vertex result of the transform stage (one draw).

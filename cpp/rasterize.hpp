@@ -24,7 +24,7 @@ constexpr int kTilePixels = kTileSizePx * kTileSizePx;
 // values kept): the arrays have that much padding at the end.
 // Allocate default-initialised (new TileScratch): clear() writes what a tile reads, so zeroing
 // would only page-fault `coverage` in a first frame that does not ask for it.
-constexpr int kTileScratchPixels = kMaxSamples * kTilePixels + kTileSizePx + simd::kLanes;
+constexpr int kTileScratchPixels = kTilePixels + kTileSizePx + simd::kLanes;
 // The depth test's tie rule: a fragment wins only when its key exceeds the pixel's key times
 // this factor (set per render), so a surface must be nearer by more than 2^-20 of its depth
 // (about 1e-6) to hide one drawn before it. Keys of one plane computed from different triangles
@@ -41,6 +41,9 @@ struct TileScratch {
   uint32_t coverage[kTileScratchPixels]; // fragments before the depth test
   std::vector<VisibleTriangle> triangles;  // binned triangles of this tile, in primitive order
   float tie = kTieFactorPerspective;      // the render's tie factor (above)
+  // The sample this pass rasterizes, from each pixel's top-left corner (fixed point): the centre,
+  // or one sample of a multisample pattern (viewport.hpp, multisample.cpp).
+  int32_t sample_x = kSubpixelHalf, sample_y = kSubpixelHalf;
 
   void clear(bool want_coverage);  // before a tile: nothing drawn
 };
@@ -88,10 +91,9 @@ inline EdgeEquations edge_equations_at(const TriangleSetup& t, int x, int y, int
   }
   return e;
 }
-template <typename Pattern>
-inline EdgeEquations edge_equations(const TriangleSetup& t, int x, int y) {
-  static_assert(Pattern::kCount == 1, "one sample per pixel: the kernels step one sample");
-  return edge_equations_at(t, x, y, Pattern::kX, Pattern::kY);
+// At the sample the scratch's pass rasterizes (TileScratch::sample_x / sample_y).
+inline EdgeEquations edge_equations(const TriangleSetup& t, int x, int y, const TileScratch& s) {
+  return edge_equations_at(t, x, y, s.sample_x, s.sample_y);
 }
 
 // A small triangle's edge functions for eight pixels of a row in exact int32 (see above), stepped
@@ -152,7 +154,7 @@ using namespace simd;
 template <typename Pattern, bool kCoverage, typename Hook>
 SR_INLINE void rasterize_large(const TriangleSetup& t, int x0, int x1, int y0, int y1,
                                const TileRect& rect, uint32_t index, TileScratch& s, Hook& hook) {
-  const EdgeEquations eq = edge_equations<Pattern>(t, x0, y0);
+  const EdgeEquations eq = edge_equations(t, x0, y0, s);
   int64_t row[3];
   for (int k = 0; k < 3; ++k) row[k] = eq.origin[k] - t.bias[k];  // biased: inside <=> >= 0
   const float k0 = t.key_over_area[0], k1 = t.key_over_area[1], k2 = t.key_over_area[2];
@@ -235,7 +237,7 @@ SR_INLINE i8 edges_cover(const i8 (&e)[3], const TriangleLanes& lanes) {
 template <typename Pattern, bool kCoverage, typename Hook>
 SR_INLINE void rasterize_small(const TriangleSetup& t, int x0, int x1, int y0, int y1,
                                const TileRect& rect, uint32_t index, TileScratch& s, Hook& hook) {
-  SmallEdges edges(edge_equations<Pattern>(t, x0, y0));
+  SmallEdges edges(edge_equations(t, x0, y0, s));
   const TriangleLanes lanes(t, index, s.tie);
   const i8 lane = lane_index();
   const int width = x1 - x0 + 1;
@@ -255,7 +257,7 @@ SR_INLINE void rasterize_small(const TriangleSetup& t, int x0, int x1, int y0, i
 template <typename Pattern, bool kCoverage, typename Hook>
 SR_INLINE void rasterize_pairs(const TriangleSetup& t, int x0, int x1, int y0, int y1,
                                const TileRect& rect, uint32_t index, TileScratch& s, Hook& hook) {
-  SmallEdgePairs edges(edge_equations<Pattern>(t, x0, y0));
+  SmallEdgePairs edges(edge_equations(t, x0, y0, s));
   const TriangleLanes lanes(t, index, s.tie);
   const i8 lane = lane_index(), row = lane >> 2;
   const i8 in_box_x = (lane & 3) < x1 - x0 + 1;
@@ -307,7 +309,7 @@ SR_INLINE void rasterize_all(const TileRect& rect, int tile, const std::vector<S
       if (x0 > x1 || y0 > y1) continue;
       if (chunk.alpha) {  // a masked draw's (alpha_mask.hpp): shaded as the int64 path's are
         if (rasterize_masked(*chunk.alpha, chunk, chunk.tile_records[r], x0, x1, y0, y1, rect,
-                             index, Pattern::kX, Pattern::kY, kCoverage, s))
+                             index, s.sample_x, s.sample_y, kCoverage, s))
           hook.large_won(index);
         continue;
       }

@@ -164,8 +164,9 @@ RenderPlan make_plan(const RenderOptions& options, int width, int height) {
   plan.world_normals = plan.normal || (plan.color && model_reads_normal(options.shading));
   // Forward shading kernels do not count coverage (a diagnostic): those renders are deferred,
   // the same bits. The "auto" shading path picks per tile, from overdraw estimated in setup.
+  // Anti-aliased renders shade each sample pass's visibility buffer: deferred.
   plan.forward_allowed = plan.shade && options.shading_path != ShadingPath::Deferred &&
-                         !plan.coverage;
+                         !plan.coverage && options.msaa == 1 && options.ssaa == 1;
   plan.estimate_overdraw = plan.forward_allowed && options.shading_path == ShadingPath::Auto;
   plan.bytes = Framebuffer::bytes_needed(width, height, options.outputs);
   plan.stream = plan.bytes >= kStreamFrameBytes;
@@ -182,7 +183,8 @@ Renderer::Renderer(int width, int height, int threads, bool simd)
       pool_(threads),
       isa_(simd ? best_isa() : Isa::Generic),
       tile_scratch_(pool_.size()),
-      shade_scratch_(pool_.size()) {
+      shade_scratch_(pool_.size()),
+      multisample_scratch_(pool_.size()) {
   ForkGuard& guard = fork_guard();
   std::lock_guard<std::mutex> lock(guard.mutex);
   guard.renderers.push_back(&mutex_);
@@ -231,6 +233,14 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
           std::isfinite(m.alpha_cutoff)))
       throw std::invalid_argument("material of draw " + std::to_string(d) + " is out of range");
   }
+  if (options.msaa > 1 && options.ssaa > 1)
+    throw std::invalid_argument("msaa and ssaa: use one of them (the other = 1)");
+  // The pixels' samples (msaa_pattern / ssaa_pattern throw for a bad count).
+  const Viewport viewport =
+      options.msaa > 1 ? Viewport(width(), height(), msaa_pattern(options.msaa))
+      : options.ssaa != 1 ? Viewport(width(), height(), ssaa_pattern(options.ssaa))
+      : (msaa_pattern(options.msaa), viewport_);
+  const bool multisample = viewport.samples.count > 1;
   const RenderPlan plan = make_plan(options, width(), height());
   if (plan.bytes > kMaxFramebufferBytes)
     throw std::invalid_argument("requested outputs need " + std::to_string(plan.bytes) +
@@ -257,7 +267,7 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   pool_.parallel_for(vertex_blocks.size(), [&](std::size_t item, int) {
     const Block& blk = vertex_blocks[item];
     project_vertices(*draws[blk.draw].mesh, transforms[blk.draw], blk.begin, blk.end, planes,
-                     viewport_, camera.orthographic, isa_, vertices_[blk.draw].data());
+                     viewport, camera.orthographic, isa_, vertices_[blk.draw].data());
   });
 
   // Setup and binning, parallel over fixed-size triangle chunks (primitive order is kept).
@@ -280,7 +290,7 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
     const Block& blk = chunk_ranges[item];
     SetupParams params{draws[blk.draw].mesh.get(), &transforms[blk.draw],
                        vertices_[blk.draw].data(), blk.draw, camera.orthographic, options.cull,
-                       &planes, viewport_, plan.estimate_overdraw,
+                       &planes, viewport, plan.estimate_overdraw,
                        plan.shade || plan.surface || alpha[blk.draw], alpha[blk.draw], isa_};
     setup_chunk(params, blk.begin, blk.end, chunks_[item]);
   });
@@ -328,15 +338,30 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   shade.framebuffer = framebuffer.get();
   shade.normal_rotation = options.normal_camera ? &options.normal_rotation : nullptr;
   shade.camera_centre = dvec3(camera_to_world[3]);
-  shade.sample_x = viewport_.samples.x[0];
-  shade.sample_y = viewport_.samples.y[0];
+  shade.sample_x = viewport.samples.x[0];  // (multisampled tiles: each pixel's representative)
+  shade.sample_y = viewport.samples.y[0];
+  // The background's linear value, which anti-aliasing mixes into partly covered pixels: the
+  // colour output's background byte, decoded as the output is encoded.
+  vec3 background_linear(0.0f);
+  for (int c = 0; c < 3; ++c) {
+    const double v = shade.background[c] / 255.0;
+    background_linear[c] = float(!options.srgb ? v
+                                 : v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4));
+  }
+  const float tie = camera.orthographic ? kTieFactorOrthographic : kTieFactorPerspective;
   const std::size_t num_chunks = chunk_ranges.size();
-  const TileKernels kernels = select_tile_kernels(plan, viewport_, isa_);
-  pool_.parallel_for(viewport_.num_tiles(), [&](std::size_t tile, int worker) {
+  const TileKernels kernels = select_tile_kernels(plan, viewport, isa_);
+  pool_.parallel_for(viewport.num_tiles(), [&](std::size_t tile, int worker) {
     if (!tile_scratch_[worker]) tile_scratch_[worker].reset(new TileScratch);
+    if (multisample) {
+      if (!multisample_scratch_[worker]) multisample_scratch_[worker].reset(new MultisampleScratch);
+      multisample_tile(shade, kernels, viewport, int(tile), chunks_, num_chunks,
+                       options.ssaa > 1, tie, background_linear, *multisample_scratch_[worker]);
+      return;
+    }
     if (!shade_scratch_[worker]) shade_scratch_[worker].reset(new ShadeScratch);
     TileScratch& scratch = *tile_scratch_[worker];
-    scratch.tie = camera.orthographic ? kTieFactorOrthographic : kTieFactorPerspective;
+    scratch.tie = tie;
     bool forward = plan.forward_allowed;
     if (plan.estimate_overdraw) {
       // Forward shading shades every fragment that wins the depth test, deferred each visible
@@ -345,16 +370,16 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
       constexpr float kForwardMaxOverdraw = 1.5f;
       float area = 0.0f;
       for (std::size_t c = 0; c < num_chunks; ++c) area += chunks_[c].tile_area[tile];
-      const TileRect rect = tile_rect(viewport_, int(tile));
+      const TileRect rect = tile_rect(viewport, int(tile));
       forward = area <= kForwardMaxOverdraw * float((rect.x1 - rect.x0) * (rect.y1 - rect.y0));
     }
     if (forward) {
-      rasterize_and_shade_tile(shade, kernels, viewport_, int(tile), chunks_, num_chunks, scratch,
+      rasterize_and_shade_tile(shade, kernels, viewport, int(tile), chunks_, num_chunks, scratch,
                                *shade_scratch_[worker]);
     } else {
-      rasterize_tile(kernels.raster, viewport_, int(tile), chunks_, num_chunks, plan.coverage,
+      rasterize_tile(kernels.raster, viewport, int(tile), chunks_, num_chunks, plan.coverage,
                      scratch);
-      shade_tile(shade, kernels, viewport_, int(tile), scratch, *shade_scratch_[worker]);
+      shade_tile(shade, kernels, viewport, int(tile), scratch, *shade_scratch_[worker]);
     }
   });
   return framebuffer;

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "framebuffer.hpp"
+#include "multisample.hpp"
 #include "pipeline.hpp"
 #include "rasterize.hpp"
 #include "scratch.hpp"
@@ -60,6 +61,7 @@ class Renderer {
   // and only by workers that take part (ThreadPool::parallel_for).
   std::vector<std::unique_ptr<TileScratch>> tile_scratch_;
   std::vector<std::unique_ptr<ShadeScratch>> shade_scratch_;
+  std::vector<std::unique_ptr<MultisampleScratch>> multisample_scratch_;  // anti-aliased renders
   std::shared_ptr<BufferPool> buffer_pool_ = std::make_shared<BufferPool>(0);
 };
 

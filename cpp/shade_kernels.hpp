@@ -165,7 +165,7 @@ SR_INLINE void shade_triangle(const ShadeParams& p, const TileRect& rect, const 
   const int y0 = std::max(int(t.y0), rect.y0), y1 = std::min(int(t.y1), rect.y1 - 1);
   ShadeTriangle<Model> s;
   prepare<Model, Model::kReadsNormal || kNormal>(p, vt, s);
-  const EdgeEquations eq = edge_equations<Pattern>(t, x0, y0);
+  const EdgeEquations eq = edge_equations(t, x0, y0, raster);
   if (is_small(t) && x1 - x0 < 4 && y1 > y0)
     shade_pairs<Model, kColor, kNormal>(p, s, SmallEdgePairs(eq), x0, x1, y0, y1, rect, raster,
                                         index, out);

@@ -13,14 +13,14 @@ namespace sr {
 // sized from it (rasterize.hpp, shade.hpp): a tile's buffers stay in L1/L2.
 constexpr int kTileSizePx = 64;
 
-// Samples per pixel the tile scratch holds. One sample at the pixel centre is the only pattern
-// so far; multisampling raises this and adds patterns (ARCHITECTURE.md, "Add a sample pattern").
-constexpr int kMaxSamples = 1;
+// Samples per pixel a pattern may hold: ssaa=8 is an 8x8 grid.
+constexpr int kMaxSamples = 64;
 
 // Where each pixel is sampled: offsets from its top-left corner in fixed-point units (1/256 px),
-// in [0, kSubpixelOne). Setup (bounding-box culling, the one-or-two-sample coverage test) and
-// binning read the run-time pattern; the raster kernels are compiled for a pattern type with the
-// same positions (CentreSample, rasterize.hpp).
+// in [0, kSubpixelOne). Setup (bounding-box culling, the small-triangle coverage test) and
+// binning read the whole pattern. The tile pass rasterizes one sample per pass: its offset is
+// TileScratch::sample_x / sample_y (rasterize.hpp), so one set of kernels serves every pattern;
+// a pattern of several samples runs one pass per sample (multisample.cpp).
 struct SamplePattern {
   int count = 1;
   int32_t x[kMaxSamples] = {kSubpixelHalf};
@@ -28,22 +28,35 @@ struct SamplePattern {
   int32_t min_x = kSubpixelHalf, max_x = kSubpixelHalf;  // over the samples
   int32_t min_y = kSubpixelHalf, max_y = kSubpixelHalf;
 
-  // One sample at the pixel centre, (j + 1/2, i + 1/2): the only pattern for now.
+  // One sample at the pixel centre, (j + 1/2, i + 1/2): every render without anti-aliasing.
   static SamplePattern centre() { return SamplePattern{}; }
+  // `count` samples at x[i], y[i] (fixed point), the extremes derived.
+  static SamplePattern of(int count, const int32_t* xs, const int32_t* ys) {
+    SamplePattern p;
+    p.count = count;
+    p.min_x = p.min_y = kSubpixelOne;
+    p.max_x = p.max_y = -1;
+    for (int i = 0; i < count; ++i) {
+      p.x[i] = xs[i];
+      p.y[i] = ys[i];
+      p.min_x = std::min(p.min_x, xs[i]);
+      p.max_x = std::max(p.max_x, xs[i]);
+      p.min_y = std::min(p.min_y, ys[i]);
+      p.max_y = std::max(p.max_y, ys[i]);
+    }
+    return p;
+  }
 };
 
-// The sample patterns the tile kernels are compiled for (a dispatch axis: dispatch.hpp). Each
-// gives its positions as constants, equal to a SamplePattern's.
-struct CentreSample {
-  static constexpr int kCount = 1;
-  static constexpr int32_t kX = kSubpixelHalf, kY = kSubpixelHalf;  // sample 0
-  static bool matches(const SamplePattern& p) {
-    return p.count == kCount && p.x[0] == kX && p.y[0] == kY;
-  }
+// The kernels' pattern axis (dispatch.hpp): one sample per pass, at the scratch's run-time
+// offset, whatever the render's pattern. (An axis kept so that a pattern needing its own kernels,
+// for example several samples per pass, can be added as a type here.)
+struct OneSamplePerPass {
+  static bool matches(const SamplePattern&) { return true; }
 };
 template <typename... P>
 struct PatternList {};
-using SamplePatterns = PatternList<CentreSample>;
+using SamplePatterns = PatternList<OneSamplePerPass>;
 
 // Image size, tiling and sample pattern; the scissor is the whole image.
 struct Viewport {

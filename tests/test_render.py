@@ -29,7 +29,8 @@ from conftest import (
 _DTYPES = {"color": (np.uint8, 3), "depth": (np.float32, 0), "mask": (np.bool_, 0),
            "normal": (np.float32, 3), "triangle_id": (np.int32, 0), "instance_id": (np.int32, 0),
            "coverage": (np.uint32, 0), "radiance": (np.float32, 3), "barycentric": (np.float32, 3),
-           "uv": (np.float32, 2), "position": (np.float32, 3), "ray_depth": (np.float32, 0)}
+           "uv": (np.float32, 2), "position": (np.float32, 3), "ray_depth": (np.float32, 0),
+           "alpha": (np.float32, 0)}
 
 
 def _plane_through_window_points(xy_window, plane_n, plane_d, w, h, fov):

@@ -16,7 +16,7 @@ from .loaders import load_scene
 from .material import Material
 from .mesh import Mesh, PrecisionWarning, load_mesh
 from .poses import look_at_pose, orbit, sphere_poses
-from .render import Frame, Renderer
+from .render import Frame, Renderer, sample_positions
 from .scene import Scene
 from .texture import Texture, load_texture
 from . import opencv  # noqa: E402 (helpers; cv2 is imported only when draw_outline runs)
@@ -60,6 +60,7 @@ __all__ = [
     "orbit",
     "render_dataset",
     "set_memory_budget",
+    "sample_positions",
     "sphere_poses",
     "to_pyrender",
     "write_dataset",

@@ -6,6 +6,7 @@ from collections.abc import Callable, Iterable, Iterator
 from typing import Any, Sequence
 
 import numpy as np
+import numpy.typing as npt
 
 from . import _core
 from ._checks import choice, image_side, integer, real, unit_rgb
@@ -205,13 +206,42 @@ def _spec(view: Any, proj: Any, orthographic: bool, near: float, far: float, out
           out: dict[str, np.ndarray] | None = None, shading_path: str = "auto",
           lights: Sequence[tuple] = (), ambient_light: Sequence[float] = (0.0, 0.0, 0.0),
           frequency: str = "pixel", srgb: bool = True, texture_filter: int = -1,
-          normal_rotation: tuple | None = None) -> dict[str, Any]:
+          normal_rotation: tuple | None = None, msaa: int = 1, ssaa: int = 1) -> dict[str, Any]:
     """The core's render spec (_core.pyi, Renderer.render): the options, already checked."""
     return {"view": view, "proj": proj, "orthographic": orthographic, "near": near, "far": far,
             "outputs": outputs, "cull": cull, "shading": shading, "shading_path": shading_path,
             "background": background, "ambient": ambient, "out": out, "lights": lights,
             "ambient_light": ambient_light, "frequency": frequency, "srgb": srgb,
-            "texture_filter": texture_filter, "normal_rotation": normal_rotation}
+            "texture_filter": texture_filter, "normal_rotation": normal_rotation,
+            "msaa": msaa, "ssaa": ssaa}
+
+
+MSAA_COUNTS = (1, 2, 4, 8, 16)
+
+
+def _antialiasing(msaa: Any, ssaa: Any) -> tuple[int, int]:
+    """Checked msaa and ssaa counts (render's docstring)."""
+    for name, value in (("msaa", msaa), ("ssaa", ssaa)):
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+            raise TypeError(f"{name} must be an int, got {value!r:.80}")
+    if int(msaa) not in MSAA_COUNTS:
+        raise ValueError(f"msaa must be one of {MSAA_COUNTS}, got {msaa!r}")
+    if not 1 <= int(ssaa) <= 8:
+        raise ValueError(f"ssaa must be in [1, 8], got {ssaa!r}")
+    if msaa > 1 and ssaa > 1:
+        raise ValueError(f"msaa and ssaa: use one of them, got msaa={msaa}, ssaa={ssaa}")
+    return int(msaa), int(ssaa)
+
+
+def sample_positions(msaa: int = 1, ssaa: int = 1) -> npt.NDArray[np.float64]:
+    """Where an anti-aliasing mode samples each pixel: an (n, 2) float64 array of (x, y) offsets
+    from the pixel's top-left corner in pixels (x right, y down), in sample order. msaa: the
+    Direct3D / Vulkan standard positions (multiples of 1/16 px); ssaa=k: a k x k grid at
+    ((i + 1/2) / k, (j + 1/2) / k), row by row, rounded to the rasterizer's 1/256 px. The
+    representative sample of a pixel (``Renderer.render``) is its covered sample nearest the
+    centre (0.5, 0.5), ties to the lower index."""
+    msaa, ssaa = _antialiasing(msaa, ssaa)
+    return np.array(_core._sample_pattern(msaa, ssaa), dtype=np.float64) / (1 << _core.SUBPIXEL_BITS)
 
 
 def _lighting(scene: Scene, view: Any, ambient: float) -> tuple[list[tuple], tuple]:
@@ -411,6 +441,8 @@ class Renderer:
         srgb: bool = True,
         texture_filter: str | None = None,
         normal_space: str = "world",
+        msaa: int = 1,
+        ssaa: int = 1,
     ) -> Frame:
         """Render ``scene`` seen by ``camera``; only ``outputs`` are allocated and written.
 
@@ -458,6 +490,19 @@ class Renderer:
               ``camera.pose`` (OpenGL's x right, y up, z toward the viewer; OpenCV's x right,
               y down, z forward for an ``IntrinsicsCamera(convention="opencv")``), as
               ``camera.unproject(..., space="camera")`` gives points.
+        msaa : multisample anti-aliasing: 1 (default, off: every output exact and unblended), 2,
+              4, 8 or 16 samples per pixel at the Direct3D / Vulkan standard positions. Coverage
+              and depth are tested per sample; each triangle is shaded once per pixel (at its
+              sample nearest the centre among those it covers); colour and radiance are the box
+              filter (mean) of the samples in linear light, the colour output then encoded.
+        ssaa : supersampling: k (1 to 8) shades a k x k grid of samples per pixel and averages
+              them: the reference-quality mode, k^2 times the shading. Not with msaa > 1.
+              With either, ``alpha`` is the fraction of samples covered and ``radiance`` is
+              premultiplied by it (0 where uncovered; ``color`` mixes in the background by
+              1 - alpha). Ids, mask, depth, normal and the surface outputs are never averaged:
+              they come from one representative sample per pixel, the covered sample nearest
+              the pixel centre (ties: the lower sample index), so they describe one surface
+              point. ``coverage`` sums the fragments of all samples.
         """
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a softrast.Scene, got {type(scene).__name__}")
@@ -481,8 +526,12 @@ class Renderer:
         ambient_f = real(ambient, "ambient")
         if not 0.0 <= ambient_f <= 1.0:  # NaN fails too
             raise ValueError(f"ambient must be in [0, 1], got {ambient!r}")
+        msaa, ssaa = _antialiasing(msaa, ssaa)
 
         if getattr(camera, "_dist", None) is not None:  # an IntrinsicsCamera with lens distortion
+            if msaa > 1 or ssaa > 1:
+                raise ValueError("msaa / ssaa: anti-aliasing a camera with lens distortion is not "
+                                 "supported (its oversample= already averages colour bilinearly)")
             from .distortion import render_distorted
 
             return render_distorted(self, scene, camera, names, {
@@ -503,7 +552,8 @@ class Renderer:
                                                  out_arrays, shading_path, lights, ambient_light,
                                                  frequency, bool(srgb), filter_index,
                                                  None if normal_space == "world" else
-                                                 tuple(map(tuple, camera.pose[:3, :3].T.tolist()))))
+                                                 tuple(map(tuple, camera.pose[:3, :3].T.tolist())),
+                                                 msaa, ssaa))
         return Frame(buffers)
 
     def render_many(self, scene: Scene, cameras: Iterable[Camera], outputs: str | Sequence[str] = ("color", "depth"),
