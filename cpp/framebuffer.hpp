@@ -48,7 +48,8 @@ inline constexpr OutputLayout kOutputLayouts[kNumOutputs] = {
      "(h, w) float32: distance along the camera's viewing axis (-z_view) in scene units, 0 where "
      "nothing was hit (orthographic cameras included)"},
     {kOutMask, "mask", DType::Bool, 1, 1, 0.0, OutputPass::Resolve,
-     "(h, w) bool: True where a triangle covers the pixel centre"},
+     "(h, w) bool: True where a triangle covers the pixel centre (with msaa/ssaa: any of its "
+     "samples)"},
     {kOutNormal, "normal", DType::F32, 3, 4, 0.0, OutputPass::Shade,
      "(h, w, 3) float32: world-space unit normal of the visible side, 0 = background"},
     {kOutTriangleId, "triangle_id", DType::I32, 1, 4, -1.0, OutputPass::Resolve,
@@ -57,7 +58,8 @@ inline constexpr OutputLayout kOutputLayouts[kNumOutputs] = {
      "(h, w) int32: the instance's id from Scene.add, -1 = background"},
     {kOutCoverage, "coverage", DType::U32, 1, 4, 0.0, OutputPass::Resolve,
      "(h, w) uint32: number of rasterized triangles covering the pixel centre before the depth "
-     "test (a closed convex mesh with back-face culling gives exactly 1)"},
+     "test (a closed convex mesh with back-face culling gives exactly 1); with msaa/ssaa summed "
+     "over the pixel's samples"},
     {kOutRadiance, "radiance", DType::F32, 3, 4, 0.0, OutputPass::Shade,
      "(h, w, 3) float32: shaded linear RGB radiance, unclamped, 0 = background (the colour "
      "output is this, clamped and encoded)"},

@@ -1,11 +1,11 @@
 // Anti-aliasing: one raster pass per sample, then the resolve (multisample.hpp states the rules).
-// Scalar and compiled once for the generic target: its sums are the same bits for either
-// instruction set's kernels.
 #include "multisample.hpp"
 
+#include "dispatch.hpp"
 #include "outputs.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -70,6 +70,137 @@ SamplePattern ssaa_pattern(int k) {
   return SamplePattern::of(k * k, xs, ys);
 }
 
+namespace {
+
+using namespace simd;
+
+// The per-pixel work of multisample_tile, eight lanes at a time over whole tile rows (columns
+// past the tile's width hold kNoTriangle in every sample's buffer: their results are never
+// read), compiled for each instruction set (IsaKernel): selects, integer counts and IEEE single
+// adds and products, the same bits for either.
+struct Resolve {
+  // The representative sample, its entries, alpha and coverage; weights when shading.
+  SR_INLINE static void run(MultisampleScratch* ms_, int n, int count, const uint8_t* order,
+                            bool coverage, bool shading, bool per_sample) {
+    MultisampleScratch& ms = *ms_;
+    const float inv_count = 1.0f / float(count);
+    const i8 none = splat(int32_t(kNoTriangle));
+    // Each sample's index in every lane, made by adds (a broadcast per use became a chain of
+    // lane inserts).
+    i8 ids[kMaxSamples];
+    i8 id = splat(0);
+    for (int s = 0; s < count; ++s, id += 1) ids[s] = id;
+    for (int i = 0; i < n; i += kLanes) {
+      i8 visible = none, rep = splat(0), covered = splat(0);
+      f8 key = splat(-std::numeric_limits<float>::infinity());
+      for (int r = count - 1; r >= 0; --r) {  // the most preferred last: it wins
+        const int s = order[r];
+        const i8 v = load<i8>(ms.sample[s]->visible + i);
+        const i8 hit = v != none;
+        visible = hit ? v : visible;
+        key = hit ? load<f8>(ms.sample[s]->key + i) : key;
+        rep = hit ? ids[s] : rep;
+        covered -= hit;
+      }
+      store(ms.resolved.visible + i, visible);
+      store(ms.resolved.key + i, key);
+      store(ms.representative + i, rep);
+      store(ms.alpha + i, to_float(covered) * inv_count);  // (an integer times 1/count)
+      if (coverage) {
+        i8 fragments = splat(0);
+        for (int s = 0; s < count; ++s) fragments += load<i8>(ms.sample[s]->coverage + i);
+        store(ms.coverage + i, fragments);
+      }
+      if (!shading) continue;
+      // Which pass shades which samples. ssaa: every covered sample its own. msaa: the
+      // representative shades its triangle's samples; another triangle's are shaded by its
+      // lowest-index sample (found one pixel at a time, only where several triangles show).
+      if (per_sample) {
+        for (int s = 0; s < count; ++s)
+          store(ms.weight[s] + i, (load<i8>(ms.sample[s]->visible + i) != none) & splat(1));
+        continue;
+      }
+      i8 mine = splat(0);
+      for (int s = 0; s < count; ++s) {
+        const i8 v = load<i8>(ms.sample[s]->visible + i);
+        mine -= (v == visible) & (v != none);
+      }
+      for (int s = 0; s < count; ++s) store(ms.weight[s] + i, rep == ids[s] ? mine : i8{});
+      if (!any(mine != covered)) continue;
+      for (int l = i; l < i + kLanes; ++l) {
+        const uint32_t owner = ms.resolved.visible[l];
+        for (int s = 0; s < count; ++s) {
+          const uint32_t v = ms.sample[s]->visible[l];
+          if (v == kNoTriangle || v == owner) continue;
+          int leader = 0;
+          while (ms.sample[leader]->visible[l] != v) ++leader;
+          ++ms.weight[leader][l];
+        }
+      }
+    }
+  }
+};
+
+// Pass s's visibility buffer keeps only the pixels it shades; true if there is one.
+struct MaskPass {
+  SR_INLINE static bool run(MultisampleScratch* ms, int n, int s) {
+    const i8 none = splat(int32_t(kNoTriangle));
+    i8 any_weight = splat(0);
+    uint32_t* const visible = ms->sample[s]->visible;
+    for (int i = 0; i < n; i += kLanes) {
+      const i8 weight = load<i8>(ms->weight[s] + i);
+      store(visible + i, weight != 0 ? load<i8>(visible + i) : none);
+      any_weight |= weight;
+    }
+    return any(any_weight != 0);
+  }
+};
+
+// Adds pass s's shade times its weights; the representative's pass gives the normal.
+struct Accumulate {
+  SR_INLINE static void run(MultisampleScratch* ms, int n, int s, bool normals) {
+    const i8 me = splat(s);
+    for (int i = 0; i < n; i += kLanes) {
+      const i8 weight = load<i8>(ms->weight[s] + i);
+      if (!any(weight != 0)) continue;
+      const f8 w = to_float(weight);
+      // (selects, not products alone: a pixel this pass did not shade holds a stale value)
+      for (int c = 0; c < 3; ++c)
+        store(ms->radiance[c] + i, load<f8>(ms->radiance[c] + i) +
+                                       (weight != 0 ? w * load<f8>(ms->shaded.rgb[c] + i) : f8{}));
+      if (normals) {
+        const i8 mine = (weight != 0) & (load<i8>(ms->representative + i) == me);
+        for (int c = 0; c < 3; ++c)
+          store(ms->resolved_shade.normal[c] + i,
+                mine ? load<f8>(ms->shaded.normal[c] + i) : load<f8>(ms->resolved_shade.normal[c] + i));
+      }
+    }
+  }
+};
+
+// The mean, and the colour output's value: the mean plus the background's uncovered share.
+struct Finish {
+  SR_INLINE static void run(MultisampleScratch* ms, int n, int count, const float* background) {
+    const f8 inv = splat(1.0f / float(count)), one = splat(1.0f);
+    const f8 bg[3] = {splat(background[0]), splat(background[1]), splat(background[2])};
+    for (int i = 0; i < n; i += kLanes) {
+      const f8 uncovered = one - load<f8>(ms->alpha + i);
+      for (int c = 0; c < 3; ++c) {
+        const f8 mean = load<f8>(ms->radiance[c] + i) * inv;
+        store(ms->radiance[c] + i, mean);
+        store(ms->resolved_shade.rgb[c] + i, mean + uncovered * bg[c]);
+      }
+    }
+  }
+};
+
+template <typename K, typename Fn>
+Fn kernel(Isa isa) {
+  return dispatch::IsaKernel<K, Fn>::get(isa);
+}
+
+}  // namespace
+
 void multisample_tile(const ShadeParams& params, const TileKernels& kernels,
                       const Viewport& viewport, int tile, const std::vector<SetupChunk>& chunks,
                       std::size_t num_chunks, bool per_sample, float tie,
@@ -77,114 +208,51 @@ void multisample_tile(const ShadeParams& params, const TileKernels& kernels,
   const SamplePattern& pattern = viewport.samples;
   const int count = pattern.count;
   const TileRect rect = tile_rect(viewport, tile);
-  const int w = rect.x1 - rect.x0, h = rect.y1 - rect.y0;
+  const int n = (rect.y1 - rect.y0) * kTileSizePx;  // whole rows of the tile's buffers
+  const Isa isa = kernels.isa;
 
-  // One raster pass per sample.
+  // Every sample's raster pass, in one walk over the tile's triangles.
   while (int(ms.sample.size()) < count) ms.sample.emplace_back(new TileScratch);
+  TileScratch* passes[kMaxSamples];
   for (int s = 0; s < count; ++s) {
-    TileScratch& scratch = *ms.sample[s];
-    scratch.tie = tie;
-    scratch.sample_x = pattern.x[s];
-    scratch.sample_y = pattern.y[s];
-    rasterize_tile(kernels.raster, viewport, tile, chunks, num_chunks, kernels.coverage, scratch);
+    passes[s] = ms.sample[s].get();
+    passes[s]->tie = tie;
+    passes[s]->sample_x = pattern.x[s];
+    passes[s]->sample_y = pattern.y[s];
   }
+  kernels.raster_samples(rect, tile, chunks, num_chunks, passes, count);
 
-  // Per pixel: the representative sample, alpha, coverage, and which pass shades which samples.
   uint8_t order[kMaxSamples];
   representative_order(pattern, order);
-  const float inv_count = 1.0f / float(count);
-  constexpr uint8_t kNone = 0xff;
-  TileScratch& resolved = ms.resolved;
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      const int i = y * kTileSizePx + x;
-      int rep = kNone, covered = 0;
-      for (int r = 0; r < count; ++r)
-        if (ms.sample[order[r]]->visible[i] != kNoTriangle) {
-          rep = order[r];
-          break;
-        }
-      for (int s = 0; s < count; ++s) {
-        ms.weight[s][i] = 0;
-        covered += ms.sample[s]->visible[i] != kNoTriangle;
-      }
-      ms.representative[i] = uint8_t(rep);
-      ms.alpha[i] = float(covered) * inv_count;
-      if (kernels.coverage) {
-        uint32_t fragments = 0;
-        for (int s = 0; s < count; ++s) fragments += ms.sample[s]->coverage[i];
-        ms.coverage[i] = fragments;
-      }
-      if (rep == kNone) {
-        resolved.visible[i] = kNoTriangle;
-        resolved.key[i] = -std::numeric_limits<float>::infinity();
-        continue;
-      }
-      const uint32_t owner = ms.sample[rep]->visible[i];
-      resolved.visible[i] = owner;
-      resolved.key[i] = ms.sample[rep]->key[i];
-      if (per_sample) {
-        for (int s = 0; s < count; ++s) ms.weight[s][i] = ms.sample[s]->visible[i] != kNoTriangle;
-        continue;
-      }
-      // Once per pixel per triangle: the representative shades its triangle's samples; another
-      // triangle's samples are shaded by its lowest-index sample.
-      for (int s = 0; s < count; ++s) {
-        const uint32_t v = ms.sample[s]->visible[i];
-        if (v == kNoTriangle) continue;
-        int leader = rep;
-        if (v != owner)
-          for (leader = 0; ms.sample[leader]->visible[i] != v; ++leader) {}
-        ++ms.weight[leader][i];
-      }
-    }
+  const bool shading = kernels.deferred != nullptr;
+  kernel<Resolve, void (*)(MultisampleScratch*, int, int, const uint8_t*, bool, bool, bool)>(isa)(
+      &ms, n, count, order, kernels.coverage, shading, per_sample);
 
   // Shading: pass s shades the pixels where its weight is set (the others are masked off in its
   // visibility buffer, which the resolve no longer reads), and its shade is summed with that
-  // weight. The representative's pass also gives the pixel its normal.
-  if (kernels.deferred) {
-    for (int c = 0; c < 3; ++c)
-      for (int y = 0; y < h; ++y) std::fill_n(ms.radiance[c] + y * kTileSizePx, w, 0.0f);
+  // weight.
+  if (shading) {
+    const bool normals = params.framebuffer->get<float>(kOutNormal) != nullptr;
+    for (int c = 0; c < 3; ++c) std::fill_n(ms.radiance[c], n, 0.0f);
+    const auto mask = kernel<MaskPass, bool (*)(MultisampleScratch*, int, int)>(isa);
+    const auto accumulate = kernel<Accumulate, void (*)(MultisampleScratch*, int, int, bool)>(isa);
     for (int s = 0; s < count; ++s) {
-      TileScratch& scratch = *ms.sample[s];
-      bool any = false;
-      for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) {
-          const int i = y * kTileSizePx + x;
-          if (ms.weight[s][i] == 0) scratch.visible[i] = kNoTriangle;
-          else any = true;
-        }
-      if (!any) continue;
-      kernels.deferred(params, rect, scratch, ms.shaded);
-      for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) {
-          const int i = y * kTileSizePx + x;
-          const uint8_t weight = ms.weight[s][i];
-          if (weight == 0) continue;
-          for (int c = 0; c < 3; ++c) ms.radiance[c][i] += float(weight) * ms.shaded.rgb[c][i];
-          if (ms.representative[i] == s)
-            for (int c = 0; c < 3; ++c) ms.resolved_shade.normal[c][i] = ms.shaded.normal[c][i];
-        }
+      if (!mask(&ms, n, s)) continue;
+      kernels.deferred(params, rect, *ms.sample[s], ms.shaded);
+      accumulate(&ms, n, s, normals);
     }
-    for (int y = 0; y < h; ++y)
-      for (int x = 0; x < w; ++x) {
-        const int i = y * kTileSizePx + x;
-        const float background = 1.0f - ms.alpha[i];
-        for (int c = 0; c < 3; ++c) {
-          const float mean = ms.radiance[c][i] * inv_count;
-          ms.radiance[c][i] = mean;
-          ms.resolved_shade.rgb[c][i] = mean + background * background_linear[c];
-        }
-      }
+    const float background[3] = {background_linear.x, background_linear.y, background_linear.z};
+    kernel<Finish, void (*)(MultisampleScratch*, int, int, const float*)>(isa)(&ms, n, count,
+                                                                                background);
   }
 
   // The write pass reads the resolved buffer's entries as indices into the (shared) list of the
   // tile's triangles, which every pass built alike: take sample 0's.
-  std::swap(resolved.triangles, ms.sample[0]->triangles);
+  std::swap(ms.resolved.triangles, ms.sample[0]->triangles);
   const ResolvedSamples samples{ms.representative, &pattern, ms.alpha,
                                 {ms.radiance[0], ms.radiance[1], ms.radiance[2]},
                                 ms.coverage};
-  write_tile(params, rect, resolved, ms.resolved_shade, kernels.isa, &samples);
+  write_tile(params, rect, ms.resolved, ms.resolved_shade, isa, &samples);
 }
 
 }  // namespace sr

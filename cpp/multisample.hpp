@@ -40,7 +40,7 @@ SamplePattern ssaa_pattern(int k);
 // What write_tile needs beyond a single-sample tile: per pixel, the representative sample, alpha,
 // the radiance (premultiplied) and the coverage summed over the samples.
 struct ResolvedSamples {
-  const uint8_t* representative;  // sample index per tile pixel (row stride kTileSizePx)
+  const int32_t* representative;  // sample index per tile pixel (row stride kTileSizePx)
   const SamplePattern* pattern;
   const float* alpha;             // per tile pixel
   const float* radiance[3];       // per tile pixel, premultiplied
@@ -58,8 +58,8 @@ struct MultisampleScratch {
   float radiance[3][kTileScratchPixels];
   float alpha[kTileScratchPixels];
   uint32_t coverage[kTileScratchPixels];
-  uint8_t representative[kTilePixels];
-  uint8_t weight[kMaxSamples][kTilePixels];  // samples one pass's shade stands for (0: none)
+  int32_t representative[kTileScratchPixels];
+  int32_t weight[kMaxSamples][kTilePixels];  // samples one pass's shade stands for (0: none)
 };
 
 // Rasterizes, shades and resolves `tile` with the viewport's sample pattern (count > 1), then

@@ -244,7 +244,7 @@ SR_TARGET_AVX2 void write_rgb_stream(const uint32_t* rgb, const uint32_t* visibl
 // sample.
 void write_surface_row(const ShadeParams& p, const TileScratch& raster, const uint32_t* visible,
                        int x0, int y, int n, float* bary_out, float* uv_out, float* position_out,
-                       float* ray_depth_out, const uint8_t* representative,
+                       float* ray_depth_out, const int32_t* representative,
                        const SamplePattern* pattern) {
   uint32_t current = kNoTriangle;
   const TriangleSetup* t = nullptr;

@@ -19,7 +19,22 @@ struct RasterizeAll {
   }
 };
 
+template <bool kCoverage>
+struct RasterizeAllSamples {
+  SR_INLINE static void run(const TileRect& rect, int tile, const std::vector<SetupChunk>& chunks,
+                            std::size_t num_chunks, TileScratch* const* samples, int count) {
+    for (int s = 0; s < count; ++s) samples[s]->clear(kCoverage);
+    raster::rasterize_all_samples<kCoverage>(rect, tile, chunks, num_chunks, samples, count);
+  }
+};
+
 }  // namespace
+
+RasterizeSamplesFn select_rasterize_samples(Isa isa, bool want_coverage) {
+  using K0 = dispatch::IsaKernel<RasterizeAllSamples<false>, RasterizeSamplesFn>;
+  using K1 = dispatch::IsaKernel<RasterizeAllSamples<true>, RasterizeSamplesFn>;
+  return want_coverage ? K1::get(isa) : K0::get(isa);
+}
 
 RasterizeFn select_rasterize(Isa isa, const SamplePattern& pattern, bool want_coverage) {
   return dispatch::select<RasterizeFn>(

@@ -58,6 +58,12 @@ RasterizeFn select_rasterize(Isa isa, const SamplePattern& pattern, bool want_co
 void rasterize_tile(RasterizeFn kernel, const Viewport& viewport, int tile,
                     const std::vector<SetupChunk>& chunks, std::size_t num_chunks,
                     bool want_coverage, TileScratch& scratch);
+// The same for every sample of a multisample pattern in one walk over the tile's records
+// (multisample.cpp): each record is fetched once and rasterized into each sample's scratch
+// (samples[s], at its own offset) in turn. Each scratch ends as rasterize_tile would leave it.
+using RasterizeSamplesFn = void (*)(const TileRect&, int, const std::vector<SetupChunk>&,
+                                    std::size_t, TileScratch* const*, int);
+RasterizeSamplesFn select_rasterize_samples(Isa isa, bool want_coverage);
 
 // Triangles whose snapped bounding box spans at most this many pixels per side take the
 // eight-lane path: their edge functions, relative to a sample in the box, fit in int32.
@@ -321,6 +327,52 @@ SR_INLINE void rasterize_all(const TileRect& rect, int tile, const std::vector<S
       }
       else {
         rasterize_large<Pattern, kCoverage>(t, x0, x1, y0, y1, rect, index, s, hook);
+      }
+    }
+  }
+}
+
+// rasterize_all for `count` samples at once (NoShading): samples[s] is rasterized at its own
+// offset, with the same per-sample operations as rasterize_all, so the same bits.
+template <bool kCoverage>
+SR_INLINE void rasterize_all_samples(const TileRect& rect, int tile,
+                                     const std::vector<SetupChunk>& chunks, std::size_t num_chunks,
+                                     TileScratch* const* samples, int count) {
+  NoShading hook;
+  for (std::size_t c = 0; c < num_chunks; ++c) {
+    const SetupChunk& chunk = chunks[c];
+    if (chunk.kind != PrimitiveKind::Triangle) continue;  // (no other kind yet)
+    const uint32_t end = chunk.tile_begin[tile + 1];
+    for (uint32_t r = chunk.tile_begin[tile]; r < end; ++r) {
+      if (r + kPrefetchRecords < end) prefetch_record<false>(chunk, r + kPrefetchRecords);
+      const TriangleSetup& t = chunk.records[chunk.tile_records[r]];
+      const uint32_t index = uint32_t(samples[0]->triangles.size());
+      for (int s = 0; s < count; ++s) {
+        VisibleTriangle& vt = samples[s]->triangles.emplace_back();
+        vt.tri = &t;
+        vt.chunk = &chunk;
+      }
+      const int x0 = std::max(int(t.x0), rect.x0), x1 = std::min(int(t.x1), rect.x1 - 1);
+      const int y0 = std::max(int(t.y0), rect.y0), y1 = std::min(int(t.y1), rect.y1 - 1);
+      if (x0 > x1 || y0 > y1) continue;
+      if (chunk.alpha) {
+        for (int s = 0; s < count; ++s)
+          rasterize_masked(*chunk.alpha, chunk, chunk.tile_records[r], x0, x1, y0, y1, rect,
+                           index, samples[s]->sample_x, samples[s]->sample_y, kCoverage,
+                           *samples[s]);
+        continue;
+      }
+      if (is_small(t)) {
+        if (x1 - x0 < 4 && y1 > y0)
+          for (int s = 0; s < count; ++s)
+            rasterize_pairs<void, kCoverage>(t, x0, x1, y0, y1, rect, index, *samples[s], hook);
+        else
+          for (int s = 0; s < count; ++s)
+            rasterize_small<void, kCoverage>(t, x0, x1, y0, y1, rect, index, *samples[s], hook);
+      }
+      else {
+        for (int s = 0; s < count; ++s)
+          rasterize_large<void, kCoverage>(t, x0, x1, y0, y1, rect, index, *samples[s], hook);
       }
     }
   }

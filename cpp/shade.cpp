@@ -14,6 +14,7 @@ TileKernels select_tile_kernels(const RenderPlan& plan, const Viewport& viewport
   const SamplePattern& pattern = viewport.samples;
   TileKernels k;
   k.raster = select_rasterize(isa, pattern, plan.coverage);
+  if (pattern.count > 1) k.raster_samples = select_rasterize_samples(isa, plan.coverage);
   const bool avx2 = isa == Isa::Avx2;
   k.deferred = (avx2 ? shading::select_deferred<Isa::Avx2> : shading::select_deferred<Isa::Generic>)(
       pattern, plan.shading, plan.color, plan.normal);

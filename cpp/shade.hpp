@@ -50,6 +50,7 @@ struct ShadeScratch {
 // `forward` and `deferred` are null when nothing is shaded (RenderPlan::shade false).
 struct TileKernels {
   RasterizeFn raster = nullptr;
+  RasterizeSamplesFn raster_samples = nullptr;  // a pattern of several samples (multisample.cpp)
   using Deferred = void (*)(const ShadeParams&, const TileRect&, const TileScratch&, ShadeScratch&);
   using Forward = void (*)(const ShadeParams&, const TileRect&, int, const std::vector<SetupChunk>&,
                            std::size_t, TileScratch&, ShadeScratch&);
