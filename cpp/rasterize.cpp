@@ -10,25 +10,27 @@ namespace sr {
 
 namespace {
 
-template <typename Pattern, bool kCoverage>
+template <typename Pattern, bool kCoverage, bool kScanline>
 struct RasterizeAll {
   SR_INLINE static void run(const TileRect& rect, int tile, const std::vector<SetupChunk>& chunks,
                             std::size_t num_chunks, TileScratch& s) {
     NoShading hook;
-    raster::rasterize_all<Pattern, kCoverage>(rect, tile, chunks, num_chunks, s, hook);
+    raster::rasterize_all<Pattern, kCoverage, kScanline>(rect, tile, chunks, num_chunks, s, hook);
   }
 };
 
 }  // namespace
 
-RasterizeFn select_rasterize(Isa isa, const SamplePattern& pattern, bool want_coverage) {
+RasterizeFn select_rasterize(Isa isa, const SamplePattern& pattern, bool want_coverage,
+                             bool scanline) {
   return dispatch::select<RasterizeFn>(
-      [](auto i, auto sp, auto coverage) -> RasterizeFn {
-        using K = RasterizeAll<typename decltype(sp)::type, decltype(coverage)::value>;
+      [](auto i, auto sp, auto coverage, auto scan) -> RasterizeFn {
+        using K = RasterizeAll<typename decltype(sp)::type, decltype(coverage)::value,
+                               decltype(scan)::value>;
         return decltype(i)::value == Isa::Avx2 ? dispatch::IsaKernel<K, RasterizeFn>::avx2
                                                : dispatch::IsaKernel<K, RasterizeFn>::generic;
       },
-      isa, pattern, want_coverage);
+      isa, pattern, want_coverage, scanline);
 }
 
 void rasterize_tile(RasterizeFn kernel, const Viewport& viewport, int tile,

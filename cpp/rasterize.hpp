@@ -3,6 +3,7 @@
 #pragma once
 
 #include "alpha_mask.hpp"
+#include "scanline.hpp"
 #include "setup.hpp"
 #include "simd.hpp"
 
@@ -48,10 +49,12 @@ struct TileScratch {
 // Rasterizes every triangle binned to `tile`, chunks in order, records in order: ties in depth
 // keep the first triangle drawn, so the result is the same for any thread count.
 // `kernel` (select_rasterize, once per render) is compiled for an instruction set (the same bits
-// for either), the viewport's sample pattern and whether coverage is counted.
+// for either), the viewport's sample pattern, whether coverage is counted and whether triangles
+// are filled by scanline (RasterAlgorithm::Scanline).
 using RasterizeFn = void (*)(const TileRect&, int, const std::vector<SetupChunk>&, std::size_t,
                              TileScratch&);
-RasterizeFn select_rasterize(Isa isa, const SamplePattern& pattern, bool want_coverage);
+RasterizeFn select_rasterize(Isa isa, const SamplePattern& pattern, bool want_coverage,
+                             bool scanline);
 void rasterize_tile(RasterizeFn kernel, const Viewport& viewport, int tile,
                     const std::vector<SetupChunk>& chunks, std::size_t num_chunks,
                     bool want_coverage, TileScratch& scratch);
@@ -283,7 +286,9 @@ SR_INLINE void prefetch_record(const SetupChunk& chunk, uint32_t r) {
   if constexpr (kShades) __builtin_prefetch(chunk.shading.data() + i);
 }
 
-template <typename Pattern, bool kCoverage, typename Hook>
+// kScanline (render(raster="scanline"), deferred shading only: make_plan): every opaque
+// triangle is filled by edge walking (scanline.hpp) instead of the kernels above.
+template <typename Pattern, bool kCoverage, bool kScanline = false, typename Hook>
 SR_INLINE void rasterize_all(const TileRect& rect, int tile, const std::vector<SetupChunk>& chunks,
                              std::size_t num_chunks, TileScratch& s, Hook& hook) {
   for (std::size_t c = 0; c < num_chunks; ++c) {
@@ -308,6 +313,12 @@ SR_INLINE void rasterize_all(const TileRect& rect, int tile, const std::vector<S
       if (chunk.alpha) {  // a masked draw's (alpha_mask.hpp): shaded as the int64 path's are
         if (rasterize_masked(*chunk.alpha, chunk, chunk.tile_records[r], x0, x1, y0, y1, rect,
                              index, Pattern::kX, Pattern::kY, kCoverage, s))
+          hook.large_won(index);
+        continue;
+      }
+      if constexpr (kScanline) {  // shaded as the int64 path's are (masked draws: above)
+        if (rasterize_scanline(t, x0, x1, y0, y1, rect, index, Pattern::kX, Pattern::kY,
+                               kCoverage, s))
           hook.large_won(index);
         continue;
       }
