@@ -187,12 +187,15 @@ uint32_t parse_outputs(const std::vector<std::string>& names) {
 }
 
 // Option names, the one place each is spelled; exported to Python (CULL_MODES, SHADING_MODELS,
-// SHADING_PATHS), which checks a render's options against them before calling the core.
+// SHADING_PATHS, RASTER_ALGORITHMS), which checks a render's options against them before calling
+// the core.
 constexpr std::pair<const char*, Cull> kCullNames[] = {
     {"none", Cull::None}, {"back", Cull::Back}, {"front", Cull::Front}};
 constexpr std::pair<const char*, ShadingPath> kShadingPathNames[] = {
     {"auto", ShadingPath::Auto}, {"forward", ShadingPath::Forward},
     {"deferred", ShadingPath::Deferred}};
+constexpr std::pair<const char*, RasterAlgorithm> kRasterNames[] = {
+    {"edge", RasterAlgorithm::Edge}, {"scanline", RasterAlgorithm::Scanline}};
 
 // Reflectance models in Brdf's order (a material's record carries the index) and frequencies.
 constexpr const char* kBrdfNames[] = {"unlit", "lambert", "phong", "blinn_phong", "pbr", "normal"};
@@ -356,12 +359,12 @@ Light light_from(const py::handle& h) {
 // Python string per key per render: about 1 us of a 6 us call).
 enum SpecKey { k_view, k_proj, k_orthographic, k_near, k_far, k_outputs, k_cull, k_shading,
                k_shading_path, k_background, k_ambient, k_out, k_lights, k_ambient_light,
-               k_frequency, k_srgb, k_texture_filter, k_normal_rotation, k_msaa, k_ssaa,
+               k_frequency, k_srgb, k_texture_filter, k_normal_rotation, k_raster, k_msaa, k_ssaa,
                kNumSpecKeys };
 constexpr const char* kSpecKeys[kNumSpecKeys] = {
     "view", "proj", "orthographic", "near", "far", "outputs", "cull", "shading",
     "shading_path", "background", "ambient", "out", "lights", "ambient_light", "frequency",
-    "srgb", "texture_filter", "normal_rotation", "msaa", "ssaa"};
+    "srgb", "texture_filter", "normal_rotation", "raster", "msaa", "ssaa"};
 PyObject* spec_key(SpecKey key) {
   // Made on first use with the GIL held and never freed (they live as long as the interpreter).
   static PyObject* const* const keys = [] {
@@ -375,8 +378,8 @@ PyObject* spec_key(SpecKey key) {
 // One render, as one spec from render.py, which has checked every option by name: only what
 // Python cannot check (array memory, overlaps) or the core needs for safety is checked here
 // and in Renderer::render. Keys: view, proj (4x4 float64), orthographic, near, far, outputs
-// (names), cull, shading, shading_path (names), background (3 floats), ambient, out (dict of
-// arrays or None), and optionally msaa, ssaa (ints, default 1).
+// (names), cull, shading, shading_path, raster (names), background (3 floats), ambient, out (dict
+// of arrays or None), and optionally msaa, ssaa (ints, default 1).
 py::dict render(Renderer& self, const py::sequence& draws_in, const py::dict& spec) {
   std::vector<Draw> draws;
   for (std::size_t d = 0; d < py::len(draws_in); ++d) {
@@ -409,6 +412,7 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::dict& sp
   options.cull = parse_name(get(k_cull).cast<std::string>(), kCullNames, "cull");
   options.shading = parse_shading(get(k_shading).cast<std::string>());
   options.shading_path = parse_name(get(k_shading_path).cast<std::string>(), kShadingPathNames, "shading_path");
+  options.raster = parse_name(get(k_raster).cast<std::string>(), kRasterNames, "raster");
   const auto background = get(k_background).cast<std::array<float, 3>>();
   for (int c = 0; c < 3; ++c) options.background[c] = background[c];  // range: Renderer::render
   options.ambient = get(k_ambient).cast<float>();
@@ -636,6 +640,7 @@ PYBIND11_MODULE(_core, m) {
   m.attr("SHADING_MODELS") = models;
   m.attr("CULL_MODES") = names_of(kCullNames);
   m.attr("SHADING_PATHS") = names_of(kShadingPathNames);
+  m.attr("RASTER_ALGORITHMS") = names_of(kRasterNames);
   m.attr("FREQUENCIES") = names_of(kFrequencyNames);
   py::tuple brdfs(std::size(kBrdfNames));
   for (std::size_t i = 0; i < std::size(kBrdfNames); ++i) brdfs[i] = kBrdfNames[i];

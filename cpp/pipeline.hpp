@@ -42,6 +42,9 @@ enum class Shading : uint8_t { Unlit, Lambert, Normal, Uv, Lit };
 // after the tile is rasterized (deferred). The same bits either way; Auto picks per tile by
 // its expected overdraw.
 enum class ShadingPath : uint8_t { Auto, Forward, Deferred };
+// How triangles are filled: edge functions evaluated at every pixel of the box (the default), or
+// scanline spans found by edge walking (scanline.hpp). The same samples either way.
+enum class RasterAlgorithm : uint8_t { Edge, Scanline };
 
 // Output buffers, as bits of RenderOptions::outputs; each is a row of kOutputLayouts
 // (framebuffer.cpp), which says everything else about it.
@@ -147,6 +150,7 @@ struct RenderOptions {
   Cull cull = Cull::Back;
   Shading shading = Shading::Lambert;
   ShadingPath shading_path = ShadingPath::Auto;
+  RasterAlgorithm raster = RasterAlgorithm::Edge;
   vec3 background{0.0f};  // colour of uncovered pixels, [0, 1], linear
   float ambient = 0.25f;  // Lambert: ambient + (1 - ambient) * max(0, n . l)
   // The lit model (Shading::Lit): world-space lights, the ambient light, the frequency.

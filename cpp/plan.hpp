@@ -21,7 +21,8 @@ struct RenderPlan {
                               // whose model reads normals)
   bool estimate_overdraw = false;  // "auto" path: setup estimates each tile's overdraw
   bool forward_allowed = false;    // forward shading may be used (shading, not "deferred", no
-                                   // coverage counting)
+                                   // coverage counting, not scanline)
+  bool scanline = false;      // triangles filled by edge walking (RasterAlgorithm::Scanline)
   bool stream = false;        // outputs written with non-temporal stores (outputs.hpp)
   std::size_t bytes = 0;      // of every requested output
   Shading shading = Shading::Lambert;

@@ -10,40 +10,45 @@ namespace sr {
 
 namespace {
 
-template <typename Pattern, bool kCoverage>
+template <typename Pattern, bool kCoverage, bool kScanline>
 struct RasterizeAll {
   SR_INLINE static void run(const TileRect& rect, int tile, const std::vector<SetupChunk>& chunks,
                             std::size_t num_chunks, TileScratch& s) {
     NoShading hook;
-    raster::rasterize_all<Pattern, kCoverage>(rect, tile, chunks, num_chunks, s, hook);
+    raster::rasterize_all<Pattern, kCoverage, kScanline>(rect, tile, chunks, num_chunks, s, hook);
   }
 };
 
-template <bool kCoverage>
+template <bool kCoverage, bool kScanline>
 struct RasterizeAllSamples {
   SR_INLINE static void run(const TileRect& rect, int tile, const std::vector<SetupChunk>& chunks,
                             std::size_t num_chunks, TileScratch* const* samples, int count) {
     for (int s = 0; s < count; ++s) samples[s]->clear(kCoverage);
-    raster::rasterize_all_samples<kCoverage>(rect, tile, chunks, num_chunks, samples, count);
+    raster::rasterize_all_samples<kCoverage, kScanline>(rect, tile, chunks, num_chunks, samples, count);
   }
 };
 
 }  // namespace
 
-RasterizeSamplesFn select_rasterize_samples(Isa isa, bool want_coverage) {
-  using K0 = dispatch::IsaKernel<RasterizeAllSamples<false>, RasterizeSamplesFn>;
-  using K1 = dispatch::IsaKernel<RasterizeAllSamples<true>, RasterizeSamplesFn>;
-  return want_coverage ? K1::get(isa) : K0::get(isa);
+RasterizeSamplesFn select_rasterize_samples(Isa isa, bool want_coverage, bool scanline) {
+  using K00 = dispatch::IsaKernel<RasterizeAllSamples<false, false>, RasterizeSamplesFn>;
+  using K10 = dispatch::IsaKernel<RasterizeAllSamples<true, false>, RasterizeSamplesFn>;
+  using K01 = dispatch::IsaKernel<RasterizeAllSamples<false, true>, RasterizeSamplesFn>;
+  using K11 = dispatch::IsaKernel<RasterizeAllSamples<true, true>, RasterizeSamplesFn>;
+  return scanline ? (want_coverage ? K11::get(isa) : K01::get(isa))
+                  : (want_coverage ? K10::get(isa) : K00::get(isa));
 }
 
-RasterizeFn select_rasterize(Isa isa, const SamplePattern& pattern, bool want_coverage) {
+RasterizeFn select_rasterize(Isa isa, const SamplePattern& pattern, bool want_coverage,
+                             bool scanline) {
   return dispatch::select<RasterizeFn>(
-      [](auto i, auto sp, auto coverage) -> RasterizeFn {
-        using K = RasterizeAll<typename decltype(sp)::type, decltype(coverage)::value>;
+      [](auto i, auto sp, auto coverage, auto scan) -> RasterizeFn {
+        using K = RasterizeAll<typename decltype(sp)::type, decltype(coverage)::value,
+                               decltype(scan)::value>;
         return decltype(i)::value == Isa::Avx2 ? dispatch::IsaKernel<K, RasterizeFn>::avx2
                                                : dispatch::IsaKernel<K, RasterizeFn>::generic;
       },
-      isa, pattern, want_coverage);
+      isa, pattern, want_coverage, scanline);
 }
 
 void rasterize_tile(RasterizeFn kernel, const Viewport& viewport, int tile,

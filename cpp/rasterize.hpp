@@ -3,6 +3,7 @@
 #pragma once
 
 #include "alpha_mask.hpp"
+#include "scanline.hpp"
 #include "setup.hpp"
 #include "simd.hpp"
 
@@ -51,10 +52,12 @@ struct TileScratch {
 // Rasterizes every triangle binned to `tile`, chunks in order, records in order: ties in depth
 // keep the first triangle drawn, so the result is the same for any thread count.
 // `kernel` (select_rasterize, once per render) is compiled for an instruction set (the same bits
-// for either), the viewport's sample pattern and whether coverage is counted.
+// for either), the viewport's sample pattern, whether coverage is counted and whether triangles
+// are filled by scanline (RasterAlgorithm::Scanline).
 using RasterizeFn = void (*)(const TileRect&, int, const std::vector<SetupChunk>&, std::size_t,
                              TileScratch&);
-RasterizeFn select_rasterize(Isa isa, const SamplePattern& pattern, bool want_coverage);
+RasterizeFn select_rasterize(Isa isa, const SamplePattern& pattern, bool want_coverage,
+                             bool scanline);
 void rasterize_tile(RasterizeFn kernel, const Viewport& viewport, int tile,
                     const std::vector<SetupChunk>& chunks, std::size_t num_chunks,
                     bool want_coverage, TileScratch& scratch);
@@ -63,7 +66,7 @@ void rasterize_tile(RasterizeFn kernel, const Viewport& viewport, int tile,
 // (samples[s], at its own offset) in turn. Each scratch ends as rasterize_tile would leave it.
 using RasterizeSamplesFn = void (*)(const TileRect&, int, const std::vector<SetupChunk>&,
                                     std::size_t, TileScratch* const*, int);
-RasterizeSamplesFn select_rasterize_samples(Isa isa, bool want_coverage);
+RasterizeSamplesFn select_rasterize_samples(Isa isa, bool want_coverage, bool scanline);
 
 // Triangles whose snapped bounding box spans at most this many pixels per side take the
 // eight-lane path: their edge functions, relative to a sample in the box, fit in int32.
@@ -291,7 +294,9 @@ SR_INLINE void prefetch_record(const SetupChunk& chunk, uint32_t r) {
   if constexpr (kShades) __builtin_prefetch(chunk.shading.data() + i);
 }
 
-template <typename Pattern, bool kCoverage, typename Hook>
+// kScanline (render(raster="scanline"), deferred shading only: make_plan): every opaque
+// triangle is filled by edge walking (scanline.hpp) instead of the kernels above.
+template <typename Pattern, bool kCoverage, bool kScanline = false, typename Hook>
 SR_INLINE void rasterize_all(const TileRect& rect, int tile, const std::vector<SetupChunk>& chunks,
                              std::size_t num_chunks, TileScratch& s, Hook& hook) {
   for (std::size_t c = 0; c < num_chunks; ++c) {
@@ -319,6 +324,12 @@ SR_INLINE void rasterize_all(const TileRect& rect, int tile, const std::vector<S
           hook.large_won(index);
         continue;
       }
+      if constexpr (kScanline) {  // shaded as the int64 path's are (masked draws: above)
+        if (rasterize_scanline(t, x0, x1, y0, y1, rect, index, s.sample_x, s.sample_y,
+                               kCoverage, s))
+          hook.large_won(index);
+        continue;
+      }
       if (is_small(t)) {
         if (x1 - x0 < 4 && y1 > y0)
           rasterize_pairs<Pattern, kCoverage>(t, x0, x1, y0, y1, rect, index, s, hook);
@@ -334,7 +345,7 @@ SR_INLINE void rasterize_all(const TileRect& rect, int tile, const std::vector<S
 
 // rasterize_all for `count` samples at once (NoShading): samples[s] is rasterized at its own
 // offset, with the same per-sample operations as rasterize_all, so the same bits.
-template <bool kCoverage>
+template <bool kCoverage, bool kScanline>
 SR_INLINE void rasterize_all_samples(const TileRect& rect, int tile,
                                      const std::vector<SetupChunk>& chunks, std::size_t num_chunks,
                                      TileScratch* const* samples, int count) {
@@ -360,6 +371,12 @@ SR_INLINE void rasterize_all_samples(const TileRect& rect, int tile,
           rasterize_masked(*chunk.alpha, chunk, chunk.tile_records[r], x0, x1, y0, y1, rect,
                            index, samples[s]->sample_x, samples[s]->sample_y, kCoverage,
                            *samples[s]);
+        continue;
+      }
+      if constexpr (kScanline) {
+        for (int s = 0; s < count; ++s)
+          rasterize_scanline(t, x0, x1, y0, y1, rect, index, samples[s]->sample_x,
+                             samples[s]->sample_y, kCoverage, *samples[s]);
         continue;
       }
       if (is_small(t)) {

@@ -162,11 +162,14 @@ RenderPlan make_plan(const RenderOptions& options, int width, int height) {
   plan.shade = plan.color || plan.normal;
   plan.surface = options.outputs & kSurfaceOutputs;
   plan.world_normals = plan.normal || (plan.color && model_reads_normal(options.shading));
-  // Forward shading kernels do not count coverage (a diagnostic): those renders are deferred,
-  // the same bits. The "auto" shading path picks per tile, from overdraw estimated in setup.
-  // Anti-aliased renders shade each sample pass's visibility buffer: deferred.
+  // Forward shading kernels do not count coverage (a diagnostic), nor fill by scanline (a
+  // cross-check): those renders are deferred, the same bits. The "auto" shading path picks per
+  // tile, from overdraw estimated in setup. Anti-aliased renders shade each sample pass's
+  // visibility buffer: deferred.
+  plan.scanline = options.raster == RasterAlgorithm::Scanline;
   plan.forward_allowed = plan.shade && options.shading_path != ShadingPath::Deferred &&
-                         !plan.coverage && options.msaa == 1 && options.ssaa == 1;
+                         !plan.coverage && !plan.scanline && options.msaa == 1 &&
+                         options.ssaa == 1;
   plan.estimate_overdraw = plan.forward_allowed && options.shading_path == ShadingPath::Auto;
   plan.bytes = Framebuffer::bytes_needed(width, height, options.outputs);
   plan.stream = plan.bytes >= kStreamFrameBytes;

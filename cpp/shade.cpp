@@ -13,8 +13,9 @@ namespace sr {
 TileKernels select_tile_kernels(const RenderPlan& plan, const Viewport& viewport, Isa isa) {
   const SamplePattern& pattern = viewport.samples;
   TileKernels k;
-  k.raster = select_rasterize(isa, pattern, plan.coverage);
-  if (pattern.count > 1) k.raster_samples = select_rasterize_samples(isa, plan.coverage);
+  k.raster = select_rasterize(isa, pattern, plan.coverage, plan.scanline);
+  if (pattern.count > 1)
+    k.raster_samples = select_rasterize_samples(isa, plan.coverage, plan.scanline);
   const bool avx2 = isa == Isa::Avx2;
   k.deferred = (avx2 ? shading::select_deferred<Isa::Avx2> : shading::select_deferred<Isa::Generic>)(
       pattern, plan.shading, plan.color, plan.normal);

@@ -487,3 +487,19 @@ def test_core_refuses_bad_counts_too():
         spec = _spec(view, proj, True, cam.near, cam.far, ["color"], msaa=msaa, ssaa=ssaa)
         with pytest.raises(ValueError):
             r._core.render(draws, spec)
+
+
+@pytest.mark.parametrize("mode", [dict(msaa=4), dict(ssaa=3)], ids=_mode_id)
+def test_scanline_fill_gives_the_same_bits_per_sample(rng, mode):
+    # raster="scanline" fills each sample pass by edge walking: the same samples, the same bits.
+    w, h = 70, 66
+    n = 150
+    xy = (rng.uniform(-5, 75, size=(n, 1, 2)) + rng.uniform(-15, 15, size=(n, 3, 2))).reshape(-1, 2)
+    faces = np.arange(3 * n).reshape(n, 3)
+    colors = rng.uniform(0, 1, size=(3 * n, 3))
+    scene = scene_of(pixel_mesh(xy, faces, w, h, colors=colors))
+    outs = tuple(sr.OUTPUTS)
+    a, b = (sr.Renderer(w, h).render(scene, pixel_ortho(w, h), outputs=outs, cull="none",
+                                     raster=raster, **mode) for raster in ("edge", "scanline"))
+    for name in outs:
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)

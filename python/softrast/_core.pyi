@@ -31,6 +31,7 @@ REFLECTANCE_MODELS: tuple[str, ...]  # a material record's model index names (cp
 FREQUENCIES: tuple[str, ...]  # "pixel", "vertex", "face"
 CULL_MODES: tuple[str, ...]  # "none", "back", "front"
 SHADING_PATHS: tuple[str, ...]  # "auto", "forward", "deferred"
+RASTER_ALGORITHMS: tuple[str, ...]  # "edge", "scanline"
 
 class MeshData:
     """Geometry uploaded once and validated.
@@ -103,7 +104,7 @@ class Renderer:
           outputs : names from OUTPUTS (OUTPUT_TABLE gives each one's dtype and shape); only
                     these buffers are allocated and written
           cull : one of CULL_MODES; shading : one of SHADING_MODELS;
-          shading_path : one of SHADING_PATHS
+          shading_path : one of SHADING_PATHS; raster : one of RASTER_ALGORITHMS
           background : 3 floats in [0, 1]; ambient : float in [0, 1]
           lights : [(kind 0/1/2 = directional/point/spot, radiance rgb, position, direction of
                    travel (unit), inverse_square, cone scale, cone offset)], world space

@@ -19,6 +19,7 @@ __all__ = ["Frame", "Renderer"]
 
 _CULL = _core.CULL_MODES
 _SHADING_PATHS = _core.SHADING_PATHS
+_RASTER = _core.RASTER_ALGORITHMS
 _FREQUENCIES = _core.FREQUENCIES
 # render(shading=): "auto" (each material's own model), every reflectance model of a material
 # (python/softrast/material.py, MODELS) and the core's debug views ("uv").
@@ -206,14 +207,15 @@ def _spec(view: Any, proj: Any, orthographic: bool, near: float, far: float, out
           out: dict[str, np.ndarray] | None = None, shading_path: str = "auto",
           lights: Sequence[tuple] = (), ambient_light: Sequence[float] = (0.0, 0.0, 0.0),
           frequency: str = "pixel", srgb: bool = True, texture_filter: int = -1,
-          normal_rotation: tuple | None = None, msaa: int = 1, ssaa: int = 1) -> dict[str, Any]:
+          normal_rotation: tuple | None = None, raster: str = "edge", msaa: int = 1,
+          ssaa: int = 1) -> dict[str, Any]:
     """The core's render spec (_core.pyi, Renderer.render): the options, already checked."""
     return {"view": view, "proj": proj, "orthographic": orthographic, "near": near, "far": far,
             "outputs": outputs, "cull": cull, "shading": shading, "shading_path": shading_path,
             "background": background, "ambient": ambient, "out": out, "lights": lights,
             "ambient_light": ambient_light, "frequency": frequency, "srgb": srgb,
             "texture_filter": texture_filter, "normal_rotation": normal_rotation,
-            "msaa": msaa, "ssaa": ssaa}
+            "raster": raster, "msaa": msaa, "ssaa": ssaa}
 
 
 MSAA_COUNTS = (1, 2, 4, 8, 16)
@@ -441,6 +443,7 @@ class Renderer:
         srgb: bool = True,
         texture_filter: str | None = None,
         normal_space: str = "world",
+        raster: str = "edge",
         msaa: int = 1,
         ssaa: int = 1,
     ) -> Frame:
@@ -490,6 +493,11 @@ class Renderer:
               ``camera.pose`` (OpenGL's x right, y up, z toward the viewer; OpenCV's x right,
               y down, z forward for an ``IntrinsicsCamera(convention="opencv")``), as
               ``camera.unproject(..., space="camera")`` gives points.
+        raster : how triangles are filled: "edge" (default; edge functions tested at every
+              pixel of a triangle's box) or "scanline" (each row's span found by edge walking,
+              the classical algorithm). Both use the same snapped vertices and top-left rule, so
+              they cover exactly the same pixels and every output is the same bits; "scanline"
+              cross-checks the default and is slower (always deferred shading).
         msaa : multisample anti-aliasing: 1 (default, off: every output exact and unblended), 2,
               4, 8 or 16 samples per pixel at the Direct3D / Vulkan standard positions. Coverage
               and depth are tested per sample; each triangle is shaded once per pixel (at its
@@ -516,6 +524,7 @@ class Renderer:
         choice(cull, "cull", _CULL)
         choice(shading, "shading", _SHADING)
         choice(shading_path, "shading_path", _SHADING_PATHS)
+        choice(raster, "raster", _RASTER)
         choice(frequency, "frequency", _FREQUENCIES)
         choice(normal_space, "normal_space", _NORMAL_SPACES)
         if not isinstance(srgb, (bool, np.bool_)):
@@ -537,7 +546,8 @@ class Renderer:
             return render_distorted(self, scene, camera, names, {
                 "cull": cull, "shading": shading, "background": background, "ambient": ambient,
                 "shading_path": shading_path, "frequency": frequency, "srgb": srgb,
-                "texture_filter": texture_filter, "normal_space": normal_space}, out)
+                "texture_filter": texture_filter, "normal_space": normal_space, "raster": raster},
+                out)
         out_arrays = _out_arrays(out, names)
         new = names if not out_arrays else [n for n in names if n not in out_arrays]  # out= reused
         if new:
@@ -553,7 +563,7 @@ class Renderer:
                                                  frequency, bool(srgb), filter_index,
                                                  None if normal_space == "world" else
                                                  tuple(map(tuple, camera.pose[:3, :3].T.tolist())),
-                                                 msaa, ssaa))
+                                                 raster, msaa, ssaa))
         return Frame(buffers)
 
     def render_many(self, scene: Scene, cameras: Iterable[Camera], outputs: str | Sequence[str] = ("color", "depth"),
