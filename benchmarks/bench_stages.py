@@ -60,7 +60,7 @@ FOV_Y_DEG, NEAR, FAR = 45.0, 0.05, 100.0
 SILHOUETTE_FRACTION = 0.8  # as bench_vs_pyrender.py: the sphere spans 0.8 of the image height
 ALL_OUTPUTS = sr.OUTPUTS
 SECTIONS = ("faces", "pixels", "outputs", "paths", "order", "threads", "lit", "litcg", "textures", "distortion",
-            "overhead", "memory", "callgrind")
+            "antialiasing", "overhead", "memory", "callgrind")
 
 
 def camera_distance() -> float:
@@ -550,6 +550,51 @@ def section_distortion(opts):
     for c, _, _ in cams:
         print(f"{c:<12}" + "".join(f"{by[(c, o)].ms:>14.2f}{by[(c, o)].ms / by[('pinhole', o)].ms:>11.1f}"
                                    for o in outs))
+
+
+class AaJob(Job):
+    """Job with an anti-aliasing mode (render(msaa=, ssaa=))."""
+
+    def __init__(self, key, sub, width, height, outputs, mode, scene=None, cam=None):
+        super().__init__(key, sub, width, height, outputs=outputs)
+        if scene is not None:
+            self.scene, self.cam = scene, cam
+        self.kwargs = dict(outputs=outputs, shading="lambert", **mode)
+        self.frame = self.renderer.render(self.scene, self.cam, **self.kwargs)
+
+
+def _spot_scene(width, height):
+    mesh = sr.load_mesh(os.path.join(REPO, "assets", "meshes", "spot.obj"))
+    scene = sr.Scene()
+    scene.add(mesh)
+    cam = sr.PerspectiveCamera(fov_y=45.0, width=width, height=height, near=0.05, far=100.0)
+    cam.look_at(eye=(1.7, 0.9, -2.3), target=(0.0, 0.05, 0.15), up=(0, 1, 0))
+    return scene, cam
+
+
+def section_antialiasing(opts):
+    print("\n## Anti-aliasing (issue 18): cost of each msaa / ssaa level, 640x480, 2 threads, out=;"
+          "\n   ico6 (81,920 faces of ~4 px: most pixels meet an edge) and Spot (5,856 faces)")
+    modes = [("off", {}), ("msaa2", dict(msaa=2)), ("msaa4", dict(msaa=4)), ("msaa8", dict(msaa=8)),
+             ("msaa16", dict(msaa=16)), ("ssaa2", dict(ssaa=2)), ("ssaa3", dict(ssaa=3)),
+             ("ssaa4", dict(ssaa=4))]
+    if not opts.quick:
+        modes.append(("ssaa8", dict(ssaa=8)))
+    outs = {"depth": ("depth",), "c+d": ("color", "depth")}
+    spot = _spot_scene(640, 480)
+    jobs = []
+    for scene_name in ("ico6", "spot"):
+        extra = {} if scene_name == "ico6" else dict(scene=spot[0], cam=spot[1])
+        jobs += [AaJob((scene_name, m, o), 6, 640, 480, outs[o], mode, **extra)
+                 for m, mode in modes for o in outs]
+    run_interleaved(jobs, opts.target, opts.rounds)
+    by = {j.key: j for j in jobs}
+    for scene_name in ("ico6", "spot"):
+        print(f"{scene_name:<8}{'mode':<8}" + "".join(f"{o + ' ms':>10}{'x off':>7}" for o in outs))
+        for m, _ in modes:
+            print(f"{'':<8}{m:<8}" + "".join(
+                f"{by[(scene_name, m, o)].ms:>10.2f}{by[(scene_name, m, o)].ms / by[(scene_name, 'off', o)].ms:>7.2f}"
+                for o in outs))
 
 
 def section_overhead(opts):

@@ -181,7 +181,8 @@ def test_quick_report_csv_is_long_format(quick_report):
     keys = [(r["knob"], r["value"], r["metric"]) for r in rows]
     assert len(keys) == len(set(keys)), "one row per (knob, value, metric)"
     knobs = {r["knob"] for r in rows}
-    assert knobs == {"tessellation", "frequency", "shading_model", "threads", "texture_filter", "max_anisotropy"}
+    assert knobs == {"tessellation", "frequency", "shading_model", "threads", "texture_filter", "max_anisotropy",
+                     "msaa", "ssaa"}
     for knob in knobs:
         values = {k[1] for k in keys if k[0] == knob}
         metrics = {k[2] for k in keys if k[0] == knob}
@@ -271,6 +272,21 @@ def test_frequency_and_threads(quick_report):
 
 
 # ------------------------------------------------------------------------- optional dependencies
+
+@pytest.mark.parametrize("knob, values", [("msaa", ("1", "2", "4", "8", "16")), ("ssaa", ("1", "2", "3", "4"))])
+def test_antialiasing_errors_fall(quick_report, knob, values):
+    # More samples per pixel: the coverage error against the exact disk area and the colour
+    # error against the box filter fall at every step (stratified samples on a smooth edge).
+    _, _, rows = quick_report
+    for metric in ("coverage_mean", "rmse_box"):
+        series = _series(rows, knob, metric)
+        assert tuple(series) == values
+        errors = [series[v] for v in values]
+        assert all(b < a for a, b in zip(errors, errors[1:])), (metric, series)
+    # Point sampling (1) against 16 msaa samples / 4x4 ssaa: several times lower.
+    cov = _series(rows, knob, "coverage_mean")
+    assert cov[values[-1]] < cov["1"] / 3
+
 
 def test_softrast_imports_without_the_report_dependencies():
     code = ("import sys; sys.modules['matplotlib'] = None; sys.modules['skimage'] = None; "
