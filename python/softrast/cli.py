@@ -131,6 +131,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="base colour texture (sRGB) sampled at the mesh's uvs; replaces the file's")
     r.add_argument("--texture-filter", choices=_core.TEXTURE_FILTERS, default=None,
                    help="one filter for every texture (default: each texture's own, trilinear)")
+    aa = r.add_mutually_exclusive_group()
+    aa.add_argument("--msaa", type=int, choices=(1, 2, 4, 8, 16), default=1,
+                    help="multisample anti-aliasing: samples per pixel (default 1: off)")
+    aa.add_argument("--ssaa", type=int, choices=range(1, 9), default=1, metavar="K",
+                    help="supersampling: a KxK grid of shaded samples per pixel, K in 1..8 (default 1)")
 
     b = sub.add_parser("batch", help="render many views of mesh files into a dataset",
                        description="Render views of each mesh file into DIR/<mesh stem>/: one file "
@@ -272,7 +277,7 @@ def _render(args: argparse.Namespace) -> None:
     renderer = sr.Renderer(width, height, threads=args.threads)
     frame = renderer.render(scene, camera, outputs=outputs, cull=args.cull, shading=args.shading,
                             frequency=args.frequency, srgb=not args.linear,
-                            texture_filter=args.texture_filter)
+                            texture_filter=args.texture_filter, msaa=args.msaa, ssaa=args.ssaa)
     for name in outputs:
         imwrite(files[name], getattr(frame, name))
 
