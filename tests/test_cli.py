@@ -189,7 +189,7 @@ def test_render_with_texture_as_the_readme_does(tmp_path):
 
     tex_path = SPOT_PATH.parent / "spot_texture.png"
     argv = ["render", str(SPOT_PATH), "--texture", str(tex_path), "-o", str(tmp_path / "c.png"),
-            "--size", "160x120", "--eye", "1.7,0.9,-2.3", "--target", "0,0.05,0.15"]
+            "--size", "160x120", "--eye", "1.7,0.9,-2.3", "--target", "0,0.05,0.15", "--msaa", "4"]
     assert main(argv) == 0
     color = imread(tmp_path / "c.png")
     mesh = sr.load_mesh(SPOT_PATH)
@@ -199,7 +199,7 @@ def test_render_with_texture_as_the_readme_does(tmp_path):
     eye, target, near, far = frame_camera(scene.bounds, 45.0, 160, 120, (1.7, 0.9, -2.3), (0, 0.05, 0.15))
     cam = sr.PerspectiveCamera(fov_y=45.0, width=160, height=120, near=near, far=far)
     cam.look_at(eye, target, (0.0, 1.0, 0.0))
-    np.testing.assert_array_equal(color, sr.Renderer(160, 120).render(scene, cam).color)
+    np.testing.assert_array_equal(color, sr.Renderer(160, 120).render(scene, cam, msaa=4).color)
     hit = color.max(-1) > 0
     assert len(np.unique(color[hit] // 32, axis=0)) > 8  # more than shades of one grey
     dark = (color[hit].max(-1) < 60).mean()
