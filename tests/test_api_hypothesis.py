@@ -255,6 +255,8 @@ def _strategies():
         ("spot", "outer_cone"): st.one_of(not_numbers_or_none, st.sampled_from([0.0, 2.0, -1.0, math.nan])),
         ("spot", "inner_cone"): st.one_of(not_numbers_or_none, st.sampled_from([-0.1, 1.0, math.nan])),
         ("render", "shading_path"): st.sampled_from([None, "fast", 2]),
+        ("render", "msaa"): st.sampled_from([3, 0, 32, -4, 4.0, "4", True, None]),
+        ("render", "ssaa"): st.sampled_from([0, 9, -1, 2.5, "2", None]),
         ("render", "background"): st.one_of(not_numbers_or_none, st.sampled_from([(0.1, 0.2), (2.0, 0.0, 0.0), nan3,
                                                                           (True, 0, 0), ("0", "0", "0")])),
         ("render", "out"): st.sampled_from([5, "abc", [np.zeros((4, 4))], {n: np.zeros((41, 41, 3)) for n in OUTPUTS},
