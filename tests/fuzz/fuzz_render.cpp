@@ -210,6 +210,10 @@ int check_frame(const Framebuffer& fb, const MeshData& mesh, std::size_t num_dra
     }
     if (const float* r = fb.get<float>(kOutRayDepth))
       if (hit == 1 && r[i] < 0.0f) fail("ray_depth not negative", i);
+    if (const float* a = fb.get<float>(kOutAlpha)) {
+      if (!(a[i] >= 0.0f && a[i] <= 1.0f)) fail("alpha in [0, 1]", i);
+      agree(a[i] > 0.0f, "mask == (alpha > 0)");
+    }
     if (hit == 1 && num_draws == 0) fail("a hit without draws", i);
     hits += hit == 1;
   }
@@ -353,6 +357,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
   const uint8_t surface = in.u8();
   options.outputs |= uint32_t(surface & 15) << 8;  // kOutBarycentric ...
   options.normal_camera = surface & 16;
+  if (surface & 32) options.outputs |= kOutAlpha;
+  switch (surface >> 6) {  // anti-aliasing: off, msaa 4, ssaa 2, msaa 8
+    case 1: options.msaa = 4; break;
+    case 2: options.ssaa = 2; break;
+    case 3: options.msaa = 8; break;
+    default: break;
+  }
 
   try {
     mesh->validate();
