@@ -32,6 +32,7 @@ FREQUENCIES: tuple[str, ...]  # "pixel", "vertex", "face"
 CULL_MODES: tuple[str, ...]  # "none", "back", "front"
 SHADING_PATHS: tuple[str, ...]  # "auto", "forward", "deferred"
 RASTER_ALGORITHMS: tuple[str, ...]  # "edge", "scanline"
+LINE_ALGORITHMS: tuple[str, ...]  # "bresenham", "dda"
 
 class MeshData:
     """Geometry uploaded once and validated.

@@ -20,6 +20,7 @@ __all__ = ["Frame", "Renderer"]
 _CULL = _core.CULL_MODES
 _SHADING_PATHS = _core.SHADING_PATHS
 _RASTER = _core.RASTER_ALGORITHMS
+_LINE_ALGORITHMS = _core.LINE_ALGORITHMS
 _FREQUENCIES = _core.FREQUENCIES
 # render(shading=): "auto" (each material's own model), every reflectance model of a material
 # (python/softrast/material.py, MODELS) and the core's debug views ("uv").
@@ -208,9 +209,10 @@ def _spec(view: Any, proj: Any, orthographic: bool, near: float, far: float, out
           lights: Sequence[tuple] = (), ambient_light: Sequence[float] = (0.0, 0.0, 0.0),
           frequency: str = "pixel", srgb: bool = True, texture_filter: int = -1,
           normal_rotation: tuple | None = None, raster: str = "edge", msaa: int = 1,
-          ssaa: int = 1) -> dict[str, Any]:
+          ssaa: int = 1, primitives: Sequence[tuple] = (),
+          line_algorithm: str = "bresenham") -> dict[str, Any]:
     """The core's render spec (_core.pyi, Renderer.render): the options, already checked."""
-    return {"view": view, "proj": proj, "orthographic": orthographic, "near": near, "far": far,
+    return {"primitives": primitives, "line_algorithm": line_algorithm, "view": view, "proj": proj, "orthographic": orthographic, "near": near, "far": far,
             "outputs": outputs, "cull": cull, "shading": shading, "shading_path": shading_path,
             "background": background, "ambient": ambient, "out": out, "lights": lights,
             "ambient_light": ambient_light, "frequency": frequency, "srgb": srgb,
@@ -279,6 +281,16 @@ def _lighting(scene: Scene, view: Any, ambient: float) -> tuple[list[tuple], tup
         result = (records, ia)
     scene._render_cache["lights"] = (view, ambient, result)
     return result
+
+
+def _primitive_draws(scene: Scene) -> list[tuple]:
+    """The core's records of the scene's lines and points (cached in the scene until it
+    changes); each holds its object's read-only arrays, which the core views during a render."""
+    cached = scene._render_cache.get("primitives")
+    if cached is None:
+        cached = scene._render_cache["primitives"] = [
+            p.item._core_record(p.pose, p.instance_id) for p in scene.primitives]
+    return cached
 
 
 def _draws(scene: Scene, shading: str, frequency: str) -> tuple[list[tuple], str]:
@@ -446,6 +458,7 @@ class Renderer:
         raster: str = "edge",
         msaa: int = 1,
         ssaa: int = 1,
+        line_algorithm: str = "bresenham",
     ) -> Frame:
         """Render ``scene`` seen by ``camera``; only ``outputs`` are allocated and written.
 
@@ -511,6 +524,18 @@ class Renderer:
               they come from one representative sample per pixel, the covered sample nearest
               the pixel centre (ties: the lower sample index), so they describe one surface
               point. ``coverage`` sums the fragments of all samples.
+        line_algorithm : how lines (``softrast.Lines``) of width <= 1 are stepped, one pixel per
+              step along the major axis (x when |dx| >= |dy|) from the first endpoint's pixel to
+              the second's, both drawn (an endpoint's pixel is (floor(x), floor(y)) of its
+              window position): "bresenham" (default; integer, the minor offset at step k is
+              k |dm| / M rounded, halves away from the first endpoint) or "dda" (the minor
+              coordinate m0 + k dm / M in double, rounded half up: floor(v + 0.5)). Wider lines
+              cover every pixel whose centre lies within width / 2 of the segment between the
+              endpoints' pixel centres. Lines are clipped to the near and far planes in
+              homogeneous space; depth, colour and position along them are perspective-correct
+              (at the segment's point nearest the pixel centre). Lines and points are drawn
+              after the triangles, nearer-wins (ties keep what was drawn first), as whole pixels:
+              with msaa / ssaa over the resolved pixels, alpha 1.
         """
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a softrast.Scene, got {type(scene).__name__}")
@@ -525,6 +550,7 @@ class Renderer:
         choice(shading, "shading", _SHADING)
         choice(shading_path, "shading_path", _SHADING_PATHS)
         choice(raster, "raster", _RASTER)
+        choice(line_algorithm, "line_algorithm", _LINE_ALGORITHMS)
         choice(frequency, "frequency", _FREQUENCIES)
         choice(normal_space, "normal_space", _NORMAL_SPACES)
         if not isinstance(srgb, (bool, np.bool_)):
@@ -541,6 +567,9 @@ class Renderer:
             if msaa > 1 or ssaa > 1:
                 raise ValueError("msaa / ssaa: anti-aliasing a camera with lens distortion is not "
                                  "supported (its oversample= already averages colour bilinearly)")
+            if scene.primitives:
+                raise ValueError("scene: lines and points are not supported with a camera with "
+                                 "lens distortion")
             from .distortion import render_distorted
 
             return render_distorted(self, scene, camera, names, {
@@ -563,7 +592,8 @@ class Renderer:
                                                  frequency, bool(srgb), filter_index,
                                                  None if normal_space == "world" else
                                                  tuple(map(tuple, camera.pose[:3, :3].T.tolist())),
-                                                 raster, msaa, ssaa))
+                                                 raster, msaa, ssaa, _primitive_draws(scene),
+                                                 line_algorithm))
         return Frame(buffers)
 
     def render_many(self, scene: Scene, cameras: Iterable[Camera], outputs: str | Sequence[str] = ("color", "depth"),
