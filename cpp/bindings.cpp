@@ -393,10 +393,10 @@ ConstSpan<V> view_rows(const py::handle& obj, const std::string& name, int cols)
 }
 
 // A Lines or Points record from render.py: (points, positions, segments or None, colors or None,
-// rgb, width or size, pose, instance_id).
+// rgb, width or size, pose, instance_id[, depth_bias]).
 PrimitiveDraw primitive_from(const py::handle& obj, const std::string& where) {
   auto item = py::reinterpret_borrow<py::tuple>(obj);
-  if (py::len(item) != 8)
+  if (py::len(item) != 8 && py::len(item) != 9)
     throw py::value_error(where + " must be (points, positions, segments, colors, rgb, width, pose, "
                           "instance_id)");
   PrimitiveDraw d;
@@ -409,6 +409,7 @@ PrimitiveDraw primitive_from(const py::handle& obj, const std::string& where) {
   d.width = item[5].cast<float>();
   d.model = matrix_from_array(item[6], where + " pose");
   d.instance_id = item[7].cast<int32_t>();
+  if (py::len(item) == 9) d.depth_bias = item[8].cast<float>();
   return d;
 }
 

@@ -108,6 +108,8 @@ void setup_lines(const DrawContext& c, std::size_t begin, std::size_t end, Primi
     }
     r.width = d.width;
     r.instance_id = d.instance_id;
+    // Keys grow toward the camera: 1 / depth scaled up, or -depth scaled toward 0.
+    r.bias = c.orthographic ? 1.0f - d.depth_bias : 1.0f / (1.0f - d.depth_bias);
     int32_t box[4];
     int tx0, ty0, tx1, ty1;
     line_box(r, box);
@@ -169,10 +171,11 @@ void bin_block(const Viewport& vp, PrimitiveBlock& block) {
     for_tiles(i, [&](std::size_t t) { block.tile_records[next[t]++] = uint32_t(i); });
 }
 
-// One fragment: depth-tested against the pixel's key (ties keep what was drawn first).
-SR_INLINE void plot(const OverlayTarget& t, int i, float key, const vec3& color, const vec3& world,
-                    int32_t instance_id) {
-  if (t.visible[i] != kNoTriangle && !(key > t.key[i] * t.tie)) return;
+// One fragment: depth-tested against the pixel's key (ties keep what was drawn first), as
+// `test_key` (the key, or a biased one).
+SR_INLINE void plot(const OverlayTarget& t, int i, float key, float test_key, const vec3& color,
+                    const vec3& world, int32_t instance_id) {
+  if (t.visible[i] != kNoTriangle && !(test_key > t.key[i] * t.tie)) return;
   t.key[i] = key;
   t.visible[i] = kPrimitivePixel;
   for (int c = 0; c < 3; ++c) {
@@ -202,7 +205,8 @@ SR_INLINE void line_fragment(const OverlayTarget& t, const TileRect& rect, const
   const float uf = float(u);
   const vec3 color = r.color[0] + (r.color[1] - r.color[0]) * uf;
   const vec3 world = r.world[0] + (r.world[1] - r.world[0]) * uf;
-  plot(t, (y - rect.y0) * kTileSizePx + (x - rect.x0), key, color, world, r.instance_id);
+  plot(t, (y - rect.y0) * kTileSizePx + (x - rect.x0), key, key * r.bias, color, world,
+       r.instance_id);
 }
 
 // A line one pixel wide: one pixel per major-axis step inside the tile (closed forms, so a tile
@@ -304,6 +308,8 @@ void validate_primitive(const PrimitiveDraw& d, const std::string& where) {
   for (std::size_t i = 0; i < d.colors.size(); ++i)
     if (!finite3(d.colors[i])) throw std::invalid_argument(where + " colors contains NaN or inf");
   if (!finite3(d.color)) throw std::invalid_argument(where + " color is not finite");
+  if (!(d.depth_bias >= 0.0f && d.depth_bias < 1.0f))
+    throw std::invalid_argument(where + " depth_bias must be in [0, 1)");
   if (!(std::isfinite(d.width) && d.width > 0.0f))
     throw std::invalid_argument(where + (d.points ? " size" : " width") + " must be finite and > 0 (" +
                                 kind + ")");
@@ -360,8 +366,8 @@ void draw_primitives_tile(const PrimitiveSetup& setup, const TileRect& rect, int
         const int y0 = std::max(p.y0, rect.y0), y1 = std::min(p.y1, rect.y1 - 1);
         for (int y = y0; y <= y1; ++y)
           for (int x = x0; x <= x1; ++x)
-            plot(target, (y - rect.y0) * kTileSizePx + (x - rect.x0), p.key, p.color, p.world,
-                 p.instance_id);
+            plot(target, (y - rect.y0) * kTileSizePx + (x - rect.x0), p.key, p.key, p.color,
+                 p.world, p.instance_id);
       } else {
         const LineRecord& r = block.lines[index];
         if (r.width > 1.0f) draw_thick_line(target, rect, r, setup.orthographic);

@@ -55,6 +55,9 @@ struct PrimitiveDraw {
   float width = 1.0f;          // line width or point size, pixels, > 0
   dmat4 model{1.0};            // model -> world
   int32_t instance_id = 0;
+  // Lines only: in the depth test a fragment counts as nearer by this fraction of its depth, in
+  // [0, 1) (render(wireframe=True): edges over their own faces); its depth output is unbiased.
+  float depth_bias = 0.0f;
 };
 // Throws std::invalid_argument naming the bad argument (`where` names the draw).
 void validate_primitive(const PrimitiveDraw& draw, const std::string& where);
@@ -69,6 +72,7 @@ struct LineRecord {
   vec3 world[2];
   float width;
   int32_t instance_id;
+  float bias;              // the depth test compares key * bias (1: none; PrimitiveDraw::depth_bias)
 };
 // A point after projection: its pixel square (inclusive bounds, not clipped to the image).
 struct PointRecord {

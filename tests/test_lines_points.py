@@ -517,3 +517,93 @@ def test_the_core_rechecks_what_it_views():
         with pytest.raises(ValueError, match=name):
             core.render([], _spec(view, proj, True, cam.near, cam.far, ["mask"],
                                   primitives=[record]))
+
+
+# -- render(wireframe=True) ----------------------------------------------------------------------
+
+def test_wireframe_of_a_flat_triangle_is_its_three_bresenham_edges(rng):
+    xy = np.array([[20.3, 15.6], [130.7, 40.2], [55.4, 118.8]])
+    scene = sr.Scene()
+    scene.add(pixel_mesh(xy, np.array([[0, 2, 1]]), W, H), instance_id=6)
+    solid = render(scene, shading="unlit")
+    frame = render(scene, shading="unlit", wireframe=True, line_color=(1.0, 0.0, 0.0))
+    edges = np.zeros((H, W), bool)
+    corners = np.floor(xy).astype(int)
+    for a, b in ((0, 1), (1, 2), (2, 0)):
+        edges |= to_mask(bresenham(*corners[a], *corners[b]))
+    wire = frame.mask & (frame.triangle_id == -1)
+    np.testing.assert_array_equal(wire, edges)
+    assert (frame.instance_id[wire] == 6).all()
+    np.testing.assert_array_equal(frame.radiance[wire], np.tile([1.0, 0.0, 0.0], (wire.sum(), 1)))
+    np.testing.assert_allclose(frame.depth[wire], DEPTH, rtol=1e-6)  # the bias is not written
+    for name in sr.OUTPUTS:  # elsewhere the solid render, bit for bit
+        np.testing.assert_array_equal(getattr(frame, name)[~edges], getattr(solid, name)[~edges],
+                                      err_msg=name)
+
+
+def test_wireframe_over_its_own_solid_shows_front_edges_and_hides_back_ones():
+    from conftest import icosphere
+
+    mesh = icosphere(2)
+    scene = sr.Scene()
+    scene.add(mesh, instance_id=4)
+    cam = sr.PerspectiveCamera(fov_y=45.0)
+    pose = np.eye(4)
+    pose[2, 3] = 5.0
+    cam.pose = pose
+    w = h = 256
+    frame = render(scene, cam, w=w, h=h, wireframe=True, msaa=4)
+    wire = frame.mask & (frame.triangle_id == -1)
+    v = mesh.positions.astype(np.float64)
+    f = mesh.faces
+    normals = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    centres = v[f].mean(axis=1)
+    facing = ((pose[:3, 3] - centres) * normals).sum(1) / np.linalg.norm(normals, axis=1) \
+        / np.linalg.norm(pose[:3, 3] - centres, axis=1)
+    # Each edge with the faces on either side.
+    edge_faces: dict[tuple, list] = {}
+    for k, face in enumerate(f):
+        for a, b in ((0, 1), (1, 2), (2, 0)):
+            edge_faces.setdefault(tuple(sorted((face[a], face[b]))), []).append(k)
+    seen = [e for e, fs in edge_faces.items() if max(facing[fs]) > 0.0]
+    front = [e for e, fs in edge_faces.items() if min(facing[fs]) > 0.3]
+    # Every edge pixel is the point of an edge with a face toward the camera.
+    p = frame.position[wire]
+    a, b = v[[e[0] for e in seen]], v[[e[1] for e in seen]]
+    d = b - a
+    t = np.clip(((p[:, None, :] - a) * d).sum(-1) / (d * d).sum(-1), 0, 1)
+    dist = np.linalg.norm(p[:, None, :] - (a + t[..., None] * d), axis=-1).min(axis=1)
+    assert dist.max() < 1e-4
+    # And the edges whose faces both face the camera are drawn (nearly) whole.
+    proj = cam.projection_matrix(w, h)
+    view = np.linalg.inv(pose)
+    clip = np.c_[v, np.ones(len(v))] @ (proj @ view).T
+    win = np.c_[(clip[:, 0] / clip[:, 3] + 1) * 0.5 * w, (1 - clip[:, 1] / clip[:, 3]) * 0.5 * h]
+    pix = np.floor(win).astype(int)
+    drawn = total = 0
+    for i, j in front:
+        m = to_mask(bresenham(*pix[i], *pix[j]), w, h)
+        drawn += (m & wire).sum()
+        total += m.sum()
+    assert drawn >= 0.95 * total
+    # The same edges as plain Lines (no bias) tie with their faces and often lose to them.
+    plain = sr.Scene()
+    plain.add(mesh, instance_id=4)
+    plain.add(sr.Lines(mesh.positions, np.array(front)), instance_id=5)
+    unbiased = render(plain, cam, w=w, h=h, msaa=4).instance_id == 5
+    assert unbiased.sum() < 0.75 * drawn, (unbiased.sum(), drawn)
+
+
+def test_wireframe_arguments():
+    scene = sr.Scene()
+    scene.add(pixel_mesh(np.array([[0.5, 0.5], [50.5, 0.5], [0.5, 50.5]]), np.array([[0, 2, 1]]),
+                         W, H))
+    with pytest.raises(ValueError, match="line_width"):
+        render(scene, wireframe=True, line_width=0.0)
+    with pytest.raises(ValueError, match="line_color"):
+        render(scene, wireframe=True, line_color=(2.0, 0.0, 0.0))
+    with pytest.raises(TypeError, match="wireframe"):
+        render(scene, wireframe="yes")
+    thick = render(scene, wireframe=True, line_width=3.0)
+    thin = render(scene, wireframe=True)
+    assert (thick.triangle_id == -1).sum() > 2 * ((thin.triangle_id == -1) & thin.mask).sum()
