@@ -165,54 +165,57 @@ void bin_block(const Viewport& vp, PrimitiveBlock& block) {
   };
   for (std::size_t i = 0; i < n; ++i) for_tiles(i, [&](std::size_t t) { ++block.tile_begin[t + 1]; });
   for (std::size_t t = 0; t < num_tiles; ++t) block.tile_begin[t + 1] += block.tile_begin[t];
-  block.tile_records.resize(block.tile_begin[num_tiles]);
   std::vector<uint32_t> next(block.tile_begin.begin(), block.tile_begin.end() - 1);
-  for (std::size_t i = 0; i < n; ++i)
-    for_tiles(i, [&](std::size_t t) { block.tile_records[next[t]++] = uint32_t(i); });
+  if (block.points) {
+    block.binned_dots.resize(block.tile_begin[num_tiles]);
+    for (std::size_t i = 0; i < n; ++i)
+      for_tiles(i, [&](std::size_t t) { block.binned_dots[next[t]++] = block.dots[i]; });
+  } else {
+    block.tile_records.resize(block.tile_begin[num_tiles]);
+    for (std::size_t i = 0; i < n; ++i)
+      for_tiles(i, [&](std::size_t t) { block.tile_records[next[t]++] = uint32_t(i); });
+  }
 }
 
-// One fragment: depth-tested against the pixel's key (ties keep what was drawn first), as
-// `test_key` (the key, or a biased one).
-SR_INLINE void plot(const OverlayTarget& t, int i, float key, float test_key, const vec3& color,
-                    const vec3& world, int32_t instance_id) {
+// One fragment: depth-tested against the pixel's key (ties keep what was drawn first) as
+// `test_key` (the key, or a biased one). A winner records only its key and record: colour and
+// position are resolved once per pixel, after the tile's last primitive.
+struct Ref {
+  uint32_t block, record;
+};
+SR_INLINE void plot(const OverlayTarget& t, int i, float key, float test_key, Ref ref) {
   if (t.visible[i] != kNoTriangle && !(test_key > t.key[i] * t.tie)) return;
   t.key[i] = key;
   t.visible[i] = kPrimitivePixel;
-  for (int c = 0; c < 3; ++c) {
-    t.rgb[c][i] = color[c];
-    t.normal[c][i] = 0.0f;
-    t.pixels->position[c][i] = world[c];
-  }
-  t.pixels->instance[i] = instance_id;
-  if (t.alpha) {  // anti-aliased: the resolved alpha and premultiplied radiance too
-    t.alpha[i] = 1.0f;
-    for (int c = 0; c < 3; ++c) t.radiance[c][i] = color[c];
-  }
+  t.pixels->block[i] = ref.block;
+  t.pixels->record[i] = ref.record;
 }
 
-// The fragment of line `r` at pixel (x, y): the segment's point nearest the pixel centre in the
-// window, its attributes perspective-correct.
-SR_INLINE void line_fragment(const OverlayTarget& t, const TileRect& rect, const LineRecord& r,
-                             bool orthographic, int x, int y) {
+// Where on line `r` pixel (x, y) is: the segment's point nearest the pixel centre in the window,
+// as the perspective-correct parameter u along the 3-D segment, and its depth key.
+SR_INLINE double line_parameter(const LineRecord& r, int x, int y, bool orthographic, float& key) {
   const double ex = r.x[1] - r.x[0], ey = r.y[1] - r.y[0];
   const double len2 = ex * ex + ey * ey;
   double s = len2 > 0.0 ? ((x + 0.5 - r.x[0]) * ex + (y + 0.5 - r.y[0]) * ey) / len2 : 0.0;
   s = std::clamp(s, 0.0, 1.0);
   const double wa = (1.0 - s) * r.inv_w[0], wb = s * r.inv_w[1];
-  const double u = wb / (wa + wb);  // perspective-correct parameter along the 3-D segment
+  const double u = wb / (wa + wb);
   const double depth = r.depth[0] + (r.depth[1] - r.depth[0]) * u;
-  const float key = orthographic ? -float(depth) : float(1.0 / depth);
-  const float uf = float(u);
-  const vec3 color = r.color[0] + (r.color[1] - r.color[0]) * uf;
-  const vec3 world = r.world[0] + (r.world[1] - r.world[0]) * uf;
-  plot(t, (y - rect.y0) * kTileSizePx + (x - rect.x0), key, key * r.bias, color, world,
-       r.instance_id);
+  key = orthographic ? -float(depth) : float(1.0 / depth);
+  return u;
+}
+
+SR_INLINE void line_fragment(const OverlayTarget& t, const TileRect& rect, const LineRecord& r,
+                             bool orthographic, int x, int y, Ref ref) {
+  float key;
+  line_parameter(r, x, y, orthographic, key);
+  plot(t, (y - rect.y0) * kTileSizePx + (x - rect.x0), key, key * r.bias, ref);
 }
 
 // A line one pixel wide: one pixel per major-axis step inside the tile (closed forms, so a tile
 // starts mid-line without walking to it).
 void draw_thin_line(const OverlayTarget& t, const TileRect& rect, const LineRecord& r,
-                    LineAlgorithm algorithm, bool orthographic) {
+                    LineAlgorithm algorithm, bool orthographic, Ref ref) {
   const int64_t dx = int64_t(r.px[1]) - r.px[0], dy = int64_t(r.py[1]) - r.py[0];
   const bool x_major = std::abs(dx) >= std::abs(dy);
   const int64_t major0 = x_major ? r.px[0] : r.py[0], minor0 = x_major ? r.py[0] : r.px[0];
@@ -238,7 +241,7 @@ void draw_thin_line(const OverlayTarget& t, const TileRect& rect, const LineReco
     }
     if (minor < min_lo || minor >= min_hi) continue;
     const int x = int(x_major ? major : minor), y = int(x_major ? minor : major);
-    line_fragment(t, rect, r, orthographic, x, y);
+    line_fragment(t, rect, r, orthographic, x, y, ref);
   }
 }
 
@@ -248,7 +251,7 @@ void draw_thin_line(const OverlayTarget& t, const TileRect& rect, const LineReco
 // the line along the minor axis, or within 2 r of its end beyond the segment's ends); each is
 // tested in double as 4 cross^2 <= width^2 |d|^2 (no division), or against the nearer endpoint.
 void draw_thick_line(const OverlayTarget& t, const TileRect& rect, const LineRecord& r,
-                     bool orthographic) {
+                     bool orthographic, Ref ref) {
   const double ax = r.x[0], ay = r.y[0];
   const double dx = r.x[1] - ax, dy = r.y[1] - ay;
   const double len2 = dx * dx + dy * dy;
@@ -283,7 +286,7 @@ void draw_thick_line(const OverlayTarget& t, const TileRect& rect, const LineRec
     for (int64_t minor = v0; minor <= v1; ++minor) {
       const int64_t x = x_major ? major : minor, y = x_major ? minor : major;
       if (inside(double(x) + 0.5 - ax, double(y) + 0.5 - ay))
-        line_fragment(t, rect, r, orthographic, int(x), int(y));
+        line_fragment(t, rect, r, orthographic, int(x), int(y), ref);
     }
   }
 }
@@ -356,22 +359,61 @@ void PrimitiveSetup::build(const std::vector<PrimitiveDraw>& draws, const Camera
 
 void draw_primitives_tile(const PrimitiveSetup& setup, const TileRect& rect, int tile,
                           const OverlayTarget& target) {
+  // The depth test: each winner's key and record.
   for (std::size_t b = 0; b < setup.num_blocks; ++b) {
     const PrimitiveBlock& block = setup.blocks[b];
-    for (uint32_t i = block.tile_begin[tile]; i < block.tile_begin[tile + 1]; ++i) {
-      const uint32_t index = block.tile_records[i];
-      if (block.points) {
-        const PointRecord& p = block.dots[index];
+    const uint32_t begin = block.tile_begin[tile], end = block.tile_begin[tile + 1];
+    if (block.points) {
+      for (uint32_t i = begin; i < end; ++i) {
+        const PointRecord& p = block.binned_dots[i];
         const int x0 = std::max(p.x0, rect.x0), x1 = std::min(p.x1, rect.x1 - 1);
         const int y0 = std::max(p.y0, rect.y0), y1 = std::min(p.y1, rect.y1 - 1);
         for (int y = y0; y <= y1; ++y)
           for (int x = x0; x <= x1; ++x)
-            plot(target, (y - rect.y0) * kTileSizePx + (x - rect.x0), p.key, p.key, p.color,
-                 p.world, p.instance_id);
+            plot(target, (y - rect.y0) * kTileSizePx + (x - rect.x0), p.key, p.key,
+                 Ref{uint32_t(b), i});
+      }
+      continue;
+    }
+    for (uint32_t i = begin; i < end; ++i) {
+      const uint32_t index = block.tile_records[i];
+      const LineRecord& r = block.lines[index];
+      const Ref ref{uint32_t(b), index};
+      if (r.width > 1.0f) draw_thick_line(target, rect, r, setup.orthographic, ref);
+      else draw_thin_line(target, rect, r, setup.algorithm, setup.orthographic, ref);
+    }
+  }
+  // Each pixel a primitive won: its colour (unlit, linear), normal 0, instance id and position.
+  const OverlayTarget& t = target;
+  for (int y = rect.y0; y < rect.y1; ++y) {
+    const int row = (y - rect.y0) * kTileSizePx;
+    for (int x = rect.x0; x < rect.x1; ++x) {
+      const int i = row + (x - rect.x0);
+      if (t.visible[i] != kPrimitivePixel) continue;
+      const PrimitiveBlock& block = setup.blocks[t.pixels->block[i]];
+      const uint32_t record = t.pixels->record[i];
+      vec3 color, world;
+      if (block.points) {
+        const PointRecord& p = block.binned_dots[record];
+        color = p.color;
+        world = p.world;
+        t.pixels->instance[i] = p.instance_id;
       } else {
-        const LineRecord& r = block.lines[index];
-        if (r.width > 1.0f) draw_thick_line(target, rect, r, setup.orthographic);
-        else draw_thin_line(target, rect, r, setup.algorithm, setup.orthographic);
+        const LineRecord& r = block.lines[record];
+        float key;
+        const float u = float(line_parameter(r, x, y, setup.orthographic, key));
+        color = r.color[0] + (r.color[1] - r.color[0]) * u;
+        world = r.world[0] + (r.world[1] - r.world[0]) * u;
+        t.pixels->instance[i] = r.instance_id;
+      }
+      for (int c = 0; c < 3; ++c) {
+        t.rgb[c][i] = color[c];
+        t.normal[c][i] = 0.0f;
+        t.pixels->position[c][i] = world[c];
+      }
+      if (t.alpha) {  // anti-aliased: the resolved alpha and premultiplied radiance too
+        t.alpha[i] = 1.0f;
+        for (int c = 0; c < 3; ++c) t.radiance[c][i] = color[c];
       }
     }
   }

@@ -83,12 +83,15 @@ struct PointRecord {
   int32_t instance_id;
 };
 
-// The records of a block of one draw's primitives, binned: the records of tile t are
-// records[tile_records[tile_begin[t] .. tile_begin[t + 1])], in primitive order.
+// The records of a block of one draw's primitives, binned, in primitive order within each tile:
+// a tile t's lines are lines[tile_records[tile_begin[t] .. tile_begin[t + 1])]; its points are
+// binned_dots[tile_begin[t] .. tile_begin[t + 1]) (copies, so a tile reads its points in one
+// sequential run: a million points' records do not fit in cache, and fetching them by index
+// missed it for every point).
 struct PrimitiveBlock {
   bool points = false;
   std::vector<LineRecord> lines;
-  std::vector<PointRecord> dots;
+  std::vector<PointRecord> dots, binned_dots;
   std::vector<uint32_t> tile_begin, tile_records;
 };
 
@@ -107,8 +110,11 @@ struct PrimitiveSetup {
   bool any(int tile) const { return num_blocks > 0 && tile_used[std::size_t(tile)]; }
 };
 
-// What a primitive pixel holds beyond the tile buffers: its instance id and world position.
+// What a primitive pixel holds beyond the tile buffers: the record that won it (its block, and
+// its index in the block's lines or binned_dots), its instance id and world position.
 struct PrimitivePixels {
+  uint32_t block[kTilePixels];
+  uint32_t record[kTilePixels];
   int32_t instance[kTilePixels];
   float position[3][kTilePixels];
 };

@@ -147,7 +147,8 @@ class Scene:
             iid = default_id if instance_id is None else integer(instance_id, "instance_id")
             if not 0 <= iid < _ID_LIMIT:
                 raise ValueError(f"instance_id must be in [0, 2**31), got {iid}")
-            self._primitives.append(PrimitiveInstance(item, model, int(iid)))
+            self.__dict__.setdefault("_primitives", []).append(  # (scenes pickled before lines)
+                PrimitiveInstance(item, model, int(iid)))
             self._render_cache.clear()
             return int(iid)
         mesh = item
