@@ -313,9 +313,10 @@ void validate_primitive(const PrimitiveDraw& d, const std::string& where) {
   if (!finite3(d.color)) throw std::invalid_argument(where + " color is not finite");
   if (!(d.depth_bias >= 0.0f && d.depth_bias < 1.0f))
     throw std::invalid_argument(where + " depth_bias must be in [0, 1)");
-  if (!(std::isfinite(d.width) && d.width > 0.0f))
-    throw std::invalid_argument(where + (d.points ? " size" : " width") + " must be finite and > 0 (" +
-                                kind + ")");
+  // (At most 1e6 px: pixel boxes stay far inside int32.)
+  if (!(std::isfinite(d.width) && d.width > 0.0f && d.width <= kMaxPrimitiveWidthPx))
+    throw std::invalid_argument(where + (d.points ? " size" : " width") +
+                                " must be finite, > 0 and at most 1e6 (" + kind + ")");
   for (int c = 0; c < 4; ++c)
     for (int r = 0; r < 4; ++r)
       if (!std::isfinite(d.model[c][r])) throw std::invalid_argument(where + " pose is not finite");

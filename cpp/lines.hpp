@@ -44,6 +44,9 @@ enum class LineAlgorithm : uint8_t { Bresenham, Dda };
 // surface from PrimitivePixels). Never a triangle index: a tile would need 2^32 - 1 of them.
 constexpr uint32_t kPrimitivePixel = 0xfffffffeu;
 
+// Widest line or point, pixels: with the guard band (|window| < 2^16) every pixel box fits int32.
+constexpr float kMaxPrimitiveWidthPx = 1e6f;
+
 // One Lines or Points object placed in the scene: views of arrays that the caller keeps alive and
 // unchanged during the render (bindings.cpp: the spec holds them).
 struct PrimitiveDraw {

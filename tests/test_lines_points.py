@@ -509,6 +509,9 @@ def test_the_core_rechecks_what_it_views():
     for record, name in [
         ((False, good, seg, None, (1, 1, 1), 1.0, np.eye(4), 0), "segments"),
         ((True, good, None, None, (1, 1, 1), 0.0, np.eye(4), 0), "size"),
+        ((False, good, np.zeros((1, 2), np.int32), None, (1, 1, 1), 1e30, np.eye(4), 0), "width"),
+        ((False, good, np.zeros((1, 2), np.int32), None, (1, 1, 1), 1.0, np.eye(4), 0, 1.5),
+         "depth_bias"),
         ((True, good.astype(np.float64), None, None, (1, 1, 1), 1.0, np.eye(4), 0), "positions"),
         ((True, np.full((2, 3), np.nan, np.float32), None, None, (1, 1, 1), 1.0, np.eye(4), 0),
          "positions"),
