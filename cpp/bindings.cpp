@@ -196,6 +196,8 @@ constexpr std::pair<const char*, ShadingPath> kShadingPathNames[] = {
     {"deferred", ShadingPath::Deferred}};
 constexpr std::pair<const char*, RasterAlgorithm> kRasterNames[] = {
     {"edge", RasterAlgorithm::Edge}, {"scanline", RasterAlgorithm::Scanline}};
+constexpr std::pair<const char*, LineAlgorithm> kLineAlgorithmNames[] = {
+    {"bresenham", LineAlgorithm::Bresenham}, {"dda", LineAlgorithm::Dda}};
 
 // Reflectance models in Brdf's order (a material's record carries the index) and frequencies.
 constexpr const char* kBrdfNames[] = {"unlit", "lambert", "phong", "blinn_phong", "pbr", "normal"};
@@ -360,11 +362,12 @@ Light light_from(const py::handle& h) {
 enum SpecKey { k_view, k_proj, k_orthographic, k_near, k_far, k_outputs, k_cull, k_shading,
                k_shading_path, k_background, k_ambient, k_out, k_lights, k_ambient_light,
                k_frequency, k_srgb, k_texture_filter, k_normal_rotation, k_raster, k_msaa, k_ssaa,
-               kNumSpecKeys };
+               k_primitives, k_line_algorithm, kNumSpecKeys };
 constexpr const char* kSpecKeys[kNumSpecKeys] = {
     "view", "proj", "orthographic", "near", "far", "outputs", "cull", "shading",
     "shading_path", "background", "ambient", "out", "lights", "ambient_light", "frequency",
-    "srgb", "texture_filter", "normal_rotation", "raster", "msaa", "ssaa"};
+    "srgb", "texture_filter", "normal_rotation", "raster", "msaa", "ssaa", "primitives",
+    "line_algorithm"};
 PyObject* spec_key(SpecKey key) {
   // Made on first use with the GIL held and never freed (they live as long as the interpreter).
   static PyObject* const* const keys = [] {
@@ -373,6 +376,41 @@ PyObject* spec_key(SpecKey key) {
     return made;
   }();
   return keys[key];
+}
+
+// The rows of a (n, cols) C-contiguous array of exactly dtype T, viewed (not copied): the caller
+// keeps the array alive and unchanged during the render (Lines and Points hold read-only copies).
+template <typename T, typename V>
+ConstSpan<V> view_rows(const py::handle& obj, const std::string& name, int cols) {
+  if (!py::isinstance<py::array>(obj)) throw py::type_error(name + " must be a numpy array");
+  auto arr = py::reinterpret_borrow<py::array>(obj);
+  if (!arr.dtype().equal(py::dtype::of<T>()) || arr.ndim() != 2 || arr.shape(1) != cols ||
+      !(arr.flags() & py::array::c_style) ||
+      reinterpret_cast<std::uintptr_t>(arr.data()) % alignof(T) != 0)
+    throw py::value_error(name + " must be a C-contiguous " + std::string(py::str(py::dtype::of<T>())) +
+                          " array with shape (n, " + std::to_string(cols) + ")");
+  return {static_cast<const V*>(arr.data()), std::size_t(arr.shape(0))};
+}
+
+// A Lines or Points record from render.py: (points, positions, segments or None, colors or None,
+// rgb, width or size, pose, instance_id[, depth_bias]).
+PrimitiveDraw primitive_from(const py::handle& obj, const std::string& where) {
+  auto item = py::reinterpret_borrow<py::tuple>(obj);
+  if (py::len(item) != 8 && py::len(item) != 9)
+    throw py::value_error(where + " must be (points, positions, segments, colors, rgb, width, pose, "
+                          "instance_id)");
+  PrimitiveDraw d;
+  d.points = item[0].cast<bool>();
+  d.positions = view_rows<float, vec3>(item[1], where + " positions", 3);
+  if (!item[2].is_none()) d.segments = view_rows<int32_t, glm::ivec2>(item[2], where + " segments", 2);
+  if (!item[3].is_none()) d.colors = view_rows<float, vec3>(item[3], where + " colors", 3);
+  const auto rgb = item[4].cast<std::array<float, 3>>();
+  d.color = vec3(rgb[0], rgb[1], rgb[2]);
+  d.width = item[5].cast<float>();
+  d.model = matrix_from_array(item[6], where + " pose");
+  d.instance_id = item[7].cast<int32_t>();
+  if (py::len(item) == 9) d.depth_bias = item[8].cast<float>();
+  return d;
 }
 
 // One render, as one spec from render.py, which has checked every option by name: only what
@@ -428,6 +466,17 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::dict& sp
     PyObject* value = PyDict_GetItem(spec.ptr(), spec_key(key));
     if (value) (key == k_msaa ? options.msaa : options.ssaa) = py::handle(value).cast<int>();
   }
+  // Lines and points, optional (none), and how lines are stepped (default Bresenham).
+  std::vector<PrimitiveDraw> primitives;
+  LineAlgorithm line_algorithm = LineAlgorithm::Bresenham;
+  if (PyObject* value = PyDict_GetItem(spec.ptr(), spec_key(k_primitives))) {
+    std::size_t index = 0;
+    for (const py::handle item : py::handle(value))
+      primitives.push_back(primitive_from(item, "primitives[" + std::to_string(index++) + "]"));
+  }
+  if (PyObject* value = PyDict_GetItem(spec.ptr(), spec_key(k_line_algorithm)))
+    line_algorithm = parse_name(py::handle(value).cast<std::string>(), kLineAlgorithmNames,
+                                "line_algorithm");
   const py::object rotation = get(k_normal_rotation);  // None: world space
   if (!rotation.is_none()) {
     const auto r = rotation.cast<std::array<std::array<float, 3>, 3>>();  // rows
@@ -476,7 +525,7 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::dict& sp
   PyThreadState* const saved = PyEval_SaveThread();
   try {
     for (Texture* t : need_mips) t->build_mips();
-    fb = self.render(draws, camera, options, external);
+    fb = self.render(draws, camera, options, external, primitives, line_algorithm);
   } catch (...) {
     take_gil_or_park(saved);
     throw;
@@ -641,6 +690,7 @@ PYBIND11_MODULE(_core, m) {
   m.attr("CULL_MODES") = names_of(kCullNames);
   m.attr("SHADING_PATHS") = names_of(kShadingPathNames);
   m.attr("RASTER_ALGORITHMS") = names_of(kRasterNames);
+  m.attr("LINE_ALGORITHMS") = names_of(kLineAlgorithmNames);
   m.attr("FREQUENCIES") = names_of(kFrequencyNames);
   py::tuple brdfs(std::size(kBrdfNames));
   for (std::size_t i = 0; i < std::size(kBrdfNames); ++i) brdfs[i] = kBrdfNames[i];

@@ -2,6 +2,7 @@
 #include "multisample.hpp"
 
 #include "dispatch.hpp"
+#include "lines.hpp"
 #include "outputs.hpp"
 
 #include <algorithm>
@@ -204,7 +205,8 @@ Fn kernel(Isa isa) {
 void multisample_tile(const ShadeParams& params, const TileKernels& kernels,
                       const Viewport& viewport, int tile, const std::vector<SetupChunk>& chunks,
                       std::size_t num_chunks, bool per_sample, float tie,
-                      const vec3& background_linear, MultisampleScratch& ms) {
+                      const vec3& background_linear, MultisampleScratch& ms,
+                      const PrimitiveSetup* primitives, PrimitivePixels* pixels) {
   const SamplePattern& pattern = viewport.samples;
   const int count = pattern.count;
   const TileRect rect = tile_rect(viewport, tile);
@@ -252,7 +254,19 @@ void multisample_tile(const ShadeParams& params, const TileKernels& kernels,
   const ResolvedSamples samples{ms.representative, &pattern, ms.alpha,
                                 {ms.radiance[0], ms.radiance[1], ms.radiance[2]},
                                 ms.coverage};
-  write_tile(params, rect, ms.resolved, ms.resolved_shade, isa, &samples);
+  // Lines and points over the resolved pixels: aliased, whole pixels of alpha 1 (lines.hpp).
+  const bool overlay = primitives && primitives->any(tile);
+  if (overlay) {
+    ShadeScratch& shade = ms.resolved_shade;
+    const OverlayTarget target{ms.resolved.key, ms.resolved.visible,
+                               {shade.rgb[0], shade.rgb[1], shade.rgb[2]},
+                               {shade.normal[0], shade.normal[1], shade.normal[2]},
+                               ms.alpha, {ms.radiance[0], ms.radiance[1], ms.radiance[2]},
+                               tie, pixels};
+    draw_primitives_tile(*primitives, rect, tile, target);
+  }
+  write_tile(params, rect, ms.resolved, ms.resolved_shade, isa, &samples,
+             overlay ? pixels : nullptr);
 }
 
 }  // namespace sr

@@ -30,6 +30,9 @@
 
 namespace sr {
 
+struct PrimitiveSetup;   // lines.hpp
+struct PrimitivePixels;
+
 // The Direct3D / Vulkan standard sample positions for msaa = 1, 2, 4, 8, 16 (offsets from the
 // pixel's top-left corner, fixed point); throws std::invalid_argument for another count.
 SamplePattern msaa_pattern(int count);
@@ -65,10 +68,14 @@ struct MultisampleScratch {
 // Rasterizes, shades and resolves `tile` with the viewport's sample pattern (count > 1), then
 // writes it. `per_sample`: shade every sample (ssaa) rather than once per pixel per triangle.
 // `tie` is the render's tie factor (rasterize.hpp); `background_linear` the background colour's
-// linear value, mixed into partly covered pixels of the colour output.
+// linear value, mixed into partly covered pixels of the colour output. `primitives` (or null):
+// the render's lines and points, drawn over the resolved tile (whole pixels, alpha 1) with
+// `pixels` as their scratch.
 void multisample_tile(const ShadeParams& params, const TileKernels& kernels,
                       const Viewport& viewport, int tile, const std::vector<SetupChunk>& chunks,
                       std::size_t num_chunks, bool per_sample, float tie,
-                      const vec3& background_linear, MultisampleScratch& scratch);
+                      const vec3& background_linear, MultisampleScratch& scratch,
+                      const PrimitiveSetup* primitives = nullptr,
+                      PrimitivePixels* pixels = nullptr);
 
 }  // namespace sr

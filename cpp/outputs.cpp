@@ -1,6 +1,7 @@
 // Outputs: resolve (depth from keys, ids from the visibility buffer) and write a tile's rows.
 #include "outputs.hpp"
 
+#include "lines.hpp"
 #include "multisample.hpp"
 
 #include <cmath>
@@ -241,11 +242,12 @@ SR_TARGET_AVX2 void write_rgb_stream(const uint32_t* rgb, const uint32_t* visibl
 // Scalar: surface outputs are for datasets, and a triangle's records are fetched once per run
 // of pixels it owns.
 // With anti-aliasing (`representative` and `pattern` not null), each pixel at its representative
-// sample.
+// sample. A line or point pixel (kPrimitivePixel) has no barycentric weights or uv (0), and its
+// world position from `primitives` (row `row` of the tile).
 void write_surface_row(const ShadeParams& p, const TileScratch& raster, const uint32_t* visible,
                        int x0, int y, int n, float* bary_out, float* uv_out, float* position_out,
                        float* ray_depth_out, const int32_t* representative,
-                       const SamplePattern* pattern) {
+                       const SamplePattern* pattern, const PrimitivePixels* primitives, int row) {
   uint32_t current = kNoTriangle;
   const TriangleSetup* t = nullptr;
   const TriangleShading* a = nullptr;
@@ -259,6 +261,17 @@ void write_surface_row(const ShadeParams& p, const TileScratch& raster, const ui
       if (uv_out) uv_out[2 * x] = uv_out[2 * x + 1] = 0.0f;
       if (position_out) for (int c = 0; c < 3; ++c) position_out[3 * x + c] = 0.0f;
       if (ray_depth_out) ray_depth_out[x] = 0.0f;
+      continue;
+    }
+    if (v == kPrimitivePixel) {
+      if (bary_out) for (int c = 0; c < 3; ++c) bary_out[3 * x + c] = 0.0f;
+      if (uv_out) uv_out[2 * x] = uv_out[2 * x + 1] = 0.0f;
+      const dvec3 world(primitives->position[0][row + x], primitives->position[1][row + x],
+                        primitives->position[2][row + x]);
+      if (position_out) for (int c = 0; c < 3; ++c) position_out[3 * x + c] = float(world[c]);
+      if (ray_depth_out)
+        ray_depth_out[x] = p.orthographic ? depth_from_key(raster.key[&visible[x] - raster.visible], true)
+                                          : float(glm::length(world - p.camera_centre));
       continue;
     }
     if (v != current) {
@@ -305,7 +318,8 @@ void write_surface_row(const ShadeParams& p, const TileScratch& raster, const ui
 }  // namespace
 
 void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
-                const ShadeScratch& shaded, Isa isa, const ResolvedSamples* samples) {
+                const ShadeScratch& shaded, Isa isa, const ResolvedSamples* samples,
+                const PrimitivePixels* primitives) {
   const Framebuffer& fb = *p.framebuffer;
   const std::size_t width = std::size_t(fb.width);
   const int n = rect.x1 - rect.x0;
@@ -346,12 +360,22 @@ void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& r
     if (depth) resolve_depth(raster.key + row, visible, n, p.orthographic, depth + o);
     if (mask)
       for (int x = 0; x < n; ++x) mask[o + x] = visible[x] != kNoTriangle;
-    if (triangle_id)
+    if (triangle_id && !primitives)
       for (int x = 0; x < n; ++x)
         triangle_id[o + x] = visible[x] == kNoTriangle ? -1 : int32_t(raster.triangles[visible[x]].tri->prim);
-    if (instance_id)
+    if (instance_id && !primitives)
       for (int x = 0; x < n; ++x)
         instance_id[o + x] = visible[x] == kNoTriangle ? -1 : p.draws[raster.triangles[visible[x]].tri->draw].instance_id;
+    if (primitives) {  // lines and points: triangle_id -1, their own instance ids
+      for (int x = 0; x < n; ++x) {
+        const uint32_t v = visible[x];
+        const bool tri = v != kNoTriangle && v != kPrimitivePixel;
+        if (triangle_id) triangle_id[o + x] = tri ? int32_t(raster.triangles[v].tri->prim) : -1;
+        if (instance_id)
+          instance_id[o + x] = tri ? p.draws[raster.triangles[v].tri->draw].instance_id
+                               : v == kPrimitivePixel ? primitives->instance[row + x] : -1;
+      }
+    }
     if (normal) {
       float* const out = normal + 3 * o;
       for (int x = 0; x < n; ++x) {
@@ -374,7 +398,7 @@ void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& r
                         uv ? uv + 2 * o : nullptr, position ? position + 3 * o : nullptr,
                         ray_depth ? ray_depth + o : nullptr,
                         samples ? samples->representative + row : nullptr,
-                        samples ? samples->pattern : nullptr);
+                        samples ? samples->pattern : nullptr, primitives, row);
     const float* rgb[3] = {shaded.rgb[0] + row, shaded.rgb[1] + row, shaded.rgb[2] + row};
     if (color) {
       const uint32_t background = p.background[0] | p.background[1] << 8 | p.background[2] << 16;

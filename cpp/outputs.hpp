@@ -13,12 +13,16 @@ namespace sr {
 constexpr std::size_t kStreamFrameBytes = std::size_t(12) << 20;
 
 struct ResolvedSamples;  // multisample.hpp
+struct PrimitivePixels;  // lines.hpp
 
 // Copies the tile's values to every requested output of params.framebuffer. `samples` (null
 // without anti-aliasing) gives a multisampled tile's alpha, premultiplied radiance, coverage and
 // each pixel's representative sample, where its surface outputs are read; `raster` then holds
-// the representative's entries and `shaded` the colour output's linear values.
+// the representative's entries and `shaded` the colour output's linear values. `primitives`
+// (null unless lines or points were drawn into the tile, lines.hpp) holds the instance id and
+// world position of each pixel whose entry is kPrimitivePixel.
 void write_tile(const ShadeParams& params, const TileRect& rect, const TileScratch& raster,
-                const ShadeScratch& shaded, Isa isa, const ResolvedSamples* samples = nullptr);
+                const ShadeScratch& shaded, Isa isa, const ResolvedSamples* samples = nullptr,
+                const PrimitivePixels* primitives = nullptr);
 
 }  // namespace sr

@@ -187,7 +187,8 @@ Renderer::Renderer(int width, int height, int threads, bool simd)
       isa_(simd ? best_isa() : Isa::Generic),
       tile_scratch_(pool_.size()),
       shade_scratch_(pool_.size()),
-      multisample_scratch_(pool_.size()) {
+      multisample_scratch_(pool_.size()),
+      primitive_pixels_(pool_.size()) {
   ForkGuard& guard = fork_guard();
   std::lock_guard<std::mutex> lock(guard.mutex);
   guard.renderers.push_back(&mutex_);
@@ -202,8 +203,12 @@ Renderer::~Renderer() {
 std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
                                               const CameraParams& camera,
                                               const RenderOptions& options,
-                                              std::byte* const* external) {
+                                              std::byte* const* external,
+                                              const std::vector<PrimitiveDraw>& primitives,
+                                              LineAlgorithm line_algorithm) {
   validate_camera(camera);
+  for (std::size_t d = 0; d < primitives.size(); ++d)
+    validate_primitive(primitives[d], "primitives[" + std::to_string(d) + "]");
   if (options.outputs == 0 || options.outputs >= (1u << kNumOutputs))
     throw std::invalid_argument("outputs: request at least one known output");
   if (!(std::isfinite(options.ambient) && options.ambient >= 0.0f && options.ambient <= 1.0f))
@@ -298,6 +303,9 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
     setup_chunk(params, blk.begin, blk.end, chunks_[item]);
   });
 
+  // Lines and points: transformed, clipped, projected and binned, parallel over blocks.
+  primitives_.build(primitives, camera, viewport, line_algorithm, pool_);
+
   // Tiles: rasterize, then shade, each tile by one thread.
   std::vector<ShadeDraw> shade_draws;
   std::vector<Block> normal_blocks;
@@ -356,15 +364,33 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   const TileKernels kernels = select_tile_kernels(plan, viewport, isa_);
   pool_.parallel_for(viewport.num_tiles(), [&](std::size_t tile, int worker) {
     if (!tile_scratch_[worker]) tile_scratch_[worker].reset(new TileScratch);
+    const bool overlay = primitives_.any(int(tile));  // lines or points in this tile
+    if (overlay && !primitive_pixels_[worker]) primitive_pixels_[worker].reset(new PrimitivePixels);
     if (multisample) {
       if (!multisample_scratch_[worker]) multisample_scratch_[worker].reset(new MultisampleScratch);
       multisample_tile(shade, kernels, viewport, int(tile), chunks_, num_chunks,
-                       options.ssaa > 1, tie, background_linear, *multisample_scratch_[worker]);
+                       options.ssaa > 1, tie, background_linear, *multisample_scratch_[worker],
+                       &primitives_, primitive_pixels_[worker].get());
       return;
     }
     if (!shade_scratch_[worker]) shade_scratch_[worker].reset(new ShadeScratch);
     TileScratch& scratch = *tile_scratch_[worker];
     scratch.tie = tie;
+    if (overlay) {  // deferred (the same bits), then the lines and points over the shaded tile
+      const TileRect rect = tile_rect(viewport, int(tile));
+      ShadeScratch& shaded = *shade_scratch_[worker];
+      rasterize_tile(kernels.raster, viewport, int(tile), chunks_, num_chunks, plan.coverage,
+                     scratch);
+      if (kernels.deferred) kernels.deferred(shade, rect, scratch, shaded);
+      PrimitivePixels* pixels = primitive_pixels_[worker].get();
+      const OverlayTarget target{scratch.key, scratch.visible,
+                                 {shaded.rgb[0], shaded.rgb[1], shaded.rgb[2]},
+                                 {shaded.normal[0], shaded.normal[1], shaded.normal[2]},
+                                 nullptr, {nullptr, nullptr, nullptr}, tie, pixels};
+      draw_primitives_tile(primitives_, rect, int(tile), target);
+      write_tile(shade, rect, scratch, shaded, kernels.isa, nullptr, pixels);
+      return;
+    }
     bool forward = plan.forward_allowed;
     if (plan.estimate_overdraw) {
       // Forward shading shades every fragment that wins the depth test, deferred each visible

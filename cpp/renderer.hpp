@@ -4,6 +4,7 @@
 #pragma once
 
 #include "framebuffer.hpp"
+#include "lines.hpp"
 #include "multisample.hpp"
 #include "pipeline.hpp"
 #include "rasterize.hpp"
@@ -40,9 +41,13 @@ class Renderer {
   // a render must therefore never wait for the thread that forks (e.g. for Python's GIL).
   // Throws std::invalid_argument for an invalid camera, options or draw.
   // `external` (optional, indexed like kOutputLayouts) supplies caller memory for some outputs.
+  // `primitives`: lines and points drawn over the triangles (lines.hpp), lines by
+  // `line_algorithm`.
   std::unique_ptr<Framebuffer> render(const std::vector<Draw>& draws, const CameraParams& camera,
                                       const RenderOptions& options,
-                                      std::byte* const* external = nullptr);
+                                      std::byte* const* external = nullptr,
+                                      const std::vector<PrimitiveDraw>& primitives = {},
+                                      LineAlgorithm line_algorithm = LineAlgorithm::Bresenham);
 
   // Where released output buffers wait for the next render (framebuffer.hpp): it holds up to
   // two frames of the largest size rendered. Shared: a buffer may outlive the renderer.
@@ -62,6 +67,8 @@ class Renderer {
   std::vector<std::unique_ptr<TileScratch>> tile_scratch_;
   std::vector<std::unique_ptr<ShadeScratch>> shade_scratch_;
   std::vector<std::unique_ptr<MultisampleScratch>> multisample_scratch_;  // anti-aliased renders
+  PrimitiveSetup primitives_;  // lines and points, set up (lines.hpp)
+  std::vector<std::unique_ptr<PrimitivePixels>> primitive_pixels_;  // per worker, on first use
   std::shared_ptr<BufferPool> buffer_pool_ = std::make_shared<BufferPool>(0);
 };
 

@@ -15,6 +15,7 @@ from .limits import get_memory_budget, set_memory_budget
 from .loaders import load_scene
 from .material import Material
 from .mesh import Mesh, PrecisionWarning, load_mesh
+from .primitives import Lines, Points
 from .poses import look_at_pose, orbit, sphere_poses
 from .render import Frame, Renderer, sample_positions
 from .scene import Scene
@@ -31,6 +32,7 @@ __all__ = [
     "Frame",
     "IntrinsicsCamera",
     "Light",
+    "Lines",
     "MAX_IMAGE_SIDE",
     "MAX_THREADS",
     "Material",
@@ -40,6 +42,7 @@ __all__ = [
     "OrthographicCamera",
     "PerspectiveCamera",
     "PointLight",
+    "Points",
     "PrecisionWarning",
     "Renderer",
     "SUBPIXEL_BITS",

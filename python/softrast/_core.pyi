@@ -32,6 +32,7 @@ FREQUENCIES: tuple[str, ...]  # "pixel", "vertex", "face"
 CULL_MODES: tuple[str, ...]  # "none", "back", "front"
 SHADING_PATHS: tuple[str, ...]  # "auto", "forward", "deferred"
 RASTER_ALGORITHMS: tuple[str, ...]  # "edge", "scanline"
+LINE_ALGORITHMS: tuple[str, ...]  # "bresenham", "dda"
 
 class MeshData:
     """Geometry uploaded once and validated.
@@ -105,6 +106,10 @@ class Renderer:
                     these buffers are allocated and written
           cull : one of CULL_MODES; shading : one of SHADING_MODELS;
           shading_path : one of SHADING_PATHS; raster : one of RASTER_ALGORITHMS
+          primitives (optional) : [(points, positions (n, 3) float32, segments (m, 2) int32 or
+                   None, colors (n, 3) float32 or None, rgb, width or size, pose, instance_id)],
+                   lines and points (softrast.Lines / Points); their arrays are viewed, not
+                   copied, for the render; line_algorithm (optional) : one of LINE_ALGORITHMS
           background : 3 floats in [0, 1]; ambient : float in [0, 1]
           lights : [(kind 0/1/2 = directional/point/spot, radiance rgb, position, direction of
                    travel (unit), inverse_square, cone scale, cone offset)], world space

@@ -20,6 +20,7 @@ __all__ = ["Frame", "Renderer"]
 _CULL = _core.CULL_MODES
 _SHADING_PATHS = _core.SHADING_PATHS
 _RASTER = _core.RASTER_ALGORITHMS
+_LINE_ALGORITHMS = _core.LINE_ALGORITHMS
 _FREQUENCIES = _core.FREQUENCIES
 # render(shading=): "auto" (each material's own model), every reflectance model of a material
 # (python/softrast/material.py, MODELS) and the core's debug views ("uv").
@@ -208,9 +209,10 @@ def _spec(view: Any, proj: Any, orthographic: bool, near: float, far: float, out
           lights: Sequence[tuple] = (), ambient_light: Sequence[float] = (0.0, 0.0, 0.0),
           frequency: str = "pixel", srgb: bool = True, texture_filter: int = -1,
           normal_rotation: tuple | None = None, raster: str = "edge", msaa: int = 1,
-          ssaa: int = 1) -> dict[str, Any]:
+          ssaa: int = 1, primitives: Sequence[tuple] = (),
+          line_algorithm: str = "bresenham") -> dict[str, Any]:
     """The core's render spec (_core.pyi, Renderer.render): the options, already checked."""
-    return {"view": view, "proj": proj, "orthographic": orthographic, "near": near, "far": far,
+    return {"primitives": primitives, "line_algorithm": line_algorithm, "view": view, "proj": proj, "orthographic": orthographic, "near": near, "far": far,
             "outputs": outputs, "cull": cull, "shading": shading, "shading_path": shading_path,
             "background": background, "ambient": ambient, "out": out, "lights": lights,
             "ambient_light": ambient_light, "frequency": frequency, "srgb": srgb,
@@ -279,6 +281,47 @@ def _lighting(scene: Scene, view: Any, ambient: float) -> tuple[list[tuple], tup
         result = (records, ia)
     scene._render_cache["lights"] = (view, ambient, result)
     return result
+
+
+def _primitive_draws(scene: Scene) -> list[tuple]:
+    """The core's records of the scene's lines and points (cached in the scene until it
+    changes); each holds its object's read-only arrays, which the core views during a render."""
+    cached = scene._render_cache.get("primitives")
+    if cached is None:
+        cached = scene._render_cache["primitives"] = [
+            p.item._core_record(p.pose, p.instance_id) for p in scene.primitives]
+    return cached
+
+
+# render(wireframe=True): in the depth test an edge counts as nearer by this fraction of its depth,
+# so it wins over its own faces (whose depth at a pixel centre differs from the edge's nearest
+# point by up to half a pixel's depth slope) and loses to surfaces in front by more than that.
+WIREFRAME_DEPTH_BIAS = 2.0**-8
+
+
+def _wireframe_draws(scene: Scene, line_color: tuple, line_width: float) -> list[tuple]:
+    """Line records of every mesh instance's unique edges (cached in the scene until it changes;
+    one Lines per mesh, shared by its instances)."""
+    key = ("wireframe", line_color, line_width)
+    cached = scene._render_cache.get(key)
+    if cached is None:
+        from .primitives import Lines
+
+        per_mesh: dict[int, Lines] = {}
+        cached = []
+        for inst in scene._instances:
+            mesh = inst.mesh
+            lines = per_mesh.get(id(mesh))
+            if lines is None:
+                faces = np.asarray(mesh.faces)
+                edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+                edges = np.unique(edges, axis=0) if len(edges) else edges.reshape(0, 2)
+                lines = per_mesh[id(mesh)] = Lines(mesh.positions, edges, width=line_width,
+                                                   color=line_color)
+            cached.append(lines._core_record(inst.pose, inst.instance_id) +
+                          (WIREFRAME_DEPTH_BIAS,))
+        scene._render_cache[key] = cached
+    return cached
 
 
 def _draws(scene: Scene, shading: str, frequency: str) -> tuple[list[tuple], str]:
@@ -446,6 +489,10 @@ class Renderer:
         raster: str = "edge",
         msaa: int = 1,
         ssaa: int = 1,
+        line_algorithm: str = "bresenham",
+        wireframe: bool = False,
+        line_color: Sequence[float] = (0.0, 0.0, 0.0),
+        line_width: float = 1.0,
     ) -> Frame:
         """Render ``scene`` seen by ``camera``; only ``outputs`` are allocated and written.
 
@@ -511,6 +558,24 @@ class Renderer:
               they come from one representative sample per pixel, the covered sample nearest
               the pixel centre (ties: the lower sample index), so they describe one surface
               point. ``coverage`` sums the fragments of all samples.
+        line_algorithm : how lines (``softrast.Lines``) of width <= 1 are stepped, one pixel per
+              step along the major axis (x when |dx| >= |dy|) from the first endpoint's pixel to
+              the second's, both drawn (an endpoint's pixel is (floor(x), floor(y)) of its
+              window position): "bresenham" (default; integer, the minor offset at step k is
+              k |dm| / M rounded, halves away from the first endpoint) or "dda" (the minor
+              coordinate m0 + k dm / M in double, rounded half up: floor(v + 0.5)). Wider lines
+              cover every pixel whose centre lies within width / 2 of the segment between the
+              endpoints' pixel centres. Lines are clipped to the near and far planes in
+              homogeneous space; depth, colour and position along them are perspective-correct
+              (at the segment's point nearest the pixel centre). Lines and points are drawn
+              after the triangles, nearer-wins (ties keep what was drawn first), as whole pixels:
+              with msaa / ssaa over the resolved pixels, alpha 1.
+        wireframe : True draws every mesh instance's edges over the image as lines of
+              ``line_color`` (RGB in [0, 1], linear; default black) and ``line_width`` pixels
+              (default 1), with the instance's id and triangle_id -1. In the depth test an edge
+              counts as nearer by 1/256 of its depth (``WIREFRAME_DEPTH_BIAS``), so over its own
+              solid it shows the front edges and hides the back ones (a surface in front by
+              less than that, or a face seen at a grazing angle, may let an edge through).
         """
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a softrast.Scene, got {type(scene).__name__}")
@@ -525,6 +590,14 @@ class Renderer:
         choice(shading, "shading", _SHADING)
         choice(shading_path, "shading_path", _SHADING_PATHS)
         choice(raster, "raster", _RASTER)
+        choice(line_algorithm, "line_algorithm", _LINE_ALGORITHMS)
+        if not isinstance(wireframe, (bool, np.bool_)):
+            raise TypeError(f"wireframe must be True or False, got {wireframe!r:.80}")
+        if wireframe:
+            wire_color = unit_rgb(line_color, "line_color")
+            wire_width = real(line_width, "line_width")
+            if not (np.isfinite(wire_width) and 0.0 < wire_width <= 1e6):
+                raise ValueError(f"line_width must be finite, > 0 and at most 1e6, got {line_width!r}")
         choice(frequency, "frequency", _FREQUENCIES)
         choice(normal_space, "normal_space", _NORMAL_SPACES)
         if not isinstance(srgb, (bool, np.bool_)):
@@ -541,6 +614,9 @@ class Renderer:
             if msaa > 1 or ssaa > 1:
                 raise ValueError("msaa / ssaa: anti-aliasing a camera with lens distortion is not "
                                  "supported (its oversample= already averages colour bilinearly)")
+            if scene.primitives or wireframe:
+                raise ValueError("scene: lines and points (and wireframe) are not supported with "
+                                 "a camera with lens distortion")
             from .distortion import render_distorted
 
             return render_distorted(self, scene, camera, names, {
@@ -554,6 +630,9 @@ class Renderer:
             check_budget(w * h * sum(_OUTPUT_BYTES[n] for n in new), f"outputs {tuple(new)} at {w}x{h}")
 
         draws, model = _draws(scene, shading, frequency)
+        primitives = _primitive_draws(scene)
+        if wireframe:
+            primitives = primitives + _wireframe_draws(scene, wire_color, float(np.float32(wire_width)))
         view, proj = camera._render_matrices(w, h)
         lights, ambient_light = _lighting(scene, view, ambient_f)
         # Every option is checked above, once; the core gets them as one spec.
@@ -563,7 +642,7 @@ class Renderer:
                                                  frequency, bool(srgb), filter_index,
                                                  None if normal_space == "world" else
                                                  tuple(map(tuple, camera.pose[:3, :3].T.tolist())),
-                                                 raster, msaa, ssaa))
+                                                 raster, msaa, ssaa, primitives, line_algorithm))
         return Frame(buffers)
 
     def render_many(self, scene: Scene, cameras: Iterable[Camera], outputs: str | Sequence[str] = ("color", "depth"),

@@ -12,8 +12,9 @@ from ._checks import affine_pose, integer
 from .light import Light
 from .material import Material
 from .mesh import Mesh, _rgba
+from .primitives import Lines, Points
 
-__all__ = ["Instance", "LightInstance", "Scene"]
+__all__ = ["Instance", "LightInstance", "PrimitiveInstance", "Scene"]
 
 _ID_LIMIT = 2**31  # instance_id output is int32 (ids < 2**31); -1 is reserved for background
 
@@ -35,6 +36,16 @@ class Instance:
     instance_id: int
     color: tuple[float, float, float, float]
     material: Material | None = None
+
+
+@dataclass(frozen=True)
+class PrimitiveInstance:
+    """One placement of a ``Lines`` or ``Points`` object in a scene: ``pose`` (4, 4) float64
+    model-to-world, read-only; ``instance_id`` written to the "instance_id" output."""
+
+    item: Lines | Points
+    pose: npt.NDArray[np.float64]
+    instance_id: int
 
 
 @dataclass(frozen=True)
@@ -62,6 +73,7 @@ class Scene:
     def __init__(self, ambient_light: Sequence[float] | None = None) -> None:
         self._instances: list[Instance] = []
         self._lights: list[LightInstance] = []
+        self._primitives: list[PrimitiveInstance] = []  # lines and points, in the order added
         # What render.py derives from the scene for the core (draw and light records), kept
         # until the scene changes: every change goes through add, clear or ambient_light.
         self._render_cache: dict[Any, Any] = {}
@@ -93,16 +105,19 @@ class Scene:
             raise ValueError(f"ambient_light must be finite and >= 0, got {arr.tolist()}")
         self._ambient_light = (float(arr[0]), float(arr[1]), float(arr[2]))
 
-    def add(self, item: Mesh | Light, pose: npt.ArrayLike | None = None,
+    def add(self, item: Mesh | Light | Lines | Points, pose: npt.ArrayLike | None = None,
             instance_id: int | None = None, color: Sequence[float] | None = None,
             material: Material | None = None, camera_space: bool = False) -> int:
-        """Add a mesh or a light placed by ``pose``; returns the mesh's instance id (for a light,
-        its index among the scene's lights).
+        """Add a mesh, a light, or lines or points (``softrast.Lines``, ``softrast.Points``)
+        placed by ``pose``; returns the instance id (for a light, its index among the scene's
+        lights). Lines and points are drawn after the triangles, depth-tested against them, in
+        the order added; they take ``pose`` and ``instance_id`` only.
 
         pose : (4, 4) model-to-world (light-to-world) transform (finite, last row [0, 0, 0, 1]);
             None => identity.
-        instance_id : int in [0, 2**31); None => the number of instances already in the scene.
-            Ids need not be unique (several parts can share one object id). Meshes only.
+        instance_id : int in [0, 2**31); None => the number of instances (meshes, lines and
+            points) already in the scene. Ids need not be unique (several parts can share one
+            object id). Not for lights.
         color : 3 or 4 floats in [0, 1] overriding ``mesh.color`` (and the material's base
             colour); None => ``mesh.color``. Meshes only.
         material : a ``softrast.Material`` for this instance, overriding ``mesh.material``.
@@ -123,6 +138,19 @@ class Scene:
             return len(self._lights) - 1
         if camera_space:
             raise ValueError("camera_space is for lights, not meshes")
+        default_id = len(self._instances) + len(getattr(self, "_primitives", ()))
+        if isinstance(item, (Lines, Points)):
+            if color is not None or material is not None:
+                raise ValueError("color and material are for meshes: give Lines / Points their "
+                                 "own colors")
+            model = _check_model_pose(pose)
+            iid = default_id if instance_id is None else integer(instance_id, "instance_id")
+            if not 0 <= iid < _ID_LIMIT:
+                raise ValueError(f"instance_id must be in [0, 2**31), got {iid}")
+            self.__dict__.setdefault("_primitives", []).append(  # (scenes pickled before lines)
+                PrimitiveInstance(item, model, int(iid)))
+            self._render_cache.clear()
+            return int(iid)
         mesh = item
         if material is not None and not isinstance(material, Material):
             raise TypeError(f"material must be a softrast.Material or None, got {type(material).__name__}")
@@ -130,7 +158,7 @@ class Scene:
             raise TypeError(f"mesh must be a softrast.Mesh, got {type(mesh).__name__} "
                             "(use softrast.Mesh.from_trimesh or softrast.load_mesh)")
         model = _check_model_pose(pose)
-        iid = len(self._instances) if instance_id is None else integer(instance_id, "instance_id")
+        iid = default_id if instance_id is None else integer(instance_id, "instance_id")
         if not 0 <= iid < _ID_LIMIT:
             raise ValueError(f"instance_id must be in [0, 2**31), got {iid}")
         mat = mesh.material if material is None else material
@@ -167,6 +195,11 @@ class Scene:
     def lights(self) -> list[LightInstance]:
         """The lights in the order they were added (a copy of the list)."""
         return list(self._lights)
+
+    @property
+    def primitives(self) -> list[PrimitiveInstance]:
+        """The lines and points in the order they were added (a copy of the list)."""
+        return list(getattr(self, "_primitives", ()))
 
     @property
     def instances(self) -> list[Instance]:
@@ -216,8 +249,9 @@ class Scene:
         return self._instances.pop(k)
 
     def clear(self) -> None:
-        """Remove every instance and light."""
+        """Remove every instance, line, point and light."""
         self._instances.clear()
+        self._primitives = []
         self._lights.clear()
         self._render_cache.clear()
 

@@ -1,0 +1,206 @@
+"""Lines and points: primitives drawn with a scene's triangles and depth-tested against them
+(``Scene.add(Lines(...), pose=, instance_id=)``, like meshes).
+
+Both are drawn unlit in their own linear colour, as whole pixels (aliased; alpha 1 even under
+msaa/ssaa, drawn over the resolved pixels). Their pixels get ``triangle_id`` -1, the instance id
+given to ``Scene.add``, ``mask`` True, ``normal`` 0, ``barycentric`` and ``uv`` 0, and
+``position`` / ``ray_depth`` of the point drawn. The pixel rules (Bresenham, DDA, thick lines,
+point squares) are in ``Renderer.render``'s docstring (``line_algorithm``) and the README.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from ._checks import real
+from .mesh import _as_array, _rgba
+
+__all__ = ["Lines", "Points"]
+
+_MAX_ROWS = 2**31 - 1
+
+
+def _frozen(arr: np.ndarray, dtype: npt.DTypeLike) -> np.ndarray:
+    """A read-only C-contiguous copy over a bytes object (nothing can make it writeable again)."""
+    arr = np.ascontiguousarray(arr, dtype=dtype)
+    return np.frombuffer(arr.tobytes(), dtype=dtype).reshape(arr.shape)
+
+
+def _real_rows(value: Any, name: str, cols: tuple[int, ...]) -> np.ndarray:
+    try:
+        arr = _as_array(value, name)
+    except TypeError as exc:
+        raise ValueError(str(exc)) from None
+    if arr.dtype == np.bool_ or arr.dtype.kind not in "iuf":
+        raise ValueError(f"{name} must have a real numeric dtype, got {arr.dtype}")
+    if arr.ndim != 2 or arr.shape[1] not in cols:
+        want = " or ".join(f"(n, {c})" for c in cols)
+        raise ValueError(f"{name} must have shape {want}, got {arr.shape}")
+    if arr.shape[0] > _MAX_ROWS:
+        raise ValueError(f"{name} has too many rows ({arr.shape[0]})")
+    return arr
+
+
+def _positions(value: Any) -> np.ndarray:
+    arr = _real_rows(value, "positions", (3,))
+    with np.errstate(over="ignore"):
+        out = _frozen(arr, np.float32)
+    bad = ~np.isfinite(out).all(axis=1)
+    if bad.any():
+        raise ValueError(f"positions contains NaN or inf (or a value beyond float32) at row "
+                         f"{int(np.flatnonzero(bad)[0])}")
+    return out
+
+
+def _colors(value: Any, n: int) -> np.ndarray | None:
+    """(n, 3) float32 linear RGB from (n, 3) or (n, 4) uint8 (0-255) or float in [0, 1] (alpha
+    dropped: lines and points are opaque)."""
+    if value is None:
+        return None
+    arr = _real_rows(value, "colors", (3, 4))
+    if arr.shape[0] != n:
+        raise ValueError(f"colors must have one row per position ({n}), got {arr.shape[0]}")
+    if arr.dtype == np.uint8:
+        rgb = arr[:, :3].astype(np.float32) / np.float32(255.0)
+    else:
+        rgb = arr[:, :3].astype(np.float64)
+        if not np.isfinite(rgb).all() or (rgb.size and (rgb.min() < 0.0 or rgb.max() > 1.0)):
+            raise ValueError("colors must be uint8 or finite floats in [0, 1]")
+    return _frozen(rgb, np.float32)
+
+
+def _extent(value: Any, name: str) -> float:
+    try:
+        v = real(value, name)
+    except TypeError as exc:
+        raise ValueError(str(exc)) from None
+    if not (np.isfinite(v) and v > 0.0 and v <= 1e6):
+        raise ValueError(f"{name} must be finite, > 0 and at most 1e6 pixels, got {value!r}")
+    return float(np.float32(v))
+
+
+class Lines:
+    """Line segments between points, drawn ``width`` pixels wide.
+
+    positions : (n, 3) real, model space (stored as float32).
+    segments : (m, 2) integer indices into positions: segment k joins positions[segments[k, 0]]
+        and positions[segments[k, 1]] (both endpoints are drawn).
+    colors : None, or (n, 3) / (n, 4) uint8 (0-255) or float in [0, 1], linear, per position;
+        interpolated perspective-correctly along each segment. None => ``color``.
+    color : 3 or 4 floats in [0, 1] (alpha ignored), the colour without ``colors``; default white.
+    width : > 0 pixels; <= 1 draws one pixel per step (``render(line_algorithm=)``), above 1 every
+        pixel whose centre lies within width / 2 of the segment (round caps).
+
+    Immutable: the arrays are read-only copies. Pickleable.
+    """
+
+    __slots__ = ("_positions", "_segments", "_colors", "_color", "_width")
+
+    def __init__(self, positions: npt.ArrayLike, segments: npt.ArrayLike,
+                 colors: npt.ArrayLike | None = None, width: float = 1.0,
+                 color: Any = (1.0, 1.0, 1.0)) -> None:
+        self._positions = _positions(positions)
+        n = self._positions.shape[0]
+        seg = _real_rows(segments, "segments", (2,))
+        if seg.dtype.kind not in "iu":
+            raise ValueError(f"segments must have an integer dtype, got {seg.dtype}")
+        if seg.size and (seg.min() < 0 or seg.max() >= n):
+            bad = int(np.flatnonzero(((seg < 0) | (seg >= n)).any(axis=1))[0])
+            raise ValueError(f"segments: segment {bad} {seg[bad].tolist()} has an index outside "
+                             f"[0, {n})")
+        self._segments = _frozen(seg, np.int32)
+        self._colors = _colors(colors, n)
+        try:
+            self._color = _rgba(color, "color")[:3]
+        except TypeError as exc:
+            raise ValueError(str(exc)) from None
+        self._width = _extent(width, "width")
+
+    @property
+    def positions(self) -> npt.NDArray[np.float32]:
+        """(n, 3) float32, read-only."""
+        return self._positions
+
+    @property
+    def segments(self) -> npt.NDArray[np.int32]:
+        """(m, 2) int32, read-only."""
+        return self._segments
+
+    @property
+    def colors(self) -> npt.NDArray[np.float32] | None:
+        """(n, 3) float32 linear RGB, read-only, or None."""
+        return self._colors
+
+    @property
+    def color(self) -> tuple[float, float, float]:
+        return self._color
+
+    @property
+    def width(self) -> float:
+        return self._width
+
+    def _core_record(self, pose: np.ndarray, instance_id: int) -> tuple:
+        return (False, self._positions, self._segments, self._colors, self._color, self._width,
+                pose, instance_id)
+
+    def __reduce__(self) -> tuple:
+        return (Lines, (self._positions, self._segments, self._colors, self._width, self._color))
+
+    def __repr__(self) -> str:
+        return f"Lines({self._segments.shape[0]} segments, {self._positions.shape[0]} positions, width={self._width:g})"
+
+
+class Points:
+    """Points drawn as squares of ``size`` x ``size`` pixels.
+
+    positions : (n, 3) real, model space (stored as float32).
+    colors : None, or (n, 3) / (n, 4) uint8 (0-255) or float in [0, 1], linear, per point.
+    color : 3 or 4 floats in [0, 1] (alpha ignored), the colour without ``colors``; default white.
+    size : > 0 pixels: a point at window position (x, y) covers the pixels whose centre (cx, cy)
+        has x - size/2 < cx <= x + size/2 and the same in y; sizes below 1 draw as 1 (the pixel
+        holding the point).
+
+    Immutable: the arrays are read-only copies. Pickleable.
+    """
+
+    __slots__ = ("_positions", "_colors", "_color", "_size")
+
+    def __init__(self, positions: npt.ArrayLike, colors: npt.ArrayLike | None = None,
+                 size: float = 1.0, color: Any = (1.0, 1.0, 1.0)) -> None:
+        self._positions = _positions(positions)
+        self._colors = _colors(colors, self._positions.shape[0])
+        try:
+            self._color = _rgba(color, "color")[:3]
+        except TypeError as exc:
+            raise ValueError(str(exc)) from None
+        self._size = _extent(size, "size")
+
+    @property
+    def positions(self) -> npt.NDArray[np.float32]:
+        """(n, 3) float32, read-only."""
+        return self._positions
+
+    @property
+    def colors(self) -> npt.NDArray[np.float32] | None:
+        """(n, 3) float32 linear RGB, read-only, or None."""
+        return self._colors
+
+    @property
+    def color(self) -> tuple[float, float, float]:
+        return self._color
+
+    @property
+    def size(self) -> float:
+        return self._size
+
+    def _core_record(self, pose: np.ndarray, instance_id: int) -> tuple:
+        return (True, self._positions, None, self._colors, self._color, self._size, pose,
+                instance_id)
+
+    def __reduce__(self) -> tuple:
+        return (Points, (self._positions, self._colors, self._size, self._color))
+
+    def __repr__(self) -> str:
+        return f"Points({self._positions.shape[0]} points, size={self._size:g})"
