@@ -212,12 +212,13 @@ def _spec(view: Any, proj: Any, orthographic: bool, near: float, far: float, out
           ssaa: int = 1, primitives: Sequence[tuple] = (),
           line_algorithm: str = "bresenham") -> dict[str, Any]:
     """The core's render spec (_core.pyi, Renderer.render): the options, already checked."""
-    return {"primitives": primitives, "line_algorithm": line_algorithm, "view": view, "proj": proj, "orthographic": orthographic, "near": near, "far": far,
+    return {"view": view, "proj": proj, "orthographic": orthographic, "near": near, "far": far,
             "outputs": outputs, "cull": cull, "shading": shading, "shading_path": shading_path,
             "background": background, "ambient": ambient, "out": out, "lights": lights,
             "ambient_light": ambient_light, "frequency": frequency, "srgb": srgb,
             "texture_filter": texture_filter, "normal_rotation": normal_rotation,
-            "raster": raster, "msaa": msaa, "ssaa": ssaa}
+            "raster": raster, "msaa": msaa, "ssaa": ssaa, "primitives": primitives,
+            "line_algorithm": line_algorithm}
 
 
 MSAA_COUNTS = (1, 2, 4, 8, 16)

@@ -1,6 +1,9 @@
-"""Anti-aliasing: textured Spot without it, with msaa=4 and with ssaa=4 (08_spot_*.png), zoomed
-on its outline (08_zoom.png), and the msaa render composited over a gradient with its alpha
-output (08_composite.png: no fringe, since radiance is premultiplied)."""
+"""Anti-aliasing, lines and points: textured Spot without anti-aliasing, with msaa=4 and with
+ssaa=4 (08_spot_*.png), zoomed on its outline (08_zoom.png); the msaa render composited over a
+gradient with its alpha output (08_composite.png: no fringe, since radiance is premultiplied);
+its wireframe over the solid (08_wireframe.png: front edges shown, back ones hidden); and a
+point cloud sampled on its surface with axis lines, depth-tested against a ground quad
+(08_points.png)."""
 import sys
 from pathlib import Path
 
@@ -64,3 +67,30 @@ encoded = np.where(composite <= 0.0031308, 12.92 * composite,
 sr.imwrite(out / "08_composite.png", np.rint(np.clip(encoded, 0, 1) * 255).astype(np.uint8))
 print("sample positions of msaa=4 (pixel units from the top-left corner):",
       sr.sample_positions(msaa=4).tolist())
+
+# The wireframe over the solid: every edge as a line with a small depth bias, so the front
+# edges show and the back ones stay hidden behind the faces.
+frame = renderer.render(scene, camera, wireframe=True, line_color=(0.02, 0.05, 0.2), msaa=4,
+                        background=(1, 1, 1))
+sr.imwrite(out / "08_wireframe.png", frame.color)
+
+# A point cloud: 200,000 points on the cow's surface, coloured by height, standing on a ground
+# quad (depth-tested against it and each other), with the three axes at a corner as lines of
+# width 3.
+rng = np.random.default_rng(0)
+points, _ = trimesh.sample.sample_surface(tm, 200_000, seed=0)
+height = (points[:, 1] - points[:, 1].min()) / np.ptp(points[:, 1])
+colors = np.stack([height, 0.3 + 0.4 * (1 - height), 1 - height], axis=1) ** 2.2  # linear
+cloud = sr.Scene(ambient_light=(0.3, 0.3, 0.3))
+cloud.add(sr.Points(points, colors=colors, size=1.0))
+o = (0.75, -0.72, 0.1)  # the axes' origin, just above the ground beside the cow
+axes = sr.Lines(np.array([[0, 0, 0], [0.6, 0, 0], [0, 0, 0], [0, 0.6, 0], [0, 0, 0], [0, 0, 0.6]]) + o,
+                [[0, 1], [2, 3], [4, 5]], colors=[[1, 0, 0]] * 2 + [[0, 1, 0]] * 2 + [[0, 0, 1]] * 2,
+                width=3.0)
+cloud.add(axes)
+ground = sr.Mesh([[-2, -0.74, -2], [2, -0.74, -2], [2, -0.74, 2], [-2, -0.74, 2]], [[0, 2, 1], [0, 3, 2]],
+                 material=sr.Material(base_color=(0.5, 0.5, 0.5), double_sided=True))
+cloud.add(ground)
+frame = renderer.render(cloud, camera, outputs=("color", "instance_id"), cull="none",
+                        background=(0.05, 0.05, 0.08))
+sr.imwrite(out / "08_points.png", frame.color)
