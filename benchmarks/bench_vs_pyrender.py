@@ -6,6 +6,7 @@ Run ``bash benchmarks/setup_baselines.sh`` once first, then::
     python3 benchmarks/bench_vs_pyrender.py --lit [--lit-only] [--png DIR]    # issue 16's lit rows
     python3 benchmarks/bench_vs_pyrender.py --textured [--png DIR]            # issue 17's rows
     python3 benchmarks/bench_vs_pyrender.py --aa [--png DIR]                  # issue 18's msaa rows
+    python3 benchmarks/bench_vs_pyrender.py --points [--png DIR]              # issue 18's point cloud
     python3 benchmarks/bench_vs_pyrender.py --ab OLD_PYTHONPATH [--rows 1,2,3,4]  # Lambert A/B
 
 Scenes: trimesh icospheres (radius 1, smooth normals) seen by a 45-degree perspective camera at a
@@ -710,6 +711,71 @@ def report_aa(results: list[dict]) -> None:
               + f"{fmt(x, 9)}{fmt(ratio(m4, m1), 7, 2)}  {verdict}")
 
 
+# ------------------------------------------------------------------ point clouds (issue 18)
+
+POINT_ROWS = [(1_000_000, 1024, 1024)]
+POINTS_GOAL = 20.0  # issue 18: a 1M-point cloud at 1024x1024 >= 20x pyrender's points
+
+
+def run_points(pyrender, target_s, n_min, n_max, rounds, png_dir) -> list[dict]:
+    """n random points in a unit ball, per-point colours, one pixel each, colour+depth:
+    pyrender's Mesh.from_points (GL_POINTS, point_size 1, its 4x MSAA framebuffer) against
+    softrast.Points (1 and 2 threads, out=)."""
+    results = []
+    for n, w, h in POINT_ROWS:
+        rng = np.random.default_rng(0)
+        xyz = rng.normal(size=(n, 3))
+        xyz *= (rng.uniform(size=(n, 1)) ** (1 / 3)) / np.linalg.norm(xyz, axis=1, keepdims=True)
+        rgb = rng.uniform(size=(n, 3))
+        cells: list[Cell] = []
+        pose = camera_pose()
+        pr_renderer = None
+        if pyrender is not None:
+            pr = pyrender
+            scene = pr.Scene(bg_color=[0.0, 0.0, 0.0, 0.0])
+            scene.add(pr.Mesh.from_points(xyz, colors=rgb))
+            scene.add(pr.PerspectiveCamera(yfov=math.radians(FOV_Y_DEG), aspectRatio=w / h, znear=NEAR,
+                                           zfar=FAR), pose=pose)
+            pr_renderer = pr.OffscreenRenderer(w, h, point_size=1.0)
+            pr_renderer.render(scene)
+            cells.append(Cell("pyrender color+depth", lambda: pr_renderer.render(scene)))
+            if png_dir:
+                os.makedirs(png_dir, exist_ok=True)
+                sr.imwrite(os.path.join(png_dir, f"points_{n}_{w}x{h}_pyrender.png"), pr_renderer.render(scene)[0])
+        s = sr.Scene()
+        s.add(sr.Points(xyz, colors=rgb))
+        cam = sr.PerspectiveCamera(fov_y=FOV_Y_DEG, width=w, height=h, near=NEAR, far=FAR)
+        cam.pose = pose
+        for t in (2, 1):
+            r = sr.Renderer(w, h, threads=t)
+            f = r.render(s, cam, outputs=("color", "depth"))
+            cells.append(Cell(f"softrast t{t} color+depth out", lambda r=r, f=f: r.render(
+                s, cam, outputs=("color", "depth"), out=f)))
+            if png_dir and t == 2:
+                sr.imwrite(os.path.join(png_dir, f"points_{n}_{w}x{h}_softrast.png"), f.color)
+        run_interleaved(cells, target_s, n_min, n_max, rounds)
+        results.append({"row": f"{n // 1000}k points {w}x{h}", "ms": {c.name: c.median_ms for c in cells}})
+        if pr_renderer is not None:
+            pr_renderer.delete()
+        print(f"  done points {results[-1]['row']}: " + ", ".join(f"{k} {v:.2f}" for k, v in results[-1]["ms"].items()),
+              flush=True)
+    return results
+
+
+def report_points(results: list[dict]) -> None:
+    get = lambda r, k: r["ms"].get(k, float("nan"))  # noqa: E731
+    print("\nPoint cloud rows (issue 18): median ms per colour+depth frame, out=")
+    head = f"{'row':<26}{'pyrender':>9}{'sr t2':>8}{'sr t1':>8}{'x pyr t2':>9}  goal >= {POINTS_GOAL:.0f}x"
+    print(head)
+    print("-" * len(head))
+    for r in results:
+        pyr, t2, t1 = (get(r, k) for k in ("pyrender color+depth", "softrast t2 color+depth out",
+                                            "softrast t1 color+depth out"))
+        x = ratio(pyr, t2)
+        verdict = "n/a" if x != x else ("MET" if x >= POINTS_GOAL else f"NOT MET (short by {POINTS_GOAL / x:.2f}x)")
+        print(f"{r['row']:<26}{fmt(pyr, 9)}{fmt(t2, 8, 2)}{fmt(t1, 8, 2)}{fmt(x, 9)}  {verdict}")
+
+
 # ------------------------------------------------------------------ Lambert A/B (old vs new)
 
 
@@ -871,6 +937,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--textured", action="store_true",
                     help="only issue 17's textured rows (textured Spot, BoxTextured)")
     ap.add_argument("--aa", action="store_true", help="only issue 18's anti-aliasing rows")
+    ap.add_argument("--points", action="store_true", help="only issue 18's point cloud row")
     ap.add_argument("--png", help="write each lit row's colour image from each renderer into this directory")
     ap.add_argument("--ab", metavar="OLD_PYTHONPATH",
                     help="only the Lambert A/B: the old build (softrast importable from this path) vs "
@@ -912,7 +979,7 @@ def main(argv: list[str] | None = None) -> int:
             with open(args.json, "w") as fh:
                 json.dump({"ab": ab}, fh, indent=1)
         return 0
-    if args.lit_only or args.textured or args.aa:
+    if args.lit_only or args.textured or args.aa or args.points:
         rows = []
 
     pyrender, pyrender_error = (None, "skipped (--no-pyrender)") if args.no_pyrender else import_pyrender()
@@ -963,6 +1030,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"  done ico{sub} {w}x{h}: "
               + ", ".join(f"{k} {v:.2f}" for k, v in res["ms"].items()), flush=True)
 
+    if args.points:
+        report_points(run_points(pyrender, target_s, n_min, n_max, rounds, args.png))
+        return 0
     if args.aa:
         report_aa(run_aa(pyrender, target_s, n_min, n_max, rounds, args.png, args.quick))
         return 0

@@ -32,6 +32,7 @@ struct DrawContext {
   const ClipPlanes* planes;
   const Viewport* viewport;
   bool orthographic;
+  bool need_world;  // the position / ray_depth outputs: one more transform per point
 };
 
 LinePoint transform(const DrawContext& c, std::size_t index) {
@@ -39,7 +40,8 @@ LinePoint transform(const DrawContext& c, std::size_t index) {
   const vec3 p = d.positions[index];
   const ClipVertexD v = transform_point_d(c.xf, p);
   const dvec3 color = d.colors.empty() ? dvec3(d.color) : dvec3(d.colors[index]);
-  return {v.p_clip, v.depth_view, color, dvec3(d.model * dvec4(dvec3(p), 1.0))};
+  return {v.p_clip, v.depth_view, color,
+          c.need_world ? dvec3(d.model * dvec4(dvec3(p), 1.0)) : dvec3(0.0)};
 }
 
 // Window coordinates (vertex.cpp's transform, in double).
@@ -67,7 +69,13 @@ bool clip_segment(const ClipPlanes& planes, LinePoint& a, LinePoint& b) {
   return a.p_clip.w > 0.0 && b.p_clip.w > 0.0;
 }
 
-int32_t floor_px(double v) { return int32_t(std::floor(v)); }
+// floor, for the window coordinates of clipped primitives (within the guard band plus a width
+// of at most kMaxPrimitiveWidthPx: far inside int32): a truncation and a compare, where
+// std::floor is a libm call on the generic x86-64 target (a fifth of a point cloud's setup).
+int32_t floor_px(double v) {
+  const int32_t t = int32_t(v);
+  return t - int32_t(v < double(t));
+}
 
 // Inclusive pixel box of a line's footprint (thick lines: the capsule's, with a pixel to spare).
 void line_box(const LineRecord& r, int32_t box[4]) {
@@ -163,13 +171,28 @@ void bin_block(const Viewport& vp, PrimitiveBlock& block) {
     for (int ty = ty0; ty <= ty1; ++ty)
       for (int tx = tx0; tx <= tx1; ++tx) fn(std::size_t(ty) * vp.tiles_x + tx);
   };
-  for (std::size_t i = 0; i < n; ++i) for_tiles(i, [&](std::size_t t) { ++block.tile_begin[t + 1]; });
+  // Points: most lie in one tile, which the counting pass notes (single_tile) so the copying
+  // pass need not find it again.
+  constexpr uint32_t kSeveral = 0xffffffffu;
+  if (block.points) block.single_tile.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    uint32_t only = kSeveral, count = 0;
+    for_tiles(i, [&](std::size_t t) {
+      ++block.tile_begin[t + 1];
+      only = uint32_t(t);
+      ++count;
+    });
+    if (block.points) block.single_tile[i] = count == 1 ? only : kSeveral;
+  }
   for (std::size_t t = 0; t < num_tiles; ++t) block.tile_begin[t + 1] += block.tile_begin[t];
   std::vector<uint32_t> next(block.tile_begin.begin(), block.tile_begin.end() - 1);
   if (block.points) {
     block.binned_dots.resize(block.tile_begin[num_tiles]);
-    for (std::size_t i = 0; i < n; ++i)
-      for_tiles(i, [&](std::size_t t) { block.binned_dots[next[t]++] = block.dots[i]; });
+    for (std::size_t i = 0; i < n; ++i) {
+      const uint32_t only = block.single_tile[i];
+      if (only != kSeveral) block.binned_dots[next[only]++] = block.dots[i];
+      else for_tiles(i, [&](std::size_t t) { block.binned_dots[next[t]++] = block.dots[i]; });
+    }
   } else {
     block.tile_records.resize(block.tile_begin[num_tiles]);
     for (std::size_t i = 0; i < n; ++i)
@@ -324,7 +347,7 @@ void validate_primitive(const PrimitiveDraw& d, const std::string& where) {
 
 void PrimitiveSetup::build(const std::vector<PrimitiveDraw>& draws, const CameraParams& camera,
                            const Viewport& viewport, LineAlgorithm line_algorithm,
-                           ThreadPool& pool) {
+                           bool need_world, ThreadPool& pool) {
   algorithm = line_algorithm;
   orthographic = camera.orthographic;
   num_blocks = 0;
@@ -335,7 +358,7 @@ void PrimitiveSetup::build(const std::vector<PrimitiveDraw>& draws, const Camera
   std::vector<Range> ranges;
   for (std::size_t d = 0; d < draws.size(); ++d) {
     contexts.push_back({&draws[d], make_draw_transform(draws[d].model, camera), &planes, &viewport,
-                        camera.orthographic});
+                        camera.orthographic, need_world});
     const std::size_t n = draws[d].points ? draws[d].positions.size() : draws[d].segments.size();
     for (std::size_t b = 0; b < n; b += kPrimitiveBlock)
       ranges.push_back({d, b, std::min(n, b + kPrimitiveBlock)});

@@ -96,6 +96,7 @@ struct PrimitiveBlock {
   std::vector<LineRecord> lines;
   std::vector<PointRecord> dots, binned_dots;
   std::vector<uint32_t> tile_begin, tile_records;
+  std::vector<uint32_t> single_tile;  // points: the one tile a point is binned to, or ~0u
 };
 
 // Every primitive of a render, set up; reused from render to render (capacity kept).
@@ -108,8 +109,11 @@ struct PrimitiveSetup {
 
   // Transforms, clips, projects and bins `draws`, in parallel over blocks of primitives (the
   // result does not depend on the thread count).
+  // `need_world`: the position or ray_depth output is requested (else records' world points are
+  // left 0 and never read).
   void build(const std::vector<PrimitiveDraw>& draws, const CameraParams& camera,
-             const Viewport& viewport, LineAlgorithm line_algorithm, ThreadPool& pool);
+             const Viewport& viewport, LineAlgorithm line_algorithm, bool need_world,
+             ThreadPool& pool);
   bool any(int tile) const { return num_blocks > 0 && tile_used[std::size_t(tile)]; }
 };
 

@@ -304,7 +304,8 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   });
 
   // Lines and points: transformed, clipped, projected and binned, parallel over blocks.
-  primitives_.build(primitives, camera, viewport, line_algorithm, pool_);
+  primitives_.build(primitives, camera, viewport, line_algorithm,
+                    (options.outputs & (kOutPosition | kOutRayDepth)) != 0, pool_);
 
   // Tiles: rasterize, then shade, each tile by one thread.
   std::vector<ShadeDraw> shade_draws;
