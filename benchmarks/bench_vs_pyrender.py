@@ -732,7 +732,7 @@ def run_points(pyrender, target_s, n_min, n_max, rounds, png_dir) -> list[dict]:
         pr_renderer = None
         if pyrender is not None:
             pr = pyrender
-            scene = pr.Scene(bg_color=[0.0, 0.0, 0.0, 0.0])
+            scene = pr.Scene(bg_color=[0.0, 0.0, 0.0, 0.0], ambient_light=[1.0, 1.0, 1.0])  # (unlit points)
             scene.add(pr.Mesh.from_points(xyz, colors=rgb))
             scene.add(pr.PerspectiveCamera(yfov=math.radians(FOV_Y_DEG), aspectRatio=w / h, znear=NEAR,
                                            zfar=FAR), pose=pose)
