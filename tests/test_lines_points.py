@@ -610,3 +610,29 @@ def test_wireframe_arguments():
     thick = render(scene, wireframe=True, line_width=3.0)
     thin = render(scene, wireframe=True)
     assert (thick.triangle_id == -1).sum() > 2 * ((thin.triangle_id == -1) & thin.mask).sum()
+
+
+def test_scene_edits_lines_and_points_like_meshes():
+    # set_pose moves a point cloud, remove drops it, ids reach primitives, bounds include them.
+    scene = sr.Scene()
+    mesh = pixel_mesh(np.array([[2.0, 2.0], [10.0, 2.0], [2.0, 10.0]]), np.array([[0, 1, 2]]), W, H)
+    scene.add(mesh, instance_id=1)
+    points = sr.Points(window_to_world(np.array([[20.5, 20.5]]), W, H), size=1.0)
+    scene.add(points, instance_id=5)
+    first = render(scene, outputs=("instance_id",)).instance_id
+    assert first[20, 20] == 5
+    moved = scene.set_pose(5, np.array([[1, 0, 0, 3.0], [0, 1, 0, -2.0], [0, 0, 1, 0], [0, 0, 0, 1]]))
+    assert isinstance(moved, sr.scene.PrimitiveInstance) and scene.primitives[0] is moved
+    after = render(scene, outputs=("instance_id",)).instance_id
+    assert after[20, 20] == -1 and after[22, 23] == 5  # 3 px right, 2 px down (world y is up)
+    lo, hi = scene.bounds
+    assert hi[0] == pytest.approx(20.5 - W / 2 + 3.0) and lo[0] == pytest.approx(2.0 - W / 2)
+    assert "1 lines/points" in repr(scene)
+    with pytest.raises(ValueError, match="lines or points"):
+        scene._index(5)
+    removed = scene.remove(moved)
+    assert removed is moved and not scene.primitives
+    assert (render(scene, outputs=("instance_id",)).instance_id != 5).all()
+    scene.add(points, instance_id=1)
+    with pytest.raises(ValueError, match="names 2 instances"):
+        scene.remove(1)

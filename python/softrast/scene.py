@@ -212,41 +212,57 @@ class Scene:
     def __iter__(self) -> Iterator[Instance]:
         return iter(list(self._instances))
 
-    def _index(self, instance: Instance | int) -> int:
-        """The position of ``instance`` (an Instance of this scene, or an instance id that names
-        exactly one instance)."""
-        if isinstance(instance, Instance):
-            for k, inst in enumerate(self._instances):
+    def _find(self, instance: Instance | PrimitiveInstance | int) -> tuple[list, int]:
+        """(the list holding it, its position): ``instance`` is an Instance (a mesh's) or a
+        PrimitiveInstance (lines' or points') of this scene, or an instance id that names exactly
+        one of them."""
+        primitives = self.__dict__.setdefault("_primitives", [])  # (scenes pickled before lines)
+        if isinstance(instance, (Instance, PrimitiveInstance)):
+            where = self._instances if isinstance(instance, Instance) else primitives
+            for k, inst in enumerate(where):
                 if inst is instance:
-                    return k
+                    return where, k
             raise ValueError("instance is not in this scene (or was replaced: set_pose returns "
                              "the new Instance)")
         iid = integer(instance, "instance")
-        found = [k for k, inst in enumerate(self._instances) if inst.instance_id == iid]
+        found = [(where, k) for where in (self._instances, primitives)
+                 for k, inst in enumerate(where) if inst.instance_id == iid]
         if not found:
             raise ValueError(f"instance: no instance has id {iid}")
         if len(found) > 1:
             raise ValueError(f"instance: id {iid} names {len(found)} instances; pass one of "
-                             "scene.instances instead")
+                             "scene.instances or scene.primitives instead")
         return found[0]
 
-    def set_pose(self, instance: Instance | int, pose: npt.ArrayLike) -> Instance:
-        """Move one instance (an ``Instance`` of ``scene.instances``, or a unique instance id) to
-        ``pose`` (checked as ``add``'s); returns its new ``Instance`` (the scene keeps its place
-        in the drawing order). Editing a scene between views costs less than rebuilding it."""
-        k = self._index(instance)
-        model = _check_model_pose(pose)
-        old = self._instances[k]
-        self._instances[k] = Instance(old.mesh, model, old.instance_id, old.color, old.material)
-        self._render_cache.clear()
-        return self._instances[k]
+    def _index(self, instance: Instance | int) -> int:
+        """The position of a mesh ``instance`` in ``scene.instances`` (see _find)."""
+        where, k = self._find(instance)
+        if where is not self._instances:
+            raise ValueError("instance: that id names lines or points, not a mesh instance")
+        return k
 
-    def remove(self, instance: Instance | int) -> Instance:
-        """Remove one instance (an ``Instance`` of ``scene.instances``, or a unique instance id)
-        and return it."""
-        k = self._index(instance)
+    def set_pose(self, instance: Instance | PrimitiveInstance | int,
+                 pose: npt.ArrayLike) -> Instance | PrimitiveInstance:
+        """Move one instance (an ``Instance`` of ``scene.instances``, a ``PrimitiveInstance`` of
+        ``scene.primitives``, or a unique instance id) to ``pose`` (checked as ``add``'s);
+        returns its new instance (the scene keeps its place in the drawing order). Editing a
+        scene between views costs less than rebuilding it."""
+        where, k = self._find(instance)
+        model = _check_model_pose(pose)
+        old = where[k]
+        if isinstance(old, Instance):
+            where[k] = Instance(old.mesh, model, old.instance_id, old.color, old.material)
+        else:
+            where[k] = PrimitiveInstance(old.item, model, old.instance_id)
         self._render_cache.clear()
-        return self._instances.pop(k)
+        return where[k]
+
+    def remove(self, instance: Instance | PrimitiveInstance | int) -> Instance | PrimitiveInstance:
+        """Remove one instance (an ``Instance``, a ``PrimitiveInstance``, or a unique instance
+        id) and return it."""
+        where, k = self._find(instance)
+        self._render_cache.clear()
+        return where.pop(k)
 
     def clear(self) -> None:
         """Remove every instance, line, point and light."""
@@ -257,16 +273,25 @@ class Scene:
 
     @property
     def bounds(self) -> npt.NDArray[np.float64]:
-        """(2, 3) float64 world-space AABB (row 0 min, row 1 max) of every transformed vertex."""
-        if not self._instances:
+        """(2, 3) float64 world-space AABB (row 0 min, row 1 max) of every transformed vertex,
+        of meshes, lines and points."""
+        posed = [(inst.mesh.positions, inst.pose) for inst in self._instances]
+        posed += [(inst.item.positions, inst.pose) for inst in getattr(self, "_primitives", ())]
+        if not posed:
             raise ValueError("scene is empty: it has no bounds")
         lo = np.full(3, np.inf)
         hi = np.full(3, -np.inf)
-        for inst in self._instances:
-            p_world = inst.mesh.positions.astype(np.float64) @ inst.pose[:3, :3].T + inst.pose[:3, 3]
+        for positions, pose in posed:
+            if len(positions) == 0:
+                continue
+            p_world = positions.astype(np.float64) @ pose[:3, :3].T + pose[:3, 3]
             lo = np.minimum(lo, p_world.min(axis=0))
             hi = np.maximum(hi, p_world.max(axis=0))
+        if not np.isfinite(lo).all():
+            raise ValueError("scene is empty: it has no bounds")
         return np.stack([lo, hi])
 
     def __repr__(self) -> str:
-        return f"Scene({len(self._instances)} instances, {len(self._lights)} lights)"
+        primitives = len(getattr(self, "_primitives", ()))
+        extra = f", {primitives} lines/points" if primitives else ""
+        return f"Scene({len(self._instances)} instances{extra}, {len(self._lights)} lights)"
