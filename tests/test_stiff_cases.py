@@ -4,7 +4,8 @@ never against "it did not crash".
 
 1. Near plane: vertices behind the camera, on the camera plane (w = 0) and at its centre; a
    camera inside a closed icosphere.
-2. Image sizes 1x1, 1x16384, 16384x1 and 8192x8192: full-screen quads, half-planes, exact depth.
+2. Image sizes 1x1, 1x16384, 16384x1 and 8192x8192: full-screen quads, half-planes, exact depth;
+   16384x16384 with the mask only.
 3. Triangles with vertices 1e9 px off-screen.
 4. Cameras: fov 1e-3 and 179.9 degrees, aspect 4096:1, orthographic extents 1e-6 and 1e6.
 5. Zero, tiny, huge, cancelling and NaN vertex normals.
@@ -456,6 +457,30 @@ def test_large_square_image() -> None:
     _check_image_size(BIG, BIG)
     print(f"{BIG}x{BIG}: {time.perf_counter() - start:.1f} s for two renders and their checks, "
           f"peak RSS {'+' if reset else ''}{_peak_rss_mb() - before:.0f} MB")
+
+
+def test_16384_square_image_mask() -> None:
+    """16384 x 16384, the largest image side, with the mask only (256 MiB per render): a
+    full-screen quad covers every pixel, and a quad with a slanted edge exactly the pixel
+    centres on its side of the line (the exact expected mask, in integers, compared 512 rows at
+    a time so that no second full-size array is made). Measured here: about 2 s per render."""
+    n = 16384
+    renderer = sr.Renderer(n, n)
+    cam = _pixel_camera(n, n)
+    f = renderer.render(_scene(_full_screen_quad(n, n, -10.0)), cam, ("mask",), cull="none")
+    assert f.mask.all()
+    del f
+    quad = _half_plane_quads(n, n, (2, 7))[0]
+    f = renderer.render(_scene(_window_mesh(quad, [[0, 1, 2], [0, 2, 3]], n, n, -10.0)), cam,
+                        ("mask",), cull="none")
+    covered = 0
+    for y0 in range(0, n, 512):
+        # The rows' expected coverage: the quad shifted up by y0 rows over a 512-row image.
+        shifted = quad - np.array([0.0, y0])
+        expected = _expected_half_plane(shifted, n, 512)
+        np.testing.assert_array_equal(f.mask[y0:y0 + 512], expected, err_msg=f"rows {y0}..")
+        covered += int(expected.sum())
+    assert 0 < covered < n * n
 
 
 # -------------------------------------------------------------------------- 3. huge triangles
