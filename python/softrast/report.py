@@ -883,7 +883,7 @@ def _front_groups(rows: Sequence[Row]) -> dict[tuple[str, str, str], list[Row]]:
 
 # The plot's panels and the Markdown's Pareto fronts: (scene, metric, title).
 _PANELS = (
-    ("sphere", "coverage_mean", "sphere: coverage error per edge pixel\n(mean |mask - exact area|)"),
+    ("sphere", "coverage_mean", "sphere: coverage error per edge pixel\n(mean |alpha - exact area|; alpha = mask without AA)"),
     ("sphere", "depth_max", "sphere: max depth error (scene units)\nvs exact ray-sphere hit"),
     ("sphere", "normal_mean_deg", "sphere: mean normal error (degrees)\nvs exact normal"),
     ("sphere", "rmse", "sphere: colour RMSE, lambert (linear)\nvs the closed form at pixel centres"),
@@ -1002,7 +1002,8 @@ def _plot(path: str, rows: Sequence[Row], title: str) -> None:
     FigureCanvasAgg(fig)
     axes = fig.subplots(2, 3).ravel()
     colours = {"tessellation": "tab:blue", "frequency": "tab:orange", "shading_model": "tab:green",
-               "threads": "tab:red", "texture_filter": "tab:purple", "max_anisotropy": "tab:brown"}
+               "threads": "tab:red", "texture_filter": "tab:purple", "max_anisotropy": "tab:brown",
+               "msaa": "tab:cyan", "ssaa": "tab:pink"}
     groups = _front_groups(rows)
     for ax, (scene, metric, panel_title) in zip(axes, _PANELS):
         prows = [r for r in rows if r.scene == scene and r.metric == metric and r.error > 0.0
