@@ -156,6 +156,28 @@ struct NoShading {
   SR_INLINE void prefetch_attributes(const SetupChunk&, uint32_t) {}
 };
 
+// One pixel's depth test from its biased exact edge values e_k (all >= 0: covered): counts the
+// fragment, and records the triangle if its key beats the pixel's. Shared by the int64 path and
+// the scanline fill (scanline.cpp), so both compute the same float key from the same integers.
+struct PixelDepthTest {
+  float k0, k1, k2;
+  int64_t b0, b1, b2;
+  uint32_t index;
+  SR_INLINE PixelDepthTest(const TriangleSetup& t, uint32_t i)
+      : k0(t.key_over_area[0]), k1(t.key_over_area[1]), k2(t.key_over_area[2]),
+        b0(t.bias[0]), b1(t.bias[1]), b2(t.bias[2]), index(i) {}
+  SR_INLINE bool run(int i, int64_t e0, int64_t e1, int64_t e2, bool coverage,
+                     TileScratch& s) const {
+    if (coverage) ++s.coverage[i];
+    // key = sum_k E_k * key_k / area2: barycentric weights from the exact edge values.
+    const float key = float(e0 + b0) * k0 + float(e1 + b1) * k1 + float(e2 + b2) * k2;
+    if (!(key > s.key[i] * s.tie)) return false;  // on a tie (kTieFactor*) the earlier one stays
+    s.key[i] = key;
+    s.visible[i] = index;
+    return true;
+  }
+};
+
 namespace raster {
 using namespace simd;
 
@@ -166,24 +188,13 @@ SR_INLINE void rasterize_large(const TriangleSetup& t, int x0, int x1, int y0, i
   const EdgeEquations eq = edge_equations(t, x0, y0, s);
   int64_t row[3];
   for (int k = 0; k < 3; ++k) row[k] = eq.origin[k] - t.bias[k];  // biased: inside <=> >= 0
-  const float k0 = t.key_over_area[0], k1 = t.key_over_area[1], k2 = t.key_over_area[2];
-  const int64_t b0 = t.bias[0], b1 = t.bias[1], b2 = t.bias[2];
+  const PixelDepthTest test(t, index);
   bool won = false;
   for (int y = y0; y <= y1; ++y) {
     int64_t e0 = row[0], e1 = row[1], e2 = row[2];
     const int line = (y - rect.y0) * kTileSizePx - rect.x0;
     for (int x = x0; x <= x1; ++x) {
-      if ((e0 | e1 | e2) >= 0) {
-        const int i = line + x;
-        if constexpr (kCoverage) ++s.coverage[i];
-        // key = sum_k E_k * key_k / area2: barycentric weights from the exact edge values.
-        const float key = float(e0 + b0) * k0 + float(e1 + b1) * k1 + float(e2 + b2) * k2;
-        if (key > s.key[i] * s.tie) {  // on a tie (kTieFactor*) the earlier triangle stays
-          s.key[i] = key;
-          s.visible[i] = index;
-          won = true;
-        }
-      }
+      if ((e0 | e1 | e2) >= 0) won |= test.run(line + x, e0, e1, e2, kCoverage, s);
       e0 += eq.step_x[0]; e1 += eq.step_x[1]; e2 += eq.step_x[2];
     }
     row[0] += eq.step_y[0]; row[1] += eq.step_y[1]; row[2] += eq.step_y[2];

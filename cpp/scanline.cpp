@@ -89,27 +89,19 @@ bool rasterize_scanline(const TriangleSetup& t, int x0, int x1, int y0, int y1,
     else if (sx < 0) right[num_right++] = EdgeWalk(c[k], -sx, sy);    // n <= floor(c / -sx)
   }
 
-  const float k0 = t.key_over_area[0], k1 = t.key_over_area[1], k2 = t.key_over_area[2];
-  const int64_t b0 = t.bias[0], b1 = t.bias[1], b2 = t.bias[2];
+  const PixelDepthTest test(t, index);
   bool won = false;
   for (int y = ya; y <= yb; ++y) {
     int64_t lo = 0, hi = x1 - x0;  // the span, clipped to the box
     for (int j = 0; j < num_left; ++j) lo = std::max(lo, left[j].q);
     for (int j = 0; j < num_right; ++j) hi = std::min(hi, right[j].q);
     if (lo <= hi) {
-      // The depth test as rasterize_large's: the same exact edge values, the same float key.
+      // The depth test as rasterize_large's (PixelDepthTest): the same exact edge values.
       int64_t e0 = c[0] + eq.step_x[0] * lo, e1 = c[1] + eq.step_x[1] * lo,
               e2 = c[2] + eq.step_x[2] * lo;
       const int line = (y - rect.y0) * kTileSizePx - rect.x0;
       for (int x = x0 + int(lo); x <= x0 + int(hi); ++x) {
-        const int i = line + x;
-        if (coverage) ++s.coverage[i];
-        const float key = float(e0 + b0) * k0 + float(e1 + b1) * k1 + float(e2 + b2) * k2;
-        if (key > s.key[i] * s.tie) {  // on a tie (kTieFactor*) the earlier triangle stays
-          s.key[i] = key;
-          s.visible[i] = index;
-          won = true;
-        }
+        won |= test.run(line + x, e0, e1, e2, coverage, s);
         e0 += eq.step_x[0]; e1 += eq.step_x[1]; e2 += eq.step_x[2];
       }
     }

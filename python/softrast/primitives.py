@@ -81,7 +81,35 @@ def _extent(value: Any, name: str) -> float:
     return float(np.float32(v))
 
 
-class Lines:
+class _Primitive:
+    """What Lines and Points share: checked positions, per-position colours or one colour."""
+
+    __slots__ = ("_positions", "_colors", "_color")
+
+    def _set_common(self, positions: npt.ArrayLike, colors: npt.ArrayLike | None, color: Any) -> None:
+        self._positions = _positions(positions)
+        self._colors = _colors(colors, self._positions.shape[0])
+        try:
+            self._color = _rgba(color, "color")[:3]
+        except TypeError as exc:
+            raise ValueError(str(exc)) from None
+
+    @property
+    def positions(self) -> npt.NDArray[np.float32]:
+        """(n, 3) float32, read-only."""
+        return self._positions
+
+    @property
+    def colors(self) -> npt.NDArray[np.float32] | None:
+        """(n, 3) float32 linear RGB, read-only, or None."""
+        return self._colors
+
+    @property
+    def color(self) -> tuple[float, float, float]:
+        return self._color
+
+
+class Lines(_Primitive):
     """Line segments between points, drawn ``width`` pixels wide.
 
     positions : (n, 3) real, model space (stored as float32).
@@ -96,12 +124,12 @@ class Lines:
     Immutable: the arrays are read-only copies. Pickleable.
     """
 
-    __slots__ = ("_positions", "_segments", "_colors", "_color", "_width")
+    __slots__ = ("_segments", "_width")
 
     def __init__(self, positions: npt.ArrayLike, segments: npt.ArrayLike,
                  colors: npt.ArrayLike | None = None, width: float = 1.0,
                  color: Any = (1.0, 1.0, 1.0)) -> None:
-        self._positions = _positions(positions)
+        self._set_common(positions, colors, color)
         n = self._positions.shape[0]
         seg = _real_rows(segments, "segments", (2,))
         if seg.dtype.kind not in "iu":
@@ -111,31 +139,12 @@ class Lines:
             raise ValueError(f"segments: segment {bad} {seg[bad].tolist()} has an index outside "
                              f"[0, {n})")
         self._segments = _frozen(seg, np.int32)
-        self._colors = _colors(colors, n)
-        try:
-            self._color = _rgba(color, "color")[:3]
-        except TypeError as exc:
-            raise ValueError(str(exc)) from None
         self._width = _extent(width, "width")
-
-    @property
-    def positions(self) -> npt.NDArray[np.float32]:
-        """(n, 3) float32, read-only."""
-        return self._positions
 
     @property
     def segments(self) -> npt.NDArray[np.int32]:
         """(m, 2) int32, read-only."""
         return self._segments
-
-    @property
-    def colors(self) -> npt.NDArray[np.float32] | None:
-        """(n, 3) float32 linear RGB, read-only, or None."""
-        return self._colors
-
-    @property
-    def color(self) -> tuple[float, float, float]:
-        return self._color
 
     @property
     def width(self) -> float:
@@ -152,7 +161,7 @@ class Lines:
         return f"Lines({self._segments.shape[0]} segments, {self._positions.shape[0]} positions, width={self._width:g})"
 
 
-class Points:
+class Points(_Primitive):
     """Points drawn as squares of ``size`` x ``size`` pixels.
 
     positions : (n, 3) real, model space (stored as float32).
@@ -165,31 +174,12 @@ class Points:
     Immutable: the arrays are read-only copies. Pickleable.
     """
 
-    __slots__ = ("_positions", "_colors", "_color", "_size")
+    __slots__ = ("_size",)
 
     def __init__(self, positions: npt.ArrayLike, colors: npt.ArrayLike | None = None,
                  size: float = 1.0, color: Any = (1.0, 1.0, 1.0)) -> None:
-        self._positions = _positions(positions)
-        self._colors = _colors(colors, self._positions.shape[0])
-        try:
-            self._color = _rgba(color, "color")[:3]
-        except TypeError as exc:
-            raise ValueError(str(exc)) from None
+        self._set_common(positions, colors, color)
         self._size = _extent(size, "size")
-
-    @property
-    def positions(self) -> npt.NDArray[np.float32]:
-        """(n, 3) float32, read-only."""
-        return self._positions
-
-    @property
-    def colors(self) -> npt.NDArray[np.float32] | None:
-        """(n, 3) float32 linear RGB, read-only, or None."""
-        return self._colors
-
-    @property
-    def color(self) -> tuple[float, float, float]:
-        return self._color
 
     @property
     def size(self) -> float:
