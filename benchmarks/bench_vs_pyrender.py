@@ -129,6 +129,15 @@ def run_interleaved(cells: list[Cell], target_s: float, n_min: int, n_max: int, 
                 cell.times.append(time.perf_counter() - t0)
 
 
+def time_row(cells: list[Cell], what: str, label: str, target_s: float, n_min: int, n_max: int,
+             rounds: int, **extra: object) -> dict:
+    """Times one row's cells (run_interleaved), prints them, and returns {"row", "ms", **extra}."""
+    run_interleaved(cells, target_s, n_min, n_max, rounds)
+    row = {"row": label, **extra, "ms": {c.name: c.median_ms for c in cells}}
+    print(f"  done {what} {label}: " + ", ".join(f"{k} {v:.2f}" for k, v in row["ms"].items()), flush=True)
+    return row
+
+
 def timed_once(fn: Callable[[], object]) -> tuple[float, object]:
     t0 = time.perf_counter()
     result = fn()
@@ -506,10 +515,10 @@ def report_lit(results: list[dict]) -> None:
                                                 "softrast t2 color+depth out linear",
                                                 "softrast t1 color+depth out"))
         x = ratio(pyr, t2)
-        verdict = "n/a" if x != x else ("MET" if x >= LIT_GOAL else f"NOT MET (short by {LIT_GOAL / x:.2f}x)")
+        status = verdict(x, LIT_GOAL)
         print(f"{r['model']:<12}{r['scene']:<7}{r['faces']:>8,}{str(r['width']) + 'x' + str(r['height']):>10}"
               f"{100 * r['coverage']:>5.0f}%{fmt(pyr, 9)}{fmt(t2, 8, 2)}{fmt(lin, 10, 2)}{fmt(t1, 8, 2)}"
-              f"{fmt(ratio(pyr, t2), 9)}{fmt(ratio(pyr, t1), 9)}  {verdict}")
+              f"{fmt(ratio(pyr, t2), 9)}{fmt(ratio(pyr, t1), 9)}  {status}")
     errors = {k: v for r in results for k, v in r["errors"].items()}
     for name, err in errors.items():
         print(f"  {name}: {err}")
@@ -619,13 +628,10 @@ def run_textured(pyrender, target_s, n_min, n_max, rounds, png_dir, quick) -> li
                 sr.imwrite(os.path.join(png_dir, f"textured_{name}_{w}x{h}_pyrender.png"),
                            row.pr.render(row.pr_scene)[0])
         cells = row.cells()
-        run_interleaved(cells, target_s, n_min, n_max, rounds)
-        results.append({"row": row.label, "coverage": row.coverage,
-                        "ms": {c.name: c.median_ms for c in cells}})
+        results.append(time_row(cells, "textured", row.label, target_s, n_min, n_max, rounds,
+                                coverage=row.coverage))
         if row.pr is not None:
             row.pr.delete()
-        print(f"  done textured {row.label}: " + ", ".join(f"{k} {v:.2f}" for k, v in results[-1]["ms"].items()),
-              flush=True)
     return results
 
 
@@ -638,14 +644,13 @@ def report_textured(results: list[dict]) -> None:
     print(head)
     print("-" * len(head))
     for r in results:
-        pyr, t2, t1 = (get(r, k) for k in ("pyrender color+depth", "softrast t2 color+depth out",
-                                            "softrast t1 color+depth out"))
+        pyr, t2, t1 = pyrender_t2_t1(r)
         x = ratio(pyr, t2)
-        verdict = "n/a" if x != x else ("MET" if x >= TEXTURED_GOAL else f"NOT MET (short by {TEXTURED_GOAL / x:.2f}x)")
+        status = verdict(x, TEXTURED_GOAL)
         print(f"{r['row']:<18}{100 * r['coverage']:>5.0f}%{fmt(pyr, 9)}{fmt(t2, 8, 2)}{fmt(t1, 8, 2)}"
               f"{fmt(get(r, 'softrast t2 nearest'), 8, 2)}{fmt(get(r, 'softrast t2 bilinear'), 8, 2)}"
               f"{fmt(get(r, 'softrast t2 anisotropic'), 8, 2)}{fmt(get(r, 'softrast t2 untextured'), 8, 2)}"
-              f"{fmt(x, 9)}{fmt(ratio(pyr, get(r, 'softrast t2 untextured')), 9)}  {verdict}")
+              f"{fmt(x, 9)}{fmt(ratio(pyr, get(r, 'softrast t2 untextured')), 9)}  {status}")
     print("(untex: the same meshes and light without the texture, softrast t2: the floor of the"
           "\n textured time; untex x: pyrender's textured time over it)")
 
@@ -684,13 +689,10 @@ def run_aa(pyrender, target_s, n_min, n_max, rounds, png_dir, quick) -> list[dic
         if png_dir and pr is not None:
             sr.imwrite(os.path.join(png_dir, f"aa_ico{sub}_{w}x{h}_pyrender.png"),
                        pr.renderer.render(pr.scene)[0])
-        run_interleaved(cells, target_s, n_min, n_max, rounds)
-        results.append({"row": f"ico{sub} {w}x{h}", "coverage": srow.coverage,
-                        "ms": {c.name: c.median_ms for c in cells}})
+        results.append(time_row(cells, "aa", f"ico{sub} {w}x{h}", target_s, n_min, n_max, rounds,
+                                coverage=srow.coverage))
         if pr is not None:
             pr.close()
-        print(f"  done aa ico{sub} {w}x{h}: " + ", ".join(f"{k} {v:.2f}" for k, v in results[-1]["ms"].items()),
-              flush=True)
     return results
 
 
@@ -705,10 +707,10 @@ def report_aa(results: list[dict]) -> None:
     for r in results:
         pyr, m1, m4 = get(r, "pyrender color+depth"), get(r, "softrast t2 msaa1"), get(r, "softrast t2 msaa4")
         x = ratio(pyr, m4)
-        verdict = "n/a" if x != x else ("MET" if x >= AA_GOAL else f"NOT MET (short by {AA_GOAL / x:.2f}x)")
+        status = verdict(x, AA_GOAL)
         print(f"{r['row']:<16}{fmt(pyr, 9)}" + "".join(fmt(get(r, f"softrast t2 {label}"), 8, 2)
                                                     for label, _ in AA_MODES)
-              + f"{fmt(x, 9)}{fmt(ratio(m4, m1), 7, 2)}  {verdict}")
+              + f"{fmt(x, 9)}{fmt(ratio(m4, m1), 7, 2)}  {status}")
 
 
 # ------------------------------------------------------------------ point clouds (issue 18)
@@ -753,27 +755,22 @@ def run_points(pyrender, target_s, n_min, n_max, rounds, png_dir) -> list[dict]:
                 s, cam, outputs=("color", "depth"), out=f)))
             if png_dir and t == 2:
                 sr.imwrite(os.path.join(png_dir, f"points_{n}_{w}x{h}_softrast.png"), f.color)
-        run_interleaved(cells, target_s, n_min, n_max, rounds)
-        results.append({"row": f"{n // 1000}k points {w}x{h}", "ms": {c.name: c.median_ms for c in cells}})
+        results.append(time_row(cells, "points", f"{n // 1000}k points {w}x{h}", target_s, n_min,
+                                n_max, rounds))
         if pr_renderer is not None:
             pr_renderer.delete()
-        print(f"  done points {results[-1]['row']}: " + ", ".join(f"{k} {v:.2f}" for k, v in results[-1]["ms"].items()),
-              flush=True)
     return results
 
 
 def report_points(results: list[dict]) -> None:
-    get = lambda r, k: r["ms"].get(k, float("nan"))  # noqa: E731
     print("\nPoint cloud rows (issue 18): median ms per colour+depth frame, out=")
     head = f"{'row':<26}{'pyrender':>9}{'sr t2':>8}{'sr t1':>8}{'x pyr t2':>9}  goal >= {POINTS_GOAL:.0f}x"
     print(head)
     print("-" * len(head))
     for r in results:
-        pyr, t2, t1 = (get(r, k) for k in ("pyrender color+depth", "softrast t2 color+depth out",
-                                            "softrast t1 color+depth out"))
+        pyr, t2, t1 = pyrender_t2_t1(r)
         x = ratio(pyr, t2)
-        verdict = "n/a" if x != x else ("MET" if x >= POINTS_GOAL else f"NOT MET (short by {POINTS_GOAL / x:.2f}x)")
-        print(f"{r['row']:<26}{fmt(pyr, 9)}{fmt(t2, 8, 2)}{fmt(t1, 8, 2)}{fmt(x, 9)}  {verdict}")
+        print(f"{r['row']:<26}{fmt(pyr, 9)}{fmt(t2, 8, 2)}{fmt(t1, 8, 2)}{fmt(x, 9)}  {verdict(x, POINTS_GOAL)}")
 
 
 # ------------------------------------------------------------------ Lambert A/B (old vs new)
@@ -912,6 +909,17 @@ def machine_lines() -> list[str]:
             f"{platform.system()} {platform.release()}, Python {platform.python_version()}, "
             f"NumPy {np.__version__}",
             f"softrast commit {commit or '?'}"]
+
+
+def verdict(x: float, goal: float) -> str:
+    """A goal's verdict for a speed-up ``x`` (NaN: a baseline is missing)."""
+    return "n/a" if x != x else ("MET" if x >= goal else f"NOT MET (short by {goal / x:.2f}x)")
+
+
+def pyrender_t2_t1(r: dict) -> tuple[float, float, float]:
+    """A row's pyrender, softrast t2 and t1 colour+depth medians (NaN where missing)."""
+    return tuple(r["ms"].get(k, float("nan")) for k in (
+        "pyrender color+depth", "softrast t2 color+depth out", "softrast t1 color+depth out"))
 
 
 def fmt(v: float, width: int = 8, digits: int = 1) -> str:
