@@ -244,8 +244,15 @@ def warning_scenes() -> dict[str, tuple[sr.Scene, sr.Camera | None]]:
     materials.add(sr.Mesh(tp, tf, uvs=tuv, material=texture_material))
     materials.add(sr.DirectionalLight())
     ortho = sr.OrthographicCamera(xmag=1.0, ymag=1.0, width=W, height=H).look_at((0, 0, 3), (0, 0, 0))
+    prims = sr.Scene(ambient_light=(1.0, 1.0, 1.0))
+    prims.add(mesh, instance_id=1)
+    cloud = rng.uniform(-0.5, 0.5, (50, 3))
+    prims.add(sr.Points(cloud, colors=rng.uniform(0, 1, (50, 3)), size=3.0), instance_id=4,
+              pose=rigid(0.3, (0, 1, 0), (0.1, 0.2, 0.0)))
+    prims.add(sr.Lines([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1], [1, 2]], color=(1.0, 0.0, 0.0),
+                       width=2.0), instance_id=7, pose=np.diag([1.0, 1.0, -1.0, 1.0]))  # a mirror
     return {"warn_lights": (lights, None), "warn_many_lights": (many, None), "warn_no_lights": (dark, None),
-            "warn_materials": (materials, ortho)}
+            "warn_materials": (materials, ortho), "primitives": (prims, None)}
 
 
 # -- running pyrender ----------------------------------------------------------------------------
@@ -573,6 +580,38 @@ def test_lights_that_do_not_convert_warn(results) -> None:
     (dark,) = results["warn_no_lights"]["warnings"]
     assert "no lights" in dark and "headlight" in dark
     np.testing.assert_allclose(results["warn_no_lights"]["summary"]["ambient"], (0.1, 0.1, 0.1))
+
+
+def test_lines_and_points_convert_both_ways(results) -> None:
+    # Points -> GL_POINTS and lines -> GL_LINES primitives with their colours and poses (a
+    # mirror baked into the positions); size and width, which pyrender cannot hold, warn; and
+    # from_pyrender gives them back as Points and Lines at the same world positions.
+    result = results["primitives"]
+    w = "\n".join(result["warnings"])
+    assert "points 0 (id 4): size 3 is not converted" in w
+    assert "lines 1 (id 7): width 2 is not converted" in w
+    assert "lines and points are unlit in softrast" in w
+    nodes = {n["name"]: n for n in result["summary"]["nodes"]}
+    (points,) = nodes["softrast points 0 (id 4)"]["primitives"]
+    (lines,) = nodes["softrast lines 1 (id 7)"]["primitives"]
+    assert points["mode"] == 0 and lines["mode"] == 1
+    scene = warning_scenes()["primitives"][0]
+    src_points, src_lines = (p.item for p in scene.primitives)
+    np.testing.assert_allclose(points["positions"], src_points.positions, atol=1e-6)
+    np.testing.assert_allclose(points["color_0"][:, :3], src_points.colors, atol=1e-6)
+    pose = np.asarray(nodes["softrast points 0 (id 4)"]["pose"])
+    np.testing.assert_allclose(pose, scene.primitives[0].pose, atol=1e-12)
+    mirrored = src_lines.positions[src_lines.segments.reshape(-1)] * [1.0, 1.0, -1.0]
+    np.testing.assert_allclose(lines["positions"], mirrored, atol=1e-6)
+    np.testing.assert_allclose(lines["color_0"][:, :3], np.tile([1.0, 0.0, 0.0], (4, 1)))
+    back = result["back"][0]
+    kinds = {type(p.item).__name__: p for p in back.primitives}
+    assert set(kinds) == {"Points", "Lines"} and len(back.instances) == 1
+    world = kinds["Points"].item.positions @ kinds["Points"].pose[:3, :3].T + kinds["Points"].pose[:3, 3]
+    expect = src_points.positions @ scene.primitives[0].pose[:3, :3].T + scene.primitives[0].pose[:3, 3]
+    np.testing.assert_allclose(world, expect, atol=1e-5)
+    np.testing.assert_allclose(kinds["Lines"].item.positions[kinds["Lines"].item.segments.reshape(-1)],
+                               mirrored, atol=1e-6)
 
 
 def test_materials_and_textures_that_do_not_convert_warn(results) -> None:

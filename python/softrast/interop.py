@@ -112,6 +112,11 @@ silently); the scene's background is black (softrast's default ``background``).
   and cy get + 0.5) and an "opencv" pose's y and z axes flipped; render it at the camera's own
   width x height (pyrender uses the viewport's size); lens distortion (``dist``) warns: pyrender's
   camera is an ideal pinhole. Any other camera warns.
+* ``Points`` / ``Lines`` -> a GL_POINTS / GL_LINES primitive with their colours (vertex
+  colours, alpha 1) under a node with their pose (a shear or mirror baked into the positions);
+  a point size or line width other than 1 warns (pyrender has a renderer-wide point size and
+  1-pixel lines), and so do their lighting (unlit in softrast; pyrender's FLAT flag shows their
+  colours). ``from_pyrender`` reads points and lines primitives back as ``Points`` / ``Lines``.
 """
 from __future__ import annotations
 
@@ -126,11 +131,13 @@ from .light import DirectionalLight, Light, PointLight, SpotLight
 from .loaders import _gltf_alpha
 from .material import Material
 from .mesh import Mesh
+from .primitives import Lines, Points
 from .scene import Scene
 
 __all__ = ["from_pyrender", "to_pyrender"]
 
 _TRIANGLES = 4  # GL_TRIANGLES, pyrender's default primitive mode
+_POINTS, _LINES = 0, 1  # GL_POINTS, GL_LINES
 # pyrender's texture attributes and softrast's slots.
 _TEXTURES = {"baseColorTexture": "base_color_texture",
              "metallicRoughnessTexture": "metallic_roughness_texture",
@@ -203,6 +210,22 @@ def _material(mat: Any, cache: dict[int, Any] | None = None) -> Material | None:
                     emissive=_unit(getattr(mat, "emissiveFactor", None), 3, (0.0, 0.0, 0.0)),
                     double_sided=bool(getattr(mat, "doubleSided", False)), model="pbr",
                     name=name if isinstance(name, str) else None)
+
+
+def _primitive(prim: Any) -> Points | Lines:
+    """pyrender points (mode 0) or lines (mode 1: each pair of positions, or of indices, a
+    segment) as softrast Points / Lines, with their vertex colours (RGB; 1 px, unlit)."""
+    positions = np.asarray(prim.positions, dtype=np.float64)
+    colors = getattr(prim, "color_0", None)
+    if colors is not None:
+        colors = np.asarray(colors)
+        colors = colors[:, :3] if colors.dtype == np.uint8 else np.clip(colors[:, :3].astype(np.float64), 0, 1)
+    if prim.mode == _POINTS:
+        return Points(positions, colors=colors)
+    indices = getattr(prim, "indices", None)
+    segments = (np.arange(len(positions) // 2 * 2) if indices is None
+                else np.asarray(indices, dtype=np.int64).reshape(-1)).reshape(-1, 2)
+    return Lines(positions, segments, colors=colors)
 
 
 def _mesh(prim: Any, cache: dict[int, Any]) -> Mesh:
@@ -301,7 +324,8 @@ def from_pyrender(pyrender_scene: Any, width: int, height: int) -> tuple[Scene, 
             continue
         world = np.asarray(pyrender_scene.get_pose(node), dtype=np.float64)
         for prim in mesh.primitives:
-            converted = _mesh(prim, textures)
+            mode = getattr(prim, "mode", _TRIANGLES)
+            converted = _primitive(prim) if mode in (_POINTS, _LINES) else _mesh(prim, textures)
             poses = getattr(prim, "poses", None)
             for local in ([np.eye(4)] if poses is None else np.asarray(poses, dtype=np.float64)):
                 scene.add(converted, pose=world @ local)
@@ -601,6 +625,32 @@ def to_pyrender(scene: Scene, camera: Camera | None = None) -> Any:
         else:  # shear or mirror: pyrender's node cannot hold it
             prim = _pr_primitive(pyrender, mesh, pr_mat, pose, f"instance {k}", notes)
             out.add(pyrender.Mesh(primitives=[prim]), pose=np.eye(4), name=name)
+    for k, pinst in enumerate(scene.primitives):
+        item, pose = pinst.item, np.asarray(pinst.pose, dtype=np.float64)
+        kind = "points" if isinstance(item, Points) else "lines"
+        label = f"{kind} {k} (id {pinst.instance_id})"
+        positions = item.positions.astype(np.float64)
+        if not _trs_pose(pose):  # bake a shear or mirror into the positions
+            positions = positions @ pose[:3, :3].T + pose[:3, 3]
+            pose = np.eye(4)
+        rgb = (item.colors.astype(np.float64) if item.colors is not None
+               else np.tile(np.asarray(item.color, dtype=np.float64), (len(positions), 1)))
+        rgba = np.hstack([rgb, np.ones((len(rgb), 1))])
+        if isinstance(item, Points):
+            prim = pyrender.Primitive(positions=positions, color_0=rgba, mode=_POINTS)
+            if item.size != 1.0:
+                notes.append(f"{label}: size {item.size:g} is not converted (pyrender draws every "
+                             "point at its renderer's point_size)")
+        else:
+            ends = item.segments.reshape(-1)
+            prim = pyrender.Primitive(positions=positions[ends], color_0=rgba[ends], mode=_LINES)
+            if item.width != 1.0:
+                notes.append(f"{label}: width {item.width:g} is not converted (pyrender draws "
+                             "1-pixel lines)")
+        notes.append("lines and points are unlit in softrast; pyrender shades them like meshes "
+                     "(RenderFlags.FLAT shows their colours)")
+        out.add(pyrender.Mesh(primitives=[prim]), pose=pose,
+                name=f"softrast {kind} {k} (id {pinst.instance_id})")
     cam_node = None
     if camera is not None:
         pr_cam, cam_pose = _pr_camera(pyrender, camera, notes)
