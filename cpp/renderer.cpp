@@ -243,11 +243,12 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   }
   if (options.msaa > 1 && options.ssaa > 1)
     throw std::invalid_argument("msaa and ssaa: use one of them (the other = 1)");
-  // The pixels' samples (msaa_pattern / ssaa_pattern throw for a bad count).
+  // The pixels' samples: msaa_pattern / ssaa_pattern throw for a bad count; a render without
+  // anti-aliasing keeps the renderer's one-sample viewport.
+  const SamplePattern pattern =
+      options.ssaa != 1 ? ssaa_pattern(options.ssaa) : msaa_pattern(options.msaa);
   const Viewport viewport =
-      options.msaa > 1 ? Viewport(width(), height(), msaa_pattern(options.msaa))
-      : options.ssaa != 1 ? Viewport(width(), height(), ssaa_pattern(options.ssaa))
-      : (msaa_pattern(options.msaa), viewport_);
+      pattern.count > 1 ? Viewport(width(), height(), pattern) : viewport_;
   const bool multisample = viewport.samples.count > 1;
   const RenderPlan plan = make_plan(options, width(), height());
   if (plan.bytes > kMaxFramebufferBytes)

@@ -247,19 +247,19 @@ def test_perspective_correct_depth_and_colour_along_a_line():
         frame.mask, to_mask(bresenham(*map(int, np.floor([x[0], y[0], x[1], y[1]])))))
     ex, ey = x[1] - x[0], y[1] - y[0]
     s = np.clip(((xs + 0.5 - x[0]) * ex + (ys + 0.5 - y[0]) * ey) / (ex * ex + ey * ey), 0, 1)
-    t = (s / w[1]) / ((1 - s) / w[0] + s / w[1])
-    p3 = pa + t[:, None] * (pb - pa)
-    # t is the perspective-correct parameter: the 3-D point projects to the window point s.
+    u = (s / w[1]) / ((1 - s) / w[0] + s / w[1])
+    p3 = pa + u[:, None] * (pb - pa)
+    # u is the perspective-correct parameter: the 3-D point projects to the window point s.
     px, py, _ = project(cam, p3)
     np.testing.assert_allclose(px, x[0] + s * ex, atol=1e-6)
     np.testing.assert_allclose(py, y[0] + s * ey, atol=1e-6)
     np.testing.assert_allclose(frame.depth[ys, xs], -p3[:, 2], rtol=1e-5)
-    colour = ca + t[:, None] * (cb - ca)
+    colour = ca + u[:, None] * (cb - ca)
     np.testing.assert_allclose(frame.radiance[ys, xs], colour, atol=1e-5)
     np.testing.assert_allclose(frame.position[ys, xs], p3, rtol=1e-5, atol=1e-5)
     np.testing.assert_allclose(frame.ray_depth[ys, xs], np.linalg.norm(p3, axis=1), rtol=1e-5)
     # Screen-space (affine) interpolation would be visibly wrong here.
-    assert np.abs(t - s).max() > 0.1
+    assert np.abs(u - s).max() > 0.1
 
 
 def test_point_cloud_lands_where_numpy_projects(rng):
