@@ -776,8 +776,23 @@ def report_points(results: list[dict]) -> None:
 # ------------------------------------------------------------------ Lambert A/B (old vs new)
 
 
+def ab_lit_cells(sr_mod, lit_rows) -> dict[str, Callable[[], object]]:
+    """The lit cells of `lit_rows` (LIT_ROWS entries) for one build: {key: frame callable}."""
+    cells = {}
+    for model, scene_name, w, h in lit_rows:
+        row = SoftrastLitRow(LitScene(model, scene_name, w, h))
+        for t, r in row.renderers.items():
+            for name, kw in (("color+depth srgb", row.kwargs), ("color+depth", dict(row.kwargs, srgb=False))):
+                f = r.render(row.scene, row.cam, **kw)
+                cells[f"{row.lit.label} t{t} {name}"] = (lambda r=r, f=f, kw=kw, s=row.scene, c=row.cam:
+                                                         r.render(s, c, out=f, **kw))
+    return cells
+
+
 def ab_cells(sr_mod, rows, new: bool) -> dict[str, Callable[[], object]]:
     """The Lambert cells of `rows` for one build: {key: frame callable}."""
+    if rows and isinstance(rows[0][0], str):  # lit rows (--ab with --lit-only)
+        return ab_lit_cells(sr_mod, rows)
     cells = {}
     for sub, w, h in rows:
         tm = trimesh.creation.icosphere(subdivisions=sub, radius=1.0)
@@ -826,11 +841,13 @@ def ab_worker(rows) -> int:
 
 def run_ab(old_path: str, rows, target_s: float, rounds: int) -> dict:
     new_path = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "python")
-    rows_arg = ",".join(str(ROWS.index(r)) for r in rows)
+    lit = bool(rows) and isinstance(rows[0][0], str)
+    rows_arg = ",".join(str((LIT_ROWS if lit else ROWS).index(r)) for r in rows)
     workers = {}
     for name, path in (("old", old_path), ("new", new_path)):
         env = dict(os.environ, PYTHONPATH=path)
-        proc = subprocess.Popen([sys.executable, os.path.abspath(__file__), "--ab-worker", "--rows", rows_arg],
+        proc = subprocess.Popen([sys.executable, os.path.abspath(__file__), "--ab-worker", "--rows", rows_arg]
+                                + (["--lit-only"] if lit else []),
                                 stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env)
         workers[name] = (proc, json.loads(proc.stdout.readline()))
         print(f"{name}: softrast from {workers[name][1]['file']}", flush=True)
@@ -874,14 +891,14 @@ def run_ab(old_path: str, rows, target_s: float, rounds: int) -> dict:
 def report_ab(ab: dict) -> None:
     print("\nLambert A/B, old build vs new, in one run (median ms per frame, out=, readback included);"
           "\nnew linear = srgb=False (the same kernels' work as old), new sRGB = the default srgb=True")
-    head = f"{'cell':<34}{'old':>9}{'new':>9}{'new/old':>9}  same bits as old"
+    head = f"{'cell':<50}{'old':>9}{'new':>9}{'new/old':>9}  same bits as old"
     print(head)
     print("-" * len(head))
     for old_key, new_key in ab["pairs"]:
         o, n = ab["ms"][f"old {old_key}"], ab["ms"][f"new {new_key}"]
         label = new_key + (" linear" if new_key.endswith("color+depth") else "")
         bits = "" if new_key.endswith("srgb") else ("yes" if ab["same_bits"].get(old_key) else "NO")
-        print(f"{label:<34}{o:>9.3f}{n:>9.3f}{n / o:>9.3f}  {bits}")
+        print(f"{label:<50}{o:>9.3f}{n:>9.3f}{n / o:>9.3f}  {bits}")
     print("(same bits: each build makes its mesh with its own Mesh.from_trimesh, whose vertex normals"
           "\n may differ in the last bits between builds; colour then differs by 1/255 at a few pixels)")
 
@@ -949,7 +966,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--png", help="write each lit row's colour image from each renderer into this directory")
     ap.add_argument("--ab", metavar="OLD_PYTHONPATH",
                     help="only the Lambert A/B: the old build (softrast importable from this path) vs "
-                         "this checkout's python/ (default rows 1,2,3,4)")
+                         "this checkout's python/ (default rows 1,2,3,4); with --lit-only, the lit rows' A/B "
+                         "(--rows then indexes the lit rows)")
     ap.add_argument("--ab-rounds", type=int, default=None, help="alternations of --ab (default 8, --quick 3)")
     ap.add_argument("--ab-worker", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
@@ -966,7 +984,9 @@ def main(argv: list[str] | None = None) -> int:
             report_ab(data["ab"])
         return 0
 
-    if args.rows:
+    if (args.ab or args.ab_worker) and args.lit_only:  # the lit A/B: --rows index LIT_ROWS
+        rows = [LIT_ROWS[int(i)] for i in args.rows.split(",")] if args.rows else LIT_ROWS
+    elif args.rows:
         rows = [ROWS[int(i)] for i in args.rows.split(",")]
     elif args.ab or args.ab_worker:
         rows = ROWS[1:]

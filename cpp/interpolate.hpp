@@ -214,6 +214,7 @@ SR_INLINE void prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTri
     for (vec3& n : s.normal) n = -n;
   s.back_facing = a.back_facing;
   s.material = &d.material;
+  s.draw = t.draw;
   s.reads = (Model::kReadsNormal ? ShadeTriangleBase::kReadNormal : 0) |
             (Model::kReadsPosition ? ShadeTriangleBase::kReadPosition : 0) |
             (Model::kAttributes > 0 && !Model::kAttributesIfTextured ? ShadeTriangleBase::kReadUv : 0);

@@ -43,6 +43,16 @@ struct ShadeScratch {
   float rgb[3][kTileScratchPixels] = {};  // linear radiance, one plane per channel (whole rows
                                           // are read, background pixels' values discarded)
   float normal[3][kTileScratchPixels];
+  // The lit model's light pass (shade_kernels.hpp, light_tile): a pixel whose lighting is left to
+  // it holds its base colour in `rgb`, and here its lit normal, world position and a code naming
+  // its draw (2 (draw + 1) + 1 if lighting reads positions; 0: `rgb` is already the radiance).
+  // Lighting full groups of eight pixels of the tile, whichever triangles they belong to, costs
+  // less than lighting each small triangle's partly filled groups. Zeroed once (a group's unused
+  // lanes are read).
+  float lit_normal[3][kTileScratchPixels] = {};
+  float lit_position[3][kTileScratchPixels] = {};
+  int32_t lit_code[kTileScratchPixels] = {};
+  bool lit_pending = false;  // some pixel of the tile waits for the light pass
 };
 
 // The tile kernels for one render's choices (instruction set, sample pattern, shading model,

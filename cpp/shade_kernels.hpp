@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
 
 namespace sr {
 namespace shading {
@@ -19,6 +20,13 @@ using interp::LargeEdges;
 using interp::Lanes3;
 using interp::prepare;
 using interp::weighted;
+
+// Model::kDefersLight, false where the model does not name it.
+template <typename Model, typename = void>
+struct DefersLight : std::false_type {};
+template <typename Model>
+struct DefersLight<Model, std::void_t<decltype(Model::kDefersLight)>>
+    : std::bool_constant<Model::kDefersLight> {};
 
 // Per-triangle constants of shade_group: the perspective weights and the model's own.
 template <typename Model>
@@ -92,7 +100,19 @@ SR_INLINE void shade_group(const ShadeTriangle<Model>& s, const ShadeConstants<M
         }
       }
       frag.mine = mine;
-      Model::shade(c.model, frag, r, g, b);
+      bool deferred = false;
+      if constexpr (DefersLight<Model>::value) {
+        if (c.model.code != 0) {  // the tile's light pass lights it from these
+          f8 n[3];
+          Model::surface(c.model, frag, n, r, g, b);
+          for (int k = 0; k < 3; ++k) merge(out.lit_normal[k] + i, n[k]);
+          if (c.model.code & 1)
+            for (int k = 0; k < 3; ++k) merge(out.lit_position[k] + i, frag.position[k]);
+          out.lit_pending = true;
+          deferred = true;
+        }
+      }
+      if (!deferred) Model::shade(c.model, frag, r, g, b);
       merge(out.rgb[0] + i, r);
       merge(out.rgb[1] + i, g);
       merge(out.rgb[2] + i, b);
@@ -112,6 +132,50 @@ SR_INLINE void shade_group(const ShadeTriangle<Model>& s, const ShadeConstants<M
         const f8 f = Model::shade_uniform(c.model, s, b0, b1, b2);
         for (int k = 0; k < 3; ++k) merge(out.rgb[k] + i, f * s.color[0][k]);
       }
+    }
+    if constexpr (DefersLight<Model>::value) merge(out.lit_code + i, splat(c.model.code));
+  }
+}
+
+// The lit model's light pass over a tile: the pixels whose triangles left their lighting to it
+// (ShadeScratch::lit_code) are lit eight at a time, whichever triangles they belong to, with
+// each lane's own draw's material: the same formulas on the same values as Model::shade, so the
+// same bits, with every lane of a group in use where small triangles fill a few of each.
+template <typename Model>
+SR_INLINE void light_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
+                          ShadeScratch& out) {
+  if (!out.lit_pending) return;
+  out.lit_pending = false;
+  const i8 lane = lane_index(), none = splat(int32_t(kNoTriangle));
+  const int width = rect.x1 - rect.x0;
+  for (int y = rect.y0; y < rect.y1; ++y) {
+    const int row = (y - rect.y0) * kTileSizePx;
+    for (int x = 0; x < width; x += kLanes) {
+      const int i = row + x;
+      const i8 code = load<i8>(out.lit_code + i);
+      i8 pending = (code != 0) & (load<i8>(raster.visible + i) != none) & (lane < width - x);
+      if (!any(pending)) continue;
+      f8 n[3], position[3], base[3], rgb[3];
+      for (int k = 0; k < 3; ++k) {
+        n[k] = load<f8>(out.lit_normal[k] + i);
+        position[k] = load<f8>(out.lit_position[k] + i);
+        base[k] = rgb[k] = load<f8>(out.rgb[k] + i);
+      }
+      do {  // one draw's lanes at a time (one pass but at a material's edge)
+        int32_t first = 0;
+        for (int l = 0; l < kLanes; ++l)
+          if (pending[l]) { first = code[l]; break; }
+        const i8 mine = pending & (code == first);
+        const Material& m = p.draws[(first >> 1) - 1].material;
+        f8 o[3];
+        if (first & 1)
+          lit_radiance<true>(p.in.lit, m, m.brdf, n, position, base, o);
+        else
+          lit_radiance<false>(p.in.lit, m, m.brdf, n, position, base, o);
+        for (int k = 0; k < 3; ++k) rgb[k] = mine ? o[k] : rgb[k];
+        pending = pending & ~mine;
+      } while (any(pending));
+      for (int k = 0; k < 3; ++k) store(out.rgb[k] + i, rgb[k]);
     }
   }
 }
@@ -190,6 +254,7 @@ struct ShadeVisible {
     }
     for (uint32_t v = 0; v < scratch.used.size(); ++v)
       if (scratch.used[v]) shade_triangle<Pattern, Model, kColor, kNormal>(p, rect, raster, v, scratch);
+    if constexpr (kColor && DefersLight<Model>::value) light_tile<Model>(p, rect, raster, scratch);
   }
 };
 
@@ -248,6 +313,7 @@ struct ForwardTile {
     raster::rasterize_all<Pattern, false>(rect, tile, chunks, num_chunks, raster, hook);
     for (const uint32_t index : scratch.large)
       shade_triangle<Pattern, Model, kColor, kNormal>(p, rect, raster, index, scratch);
+    if constexpr (kColor && DefersLight<Model>::value) light_tile<Model>(p, rect, raster, scratch);
   }
 };
 

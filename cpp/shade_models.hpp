@@ -23,6 +23,10 @@
 //                  Fragment f (what the flags ask for) in, linear radiance out
 //   shade_uniform(c, s, b0, b1, b2) (kUniformLit only) the factor the base colour is multiplied
 //                  by, from the unnormalised perspective weights b_k
+//   kDefersLight   (optional, false if absent) some triangles' lighting is left to a pass over
+//                  the tile's full groups of pixels (shade_kernels.hpp, light_tile): then
+//                  Constants::code is nonzero for them (ShadeScratch::lit_code), and
+//                  surface(c, f, n, r, g, b) gives what that pass reads in place of shade()
 // Give it a Shading value (pipeline.hpp) and list it in ShadingModels below: the dispatch
 // compiles kernels for every listed model, and bindings.cpp exports the names to Python
 // (softrast's render(shading=) and the CLI) from the list (ARCHITECTURE.md, "Add a shading model").
@@ -92,6 +96,7 @@ struct ShadeTriangleBase {
   vec3 rgb;            // kConstantColor: the linear radiance of every pixel
   vec3 unit_normal;    // one_normal: the unit normal of every pixel (zero if the normal is zero)
   const Material* material;  // the draw's
+  uint32_t draw;             // its index
 };
 template <typename Model>
 struct ShadeTriangle : ShadeTriangleBase {
@@ -273,6 +278,7 @@ struct LitModel {
   static constexpr bool kReadsPosition = true, kFaceNormal = true;
   static constexpr int kAttributes = 2;  // uvs, for a textured material's draws only
   static constexpr bool kAttributesIfTextured = true;
+  static constexpr bool kDefersLight = true;
   struct Triangle {
     Brdf brdf;
     bool passthrough;  // the interpolated colour is the radiance (unlit, or Gouraud)
@@ -291,6 +297,9 @@ struct LitModel {
     simd::f8 side;
     vec3 tangent;
     float handedness;
+    // Nonzero if the tile's light pass lights this triangle's pixels (ShadeScratch::lit_code):
+    // a per-pixel lit triangle whose material needs no per-pixel textures after lighting.
+    int32_t code;
     Constants() = default;
     SR_INLINE Constants(const ShadeInputs& inputs, const ShadeTriangle<LitModel>& s)
         : in(&inputs.lit), material(s.material), brdf(s.model.brdf),
@@ -299,6 +308,10 @@ struct LitModel {
           textured((s.reads & ShadeTriangleBase::kReadUv) != 0), normal_map(s.model.normal_map),
           side(simd::splat(s.model.side)), tangent(s.model.tangent),
           handedness(s.model.handedness) {
+      const bool lit = s.color_kind == ShadeTriangleBase::kVaryingColor && !passthrough &&
+                       brdf != Brdf::Normal && brdf != Brdf::Unlit;
+      const bool after = textured && (s.material->material_maps() || s.material->emissive_texture);
+      code = lit && !after ? int32_t(2 * (s.draw + 1) + (positions ? 1 : 0)) : 0;
       if (textured) {
         const Material& m = *s.material;
         const auto pick = [&](const Texture* t) {
@@ -522,6 +535,21 @@ struct LitModel {
     const f8 r = 1.0f / simd::sqrt(len2);
     const simd::i8 ok = (tlen2 > 0.0f) & (len2 > 0.0f) & (r == r);
     for (int k = 0; k < 3; ++k) n[k] = ok ? m[k] * r : n[k];
+  }
+  // What lighting reads of a pixel (code != 0): the normal, perturbed by a normal texture and
+  // turned toward the lit side, and the base colour times the base colour texture.
+  SR_INLINE static void surface(const Constants& c, const Fragment<LitModel>& f, simd::f8 (&n)[3],
+                                simd::f8& r, simd::f8& g, simd::f8& b) {
+    for (int k = 0; k < 3; ++k) n[k] = f.normal[k];
+    if (c.textured) {
+      if (c.normal_map) normal_map(c, f, n);
+      if (c.material->base_color_texture) {
+        simd::f8 tex[4];
+        sample(*c.material->base_color_texture, c.base_filter, f, tex);
+        r *= tex[0]; g *= tex[1]; b *= tex[2];
+      }
+    }
+    for (int k = 0; k < 3; ++k) n[k] *= c.side;
   }
   SR_INLINE static void shade(const Constants& c, const Fragment<LitModel>& f, simd::f8& r,
                               simd::f8& g, simd::f8& b) {
