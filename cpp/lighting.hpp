@@ -98,8 +98,10 @@ SR_INLINE f8 log2_pos(f8 x) {
   const i8 big = m > splat(1.41421356f);
   m = big ? m * 0.5f : m;
   e = big ? e + 1 : e;
-  const f8 t = (m - 1.0f) / (m + 1.0f), t2 = t * t;
-  const f8 series = t * (2.0f + t2 * (0.666666667f + t2 * (0.4f + t2 * (0.285714286f + t2 * 0.222222222f))));
+  const f8 t = (m - 1.0f) / (m + 1.0f), t2 = t * t, t4 = t2 * t2;
+  // The polynomial in t2 by Estrin's scheme (pairs, then t2, t4), not Horner's: pow is a chain
+  // of dependent operations in the light loop, and this one is four multiply-adds shorter.
+  const f8 series = t * ((2.0f + t2 * 0.666666667f) + t4 * ((0.4f + t2 * 0.285714286f) + t4 * 0.222222222f));
   return to_float(e) + series * 1.44269504f;  // series = ln(m)
 }
 
@@ -110,9 +112,10 @@ SR_INLINE f8 exp2_neg(f8 y) {
   y = under ? splat(-126.0f) : y;
   const f8 n = to_float(__builtin_convertvector(y - 0.5f, i8));  // y <= 0: rounds toward zero
   // n = trunc(y - 0.5) is round-half-down for y <= 0; f = y - n lies in [-0.5, 0.5].
-  const f8 f = (y - n) * 0.693147181f;
-  const f8 p = 1.0f + f * (1.0f + f * (0.5f + f * (0.166666667f + f * (0.0416666667f + f * (
-      0.00833333333f + f * (0.00138888889f + f * 0.000198412698f))))));
+  const f8 f = (y - n) * 0.693147181f, f2 = f * f, f4 = f2 * f2;
+  // Estrin's scheme (as log2_pos): a chain of five dependent steps, not Horner's fourteen.
+  const f8 p = ((1.0f + f) + f2 * (0.5f + f * 0.166666667f)) +
+               f4 * ((0.0416666667f + f * 0.00833333333f) + f2 * (0.00138888889f + f * 0.000198412698f));
   const f8 scale = as_float((__builtin_convertvector(n, i8) + 127) << 23);
   return under ? f8{} : p * scale;
 }
@@ -190,7 +193,8 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, const simd::
       // F = f0 + (1 - f0) (1 - vh)^5, f0 = mix(0.04, base, metallic); k = (r + 1)^2 / 8,
       // G = nl nv / ((nl (1 - k) + k)(nv (1 - k) + k)); D = a^2 / (pi (nh^2 (a^2 - 1) + 1)^2);
       // radiance += nl I ((1 - F) c_diff / pi + F G D / (4 nl nv + 0.001)),
-      // c_diff = base (1 - 0.04) (1 - metallic).
+      // c_diff = base (1 - 0.04) (1 - metallic). G D / (4 nl nv + 0.001) is taken as one quotient,
+      // nl nv a^2 / ((nl (1 - k) + k)(nv (1 - k) + k) pi f^2 (4 nl nv + 0.001)): one division.
       f8 h[3];
       for (int c = 0; c < 3; ++c) h[c] = l[c] + v[c];
       const f8 hr = 1.0f / simd::sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
@@ -202,30 +206,29 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, const simd::
       nv = nv > lo ? (one < nv ? one : nv) : lo;
       const f8 nh = clamp01(n[0] * h[0] + n[1] * h[1] + n[2] * h[2]);
       const f8 vh = clamp01(v[0] * h[0] + v[1] * h[1] + v[2] * h[2]);
-      f8 g, d, diffuse_scale, metallic;
+      f8 spec_common, diffuse_scale, metallic;
       if constexpr (kLanes) {  // the same formulas per lane
         const f8 r0 = lanes->roughness, floor = splat(0.04f);
         const f8 rough = r0 > floor ? r0 : floor;  // NaN -> 0.04
         const f8 kk = (rough + 1.0f) * (rough + 1.0f) * 0.125f;
         const f8 a2 = rough * rough * (rough * rough);
-        g = nl * nv / ((nl * (1.0f - kk) + kk) * (nv * (1.0f - kk) + kk));
         const f8 f = nh * nh * (a2 - 1.0f) + 1.0f;
-        d = a2 / (3.14159265f * f * f);
+        spec_common = nl * nv * a2 / ((nl * (1.0f - kk) + kk) * (nv * (1.0f - kk) + kk) *
+                                      (3.14159265f * f * f) * (4.0f * nl * nv + 0.001f));
         metallic = lanes->metallic;
         diffuse_scale = 0.96f * (1.0f - metallic) * 0.318309886f;
       } else {
         const float rough = m.roughness > 0.04f ? m.roughness : 0.04f;
         const float kk = (rough + 1.0f) * (rough + 1.0f) * 0.125f;
         const float a2 = rough * rough * (rough * rough);
-        g = nl * nv / ((nl * (1.0f - kk) + kk) * (nv * (1.0f - kk) + kk));
         const f8 f = nh * nh * (a2 - 1.0f) + 1.0f;
-        d = a2 / (3.14159265f * f * f);
+        spec_common = nl * nv * a2 / ((nl * (1.0f - kk) + kk) * (nv * (1.0f - kk) + kk) *
+                                      (3.14159265f * f * f) * (4.0f * nl * nv + 0.001f));
         metallic = splat(m.metallic);
         diffuse_scale = splat(0.96f * (1.0f - m.metallic) * 0.318309886f);
       }
       const f8 s = one - vh, s2 = s * s, s5 = s2 * s2 * s;
       const f8 lit = nl * att;
-      const f8 spec_common = g * d / (4.0f * nl * nv + 0.001f);
       for (int c = 0; c < 3; ++c) {
         const f8 f0 = 0.04f + (base[c] - 0.04f) * metallic;
         const f8 fr = f0 + (1.0f - f0) * s5;
@@ -239,18 +242,22 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, const simd::
     const f8 diffuse = (front ? ndl : f8{}) * att;
     for (int c = 0; c < 3; ++c) out[c] += kd[c] * (diffuse * light.radiance[c]);
     if constexpr (kSpecular) {
-      f8 cosine;
+      f8 power;
       if constexpr (B == Brdf::Phong) {  // r = 2 (n.l) n - l, (r.v)^p
         f8 rv = f8{};
         for (int c = 0; c < 3; ++c) rv += (2.0f * ndl * n[c] - l[c]) * v[c];
-        cosine = rv;
-      } else {  // h = (l + v) / |l + v|, (n.h)^p
+        power = pow01(clamp01(rv), splat(m.shininess));
+      } else {
+        // h = (l + v) / |l + v|, (n.h)^p, taken as ((n.(l + v))^2 / |l + v|^2)^(p / 2) where
+        // n.(l + v) > 0 (else 0): no square root before the chain of pow.
         f8 h[3];
         for (int c = 0; c < 3; ++c) h[c] = l[c] + v[c];
         const f8 len2 = h[0] * h[0] + h[1] * h[1] + h[2] * h[2];
-        cosine = (n[0] * h[0] + n[1] * h[1] + n[2] * h[2]) / simd::sqrt(len2);
+        const f8 nh = n[0] * h[0] + n[1] * h[1] + n[2] * h[2];
+        const f8 cos2 = nh > f8{} ? nh * nh / len2 : f8{};
+        power = pow01(clamp01(cos2), splat(0.5f * m.shininess));
       }
-      const f8 spec = front ? pow01(clamp01(cosine), splat(m.shininess)) * att : f8{};
+      const f8 spec = front ? power * att : f8{};
       for (int c = 0; c < 3; ++c) out[c] += (spec * light.radiance[c]) * m.ks[c];
     }
   }

@@ -28,6 +28,16 @@ template <typename Model>
 struct DefersLight<Model, std::void_t<decltype(Model::kDefersLight)>>
     : std::bool_constant<Model::kDefersLight> {};
 
+// n / |n| per lane, zero where n is zero.
+SR_INLINE void normalize(f8& nx, f8& ny, f8& nz) {
+  const f8 len2 = nx * nx + ny * ny + nz * nz;
+  const f8 r = 1.0f / simd::sqrt(len2);
+  const i8 nonzero = len2 > 0.0f;
+  nx = nonzero ? nx * r : f8{};
+  ny = nonzero ? ny * r : f8{};
+  nz = nonzero ? nz * r : f8{};
+}
+
 // Per-triangle constants of shade_group: the perspective weights and the model's own.
 template <typename Model>
 struct ShadeConstants {
@@ -64,12 +74,11 @@ SR_INLINE void shade_group(const ShadeTriangle<Model>& s, const ShadeConstants<M
         (Model::kReadsNormal && varying_color && (s.reads & ShadeTriangleBase::kReadNormal))) {
       const Lanes3 n = weighted(s.normal, b0, b1, b2);
       nx = n.x; ny = n.y; nz = n.z;
-      const f8 len2 = nx * nx + ny * ny + nz * nz;
-      const f8 r = 1.0f / simd::sqrt(len2);
-      const i8 nonzero = len2 > 0.0f;
-      nx = nonzero ? nx * r : f8{};
-      ny = nonzero ? ny * r : f8{};
-      nz = nonzero ? nz * r : f8{};
+      // The tile's light pass normalises the normals it is left (ShadeScratch::lit_code), in
+      // full groups of eight: the same operations on the same values.
+      bool raw = false;
+      if constexpr (DefersLight<Model>::value && !kNormal) raw = c.model.raw_normal;
+      if (!raw) normalize(nx, ny, nz);
     }
     if (varying_normal) {
       merge(out.normal[0] + i, nx);
@@ -133,7 +142,8 @@ SR_INLINE void shade_group(const ShadeTriangle<Model>& s, const ShadeConstants<M
         for (int k = 0; k < 3; ++k) merge(out.rgb[k] + i, f * s.color[0][k]);
       }
     }
-    if constexpr (DefersLight<Model>::value) merge(out.lit_code + i, splat(c.model.code));
+    if constexpr (DefersLight<Model>::value)  // (with normals requested they are unit already)
+      merge(out.lit_code + i, splat(kNormal ? c.model.code & ~2 : c.model.code));
   }
 }
 
@@ -161,12 +171,18 @@ SR_INLINE void light_tile(const ShadeParams& p, const TileRect& rect, const Tile
         position[k] = load<f8>(out.lit_position[k] + i);
         base[k] = rgb[k] = load<f8>(out.rgb[k] + i);
       }
+      const i8 raw = pending & ((code & 2) != 0);  // normals left to normalise here
+      if (any(raw)) {
+        f8 u[3] = {n[0], n[1], n[2]};
+        normalize(u[0], u[1], u[2]);
+        for (int k = 0; k < 3; ++k) n[k] = raw ? u[k] : n[k];
+      }
       do {  // one draw's lanes at a time (one pass but at a material's edge)
         int32_t first = 0;
         for (int l = 0; l < kLanes; ++l)
           if (pending[l]) { first = code[l]; break; }
         const i8 mine = pending & (code == first);
-        const Material& m = p.draws[(first >> 1) - 1].material;
+        const Material& m = p.draws[(first >> 2) - 1].material;
         f8 o[3];
         if (first & 1)
           lit_radiance<true>(p.in.lit, m, m.brdf, n, position, base, o);

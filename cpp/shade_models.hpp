@@ -300,6 +300,9 @@ struct LitModel {
     // Nonzero if the tile's light pass lights this triangle's pixels (ShadeScratch::lit_code):
     // a per-pixel lit triangle whose material needs no per-pixel textures after lighting.
     int32_t code;
+    // The light pass also normalises its interpolated normals (untextured: nothing before
+    // lighting reads them).
+    bool raw_normal;
     Constants() = default;
     SR_INLINE Constants(const ShadeInputs& inputs, const ShadeTriangle<LitModel>& s)
         : in(&inputs.lit), material(s.material), brdf(s.model.brdf),
@@ -311,7 +314,8 @@ struct LitModel {
       const bool lit = s.color_kind == ShadeTriangleBase::kVaryingColor && !passthrough &&
                        brdf != Brdf::Normal && brdf != Brdf::Unlit;
       const bool after = textured && (s.material->material_maps() || s.material->emissive_texture);
-      code = lit && !after ? int32_t(2 * (s.draw + 1) + (positions ? 1 : 0)) : 0;
+      raw_normal = lit && !textured;
+      code = lit && !after ? int32_t(4 * (s.draw + 1) + (raw_normal ? 2 : 0) + (positions ? 1 : 0)) : 0;
       if (textured) {
         const Material& m = *s.material;
         const auto pick = [&](const Texture* t) {
