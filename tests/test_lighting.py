@@ -259,25 +259,31 @@ def test_sphere_phong_without_specular_is_lambert():
 
 # ----------------------------------------------------------------------------- random scenes
 
-def random_material(rng) -> sr.Material:
+# Whole exponents up to 64 are taken by repeated multiplication (lighting.hpp, power_n), others
+# through exp2(p log2 x): random scenes draw from both.
+WHOLE_SHININESS = (0, 1, 2, 5, 16, 31, 32, 63, 64)
+
+
+def random_material(rng, whole: bool = False) -> sr.Material:
     maybe = lambda: None if rng.random() < 0.3 else tuple(rng.uniform(0, 1, 3))  # noqa: E731
+    shininess = float(rng.choice(WHOLE_SHININESS)) if whole else float(rng.uniform(1, 64))
     return sr.Material(base_color=tuple(rng.uniform(0.05, 1, 3)), ka=maybe(), kd=maybe(),
-                       ks=tuple(rng.uniform(0, 1, 3)), shininess=float(rng.uniform(1, 64)),
+                       ks=tuple(rng.uniform(0, 1, 3)), shininess=shininess,
                        metallic=float(rng.uniform(0, 1)), roughness=float(rng.uniform(0.35, 1)),
                        emissive=tuple(rng.uniform(0, 0.1, 3)))
 
 
-def random_scene(seed: int) -> sr.Scene:
+def random_scene(seed: int, whole: bool = False) -> sr.Scene:
     rng = np.random.default_rng(seed)
     scene = sr.Scene(ambient_light=tuple(rng.uniform(0, 0.15, 3)))
-    scene.add(sphere_mesh(3), pose=pose_at((0.0, 0.0, 0.0)), material=random_material(rng), instance_id=0)
-    scene.add(plane_mesh(6.0, y=-1.0, n=4), material=random_material(rng), instance_id=1)
+    scene.add(sphere_mesh(3), pose=pose_at((0.0, 0.0, 0.0)), material=random_material(rng, whole), instance_id=0)
+    scene.add(plane_mesh(6.0, y=-1.0, n=4), material=random_material(rng, whole), instance_id=1)
     box = trimesh.creation.box(extents=(0.8, 0.6, 1.0))
     box_pose = np.diag([1.2, 0.9, 1.0, 1.0])  # non-uniform scale: normals by the inverse transpose
     box_pose = pose_at((1.6, -0.6, 0.4), travel=(0.3, 0.0, -1.0)) @ box_pose
     # flat box: no normals given (face normals)
     scene.add(sr.Mesh(np.asarray(box.vertices), np.asarray(box.faces)), pose=box_pose,
-              material=random_material(rng), instance_id=2)
+              material=random_material(rng, whole), instance_id=2)
 
     def colour():
         return tuple(rng.uniform(0.3, 1.0, 3))
@@ -314,6 +320,37 @@ def test_random_scenes_match_the_reference(model, seed):
     assert set(np.unique(frame.instance_id[frame.mask])) == {0, 1, 2}
     assert np.all(frame.radiance[~frame.mask] == 0)
     assert_encoded(frame, srgb=True)
+
+
+@pytest.mark.parametrize("model", ("phong", "blinn_phong"))
+@pytest.mark.parametrize("seed", [4, 5, 6, 7])
+def test_whole_shininess_matches_the_reference(model, seed):
+    """Whole exponents (0, odd, even, up to 64) take the multiplying path: the same tolerance."""
+    scene = random_scene(seed, whole=True)
+    cam = camera()
+    frame = render(scene, cam, shading=model, frequency="pixel")
+    rows, cols = pixels(frame)
+    rng = np.random.default_rng(seed + 100)
+    pick = rng.choice(len(rows), size=min(len(rows), 1500), replace=False)
+    assert_radiance(model, scene, cam, frame, rows[pick], cols[pick])
+
+
+@pytest.mark.parametrize("model", ("phong", "blinn_phong"))
+@pytest.mark.parametrize("p", [1.0, 7.0, 32.0, 64.0])
+def test_whole_and_fractional_exponents_agree(model, p):
+    """p (multiplied out) and the next float above it (exp2 / log2) light a sphere alike: the two
+    paths of the specular power meet, to the change the exponent itself makes (|ln x| ulp(p)
+    of the term) and their rounding (<= p ulps)."""
+    frames = []
+    for q in (p, float(np.nextafter(np.float32(p), np.float32(np.inf)))):
+        scene = sr.Scene(ambient_light=(0.0, 0.0, 0.0))
+        mat = sr.Material(base_color=(0.5, 0.5, 0.5), kd=(0.0, 0.0, 0.0), ks=(1.0, 1.0, 1.0), shininess=q)
+        scene.add(sphere_mesh(4), material=mat)
+        scene.add(sr.PointLight(intensity=9.0), pose=pose_at((1.0, 1.5, 3.0)))
+        frames.append(np.array(render(scene, camera(), shading=model, frequency="pixel").radiance))
+    a, b = frames
+    assert a.max() > 0.5  # a highlight is in view
+    np.testing.assert_allclose(a, b, rtol=1e-4, atol=1e-7)
 
 
 @pytest.mark.parametrize("model", LIT)
