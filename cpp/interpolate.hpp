@@ -233,6 +233,8 @@ SR_INLINE void prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTri
     }
   }
   classify(p.in, uniform_color, s);
+  // (after classify, which may put the vertices' radiance in the colours: Gouraud)
+  s.uniform_color = s.color[0] == s.color[1] && s.color[0] == s.color[2];
 }
 
 using namespace simd;

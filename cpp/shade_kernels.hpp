@@ -88,8 +88,12 @@ SR_INLINE void shade_group(const ShadeTriangle<Model>& s, const ShadeConstants<M
     if (varying_color) {
       f8 r{}, g{}, b{};
       if constexpr (Model::kReadsColor) {
-        const Lanes3 rgb = weighted(s.color, b0, b1, b2);
-        r = rgb.x; g = rgb.y; b = rgb.z;
+        if (s.uniform_color) {  // (the lit model's: the others classify it as constant or uniform)
+          r = splat(s.color[0].x); g = splat(s.color[0].y); b = splat(s.color[0].z);
+        } else {
+          const Lanes3 rgb = weighted(s.color, b0, b1, b2);
+          r = rgb.x; g = rgb.y; b = rgb.z;
+        }
       }
       if constexpr (Model::kReadsPosition) {
         if (s.reads & ShadeTriangleBase::kReadPosition) {
