@@ -219,17 +219,17 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, const simd::
       // radiance += nl I ((1 - F) c_diff / pi + F G D / (4 nl nv + 0.001)),
       // c_diff = base (1 - 0.04) (1 - metallic). G D / (4 nl nv + 0.001) is taken as one quotient,
       // nl nv a^2 / ((nl (1 - k) + k)(nv (1 - k) + k) pi f^2 (4 nl nv + 0.001)): one division.
-      f8 h[3];
-      for (int c = 0; c < 3; ++c) h[c] = l[c] + v[c];
-      const f8 hr = 1.0f / simd::sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
-      for (int c = 0; c < 3; ++c) h[c] *= hr;  // l = -v: NaN, and nh = vh = 0 below
+      // h is never formed: with l and v unit, |l + v|^2 = 2 + 2 l.v, n.h = (n.l + n.v) / |l + v|
+      // and v.h = (1 + l.v) / |l + v| (l = -v: 0 / 0, and nh = vh = 0 below).
+      const f8 lv = l[0] * v[0] + l[1] * v[1] + l[2] * v[2];
+      const f8 hr = 1.0f / simd::sqrt(2.0f + 2.0f * lv);
       const f8 lo = splat(0.001f), one = splat(1.0f);
       const f8 nl = ndl > lo ? (one < ndl ? one : ndl) : lo;  // NaN -> 0.001
-      f8 nv = n[0] * v[0] + n[1] * v[1] + n[2] * v[2];
-      nv = nv < f8{} ? -nv : nv;
+      const f8 n_v = n[0] * v[0] + n[1] * v[1] + n[2] * v[2];
+      f8 nv = n_v < f8{} ? -n_v : n_v;
       nv = nv > lo ? (one < nv ? one : nv) : lo;
-      const f8 nh = clamp01(n[0] * h[0] + n[1] * h[1] + n[2] * h[2]);
-      const f8 vh = clamp01(v[0] * h[0] + v[1] * h[1] + v[2] * h[2]);
+      const f8 nh = clamp01((ndl + n_v) * hr);
+      const f8 vh = clamp01((1.0f + lv) * hr);
       f8 spec_common, diffuse_scale, metallic;
       if constexpr (kLanes) {  // the same formulas per lane
         const f8 r0 = lanes->roughness, floor = splat(0.04f);
