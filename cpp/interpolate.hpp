@@ -233,8 +233,10 @@ SR_INLINE void prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTri
     }
   }
   classify(p.in, uniform_color, s);
-  // (after classify, which may put the vertices' radiance in the colours: Gouraud)
-  s.uniform_color = s.color[0] == s.color[1] && s.color[0] == s.color[2];
+  // (after classify, which may put the vertices' radiance in the colours: Gouraud). Only the lit
+  // model reads it: the others classify a triangle of one colour as constant or uniformly lit.
+  if constexpr (DefersLight<Model>::value)
+    s.uniform_color = s.color[0] == s.color[1] && s.color[0] == s.color[2];
 }
 
 using namespace simd;

@@ -10,7 +10,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <type_traits>
 
 namespace sr {
 namespace shading {
@@ -20,13 +19,6 @@ using interp::LargeEdges;
 using interp::Lanes3;
 using interp::prepare;
 using interp::weighted;
-
-// Model::kDefersLight, false where the model does not name it.
-template <typename Model, typename = void>
-struct DefersLight : std::false_type {};
-template <typename Model>
-struct DefersLight<Model, std::void_t<decltype(Model::kDefersLight)>>
-    : std::bool_constant<Model::kDefersLight> {};
 
 // n / |n| per lane, zero where n is zero.
 SR_INLINE void normalize(f8& nx, f8& ny, f8& nz) {
@@ -88,7 +80,9 @@ SR_INLINE void shade_group(const ShadeTriangle<Model>& s, const ShadeConstants<M
     if (varying_color) {
       f8 r{}, g{}, b{};
       if constexpr (Model::kReadsColor) {
-        if (s.uniform_color) {  // (the lit model's: the others classify it as constant or uniform)
+        bool uniform = false;  // (the lit model's flag: see prepare)
+        if constexpr (DefersLight<Model>::value) uniform = s.uniform_color;
+        if (uniform) {
           r = splat(s.color[0].x); g = splat(s.color[0].y); b = splat(s.color[0].z);
         } else {
           const Lanes3 rgb = weighted(s.color, b0, b1, b2);

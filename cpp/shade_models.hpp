@@ -41,6 +41,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <type_traits>
 
 namespace sr {
 
@@ -621,6 +622,13 @@ struct LitModel {
     r += tex[0] * e.x; g += tex[1] * e.y; b += tex[2] * e.z;
   }
 };
+
+// Model::kDefersLight, false where the model does not name it.
+template <typename Model, typename = void>
+struct DefersLight : std::false_type {};
+template <typename Model>
+struct DefersLight<Model, std::void_t<decltype(Model::kDefersLight)>>
+    : std::bool_constant<Model::kDefersLight> {};
 
 // Every model the kernels are compiled for, in Shading's order.
 template <typename... M>
