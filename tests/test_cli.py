@@ -30,6 +30,10 @@ SPOT_PATH = pathlib.Path(__file__).resolve().parents[1] / "assets" / "meshes" / 
     (["render", str(SPOT_PATH), "-o", "x.png", "--ssaa", "9"], "--ssaa"),
     (["render", str(SPOT_PATH), "-o", "x.png", "--msaa", "4", "--ssaa", "2"], "--ssaa"),
     (["render", str(SPOT_PATH), "-o", "x.png", "--near", "0"], "--near"),
+    (["render", str(SPOT_PATH), "-o", "x.png", "--wireframe", "--line-color", "1,0"], "--line-color"),
+    (["render", str(SPOT_PATH), "-o", "x.png", "--wireframe", "--line-color", "2,0,0"], "--line-color"),
+    (["render", str(SPOT_PATH), "-o", "x.png", "--wireframe", "--line-width", "0"], "--line-width"),
+    (["render", str(SPOT_PATH), "-o", "x.png", "--wireframe", "--line-width", "nan"], "--line-width"),
     (["render", str(SPOT_PATH), "-o", "x.png", "--fov", "180"], "--fov"),
     (["render", str(SPOT_PATH), "-o", "x.png", "--near", "2", "--far", "1"], "--far"),
     (["render", "missing.obj", "-o", "x.png"], "missing.obj"),
@@ -132,6 +136,25 @@ def test_render_antialiased_matches_the_api(tmp_path):
         np.testing.assert_array_equal(imread(path), frame.color)
         partial = frame.color[(frame.color > 0).any(axis=-1)]
         assert len(np.unique(partial.reshape(-1, 3), axis=0)) > 10
+
+
+def test_render_wireframe_matches_the_api(tmp_path):
+    # --wireframe (with --line-color, --line-width) writes what render(wireframe=True, ...) gives.
+    path = tmp_path / "wire.png"
+    code = main(["render", str(SPOT_PATH), "-o", str(path), "--size", "96x72", "--eye", "1.7,0.9,-2.3",
+                 "--target", "0,0.05,0.15", "--near", "0.05", "--far", "20", "--wireframe",
+                 "--line-color", "1,0,0", "--line-width", "2"])
+    assert code == 0
+    scene = sr.Scene()
+    scene.add(sr.load_mesh(SPOT_PATH))
+    cam = sr.PerspectiveCamera(fov_y=45.0, width=96, height=72, near=0.05, far=20.0)
+    cam.look_at((1.7, 0.9, -2.3), (0, 0.05, 0.15), (0, 1, 0))
+    r = sr.Renderer(96, 72)
+    want = r.render(scene, cam, outputs=("color",), wireframe=True, line_color=(1.0, 0.0, 0.0), line_width=2.0).color
+    np.testing.assert_array_equal(imread(path), want)
+    plain = r.render(scene, cam, outputs=("color",)).color
+    red = (want[..., 0] == 255) & (want[..., 1] == 0) & (want[..., 2] == 0)
+    assert red.sum() > 200 and not ((plain[..., 0] == 255) & (plain[..., 1] == 0)).any()
 
 
 def test_render_explicit_camera_depth(tmp_path):

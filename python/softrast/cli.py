@@ -67,6 +67,17 @@ def _vec3(text: str) -> tuple[float, float, float]:
     return x, y, z
 
 
+def _rgb(text: str) -> tuple[float, float, float]:
+    """r,g,b in [0, 1] (linear, as Material and render's colours)."""
+    try:
+        rgb = tuple(float(p) for p in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected three comma-separated numbers r,g,b, got {text!r}") from None
+    if len(rgb) != 3 or not all(0.0 <= v <= 1.0 for v in rgb):
+        raise argparse.ArgumentTypeError(f"expected three numbers in [0, 1] as r,g,b, got {text!r}")
+    return rgb
+
+
 def _positive_float(text: str) -> float:
     try:
         v = float(text)
@@ -131,6 +142,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="base colour texture (sRGB) sampled at the mesh's uvs; replaces the file's")
     r.add_argument("--texture-filter", choices=_core.TEXTURE_FILTERS, default=None,
                    help="one filter for every texture (default: each texture's own, trilinear)")
+    r.add_argument("--wireframe", action="store_true",
+                   help="draw the mesh's edges over it (front edges shown, back ones hidden)")
+    r.add_argument("--line-color", type=_rgb, default=(0.0, 0.0, 0.0), metavar="r,g,b",
+                   help="--wireframe's colour, linear, in [0, 1] (default 0,0,0)")
+    r.add_argument("--line-width", type=_positive_float, default=1.0, metavar="PX",
+                   help="--wireframe's width in pixels (default 1)")
     aa = r.add_mutually_exclusive_group()
     aa.add_argument("--msaa", type=int, choices=(1, 2, 4, 8, 16), default=1,
                     help="multisample anti-aliasing: samples per pixel (default 1: off)")
@@ -277,7 +294,9 @@ def _render(args: argparse.Namespace) -> None:
     renderer = sr.Renderer(width, height, threads=args.threads)
     frame = renderer.render(scene, camera, outputs=outputs, cull=args.cull, shading=args.shading,
                             frequency=args.frequency, srgb=not args.linear,
-                            texture_filter=args.texture_filter, msaa=args.msaa, ssaa=args.ssaa)
+                            texture_filter=args.texture_filter, msaa=args.msaa, ssaa=args.ssaa,
+                            wireframe=args.wireframe, line_color=args.line_color,
+                            line_width=args.line_width)
     for name in outputs:
         imwrite(files[name], getattr(frame, name))
 
