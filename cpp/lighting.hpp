@@ -192,6 +192,7 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, const simd::
     const f8 r = 1.0f / simd::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
     for (int c = 0; c < 3; ++c) v[c] *= r;
   }
+  const int whole = whole_exponent(m.shininess);  // chosen once: multiplied out, or exp2/log2
   for (int k = 0; k < in.num_lights; ++k) {
     const Light& light = in.lights[k];
     f8 l[3], att = splat(1.0f);
@@ -271,7 +272,6 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, const simd::
         f8 rv = f8{};
         for (int c = 0; c < 3; ++c) rv += (2.0f * ndl * n[c] - l[c]) * v[c];
         const f8 x = clamp01(rv);
-        const int whole = whole_exponent(m.shininess);
         power = whole >= 0 ? power_n(x, whole) : pow01(x, splat(m.shininess));
       } else {
         // h = (l + v) / |l + v|, (n.h)^p, taken as ((n.(l + v))^2 / |l + v|^2)^(p / 2) where
@@ -282,7 +282,6 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, const simd::
         const f8 nh = n[0] * h[0] + n[1] * h[1] + n[2] * h[2];
         const f8 cos2 = clamp01(nh > f8{} ? nh * nh / len2 : f8{});
         // A whole exponent p: cos2^(p div 2), times sqrt(cos2) (= n.h) where p is odd.
-        const int whole = whole_exponent(m.shininess);
         if (whole >= 0) {
           power = power_n(cos2, whole >> 1);
           if (whole & 1) power *= simd::sqrt(cos2);

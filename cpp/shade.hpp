@@ -46,7 +46,7 @@ struct ShadeScratch {
   // The lit model's light pass (shade_kernels.hpp, light_tile): a pixel whose lighting is left to
   // it holds its base colour in `rgb`, and here its lit normal, world position and a code naming
   // its draw (4 (draw + 1), + 2 if the normal is still to be normalised, + 1 if lighting reads
-// positions; 0: `rgb` is already the radiance).
+  // positions; 0: `rgb` is already the radiance).
   // Lighting full groups of eight pixels of the tile, whichever triangles they belong to, costs
   // less than lighting each small triangle's partly filled groups. Zeroed once (a group's unused
   // lanes are read).

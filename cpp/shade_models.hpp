@@ -90,7 +90,8 @@ struct ShadeTriangleBase {
                     // camera's side for back faces; zero unless normals are read
   vec3 color[3];    // base colour at each vertex (only color[0] set where all are equal)
   ColorKind color_kind;
-  bool uniform_color;  // the three colours are equal: kVaryingColor reads the one as is
+  bool uniform_color;  // the lit model's: the three colours are equal, read as is (unset for
+                       // the others, which classify such a triangle as constant or uniformly lit)
   bool one_normal;     // the three normals are equal
   bool back_facing;    // the camera sees the triangle's back (normals are flipped to face it)
   uint8_t reads;       // kVaryingColor: what the model's shade reads beyond the base colour
