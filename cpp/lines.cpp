@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
 
 namespace sr {
@@ -13,6 +14,19 @@ namespace {
 constexpr std::size_t kPrimitiveBlock = 16384;
 
 bool finite3(const vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+// No NaN or inf among `rows`: one pass of exponent tests the compiler vectorises (run on every
+// render: std::isfinite per component cost a point cloud's render ~2%).
+bool all_finite(ConstSpan<vec3> rows) {
+  const float* v = reinterpret_cast<const float*>(rows.data());
+  uint32_t bad = 0;
+  for (std::size_t i = 0; i < 3 * rows.size(); ++i) {
+    uint32_t bits;
+    std::memcpy(&bits, v + i, sizeof bits);
+    bad |= uint32_t((bits & 0x7f800000u) == 0x7f800000u);
+  }
+  return bad == 0;
+}
 
 // A point of a segment (or a point) in clip space with what is interpolated along it.
 struct LinePoint {
@@ -153,11 +167,52 @@ void setup_points(const DrawContext& c, std::size_t begin, std::size_t end, Prim
   }
 }
 
+// Points of size <= 1: the pixel holding the point, (floor(x), floor(y)) (the square rule's
+// single pixel), with no colour or world point (read once per pixel won, in the resolve).
+void setup_pixels(const DrawContext& c, std::size_t begin, std::size_t end, PrimitiveBlock& out) {
+  const PrimitiveDraw& d = *c.draw;
+  const Viewport& vp = *c.viewport;
+  const ClipPlanes& planes = *c.planes;
+  out.pixels.resize(end - begin);
+  out.single_tile.resize(end - begin);
+  std::size_t n = 0;
+  for (std::size_t i = begin; i < end; ++i) {
+    const ClipVertexD v = transform_point_d(c.xf, d.positions[i]);
+    const dvec4& p = v.p_clip;
+    const double depth = v.depth_view;
+    // setup_points' tests: w > 0 and every plane's distance >= 0 (NaN fails).
+    const bool inside = p.w > 0.0 && depth - planes.near >= 0.0 && planes.far - depth >= 0.0 &&
+                        p.x - planes.ndc_x_min * p.w >= 0.0 &&
+                        planes.ndc_x_max * p.w - p.x >= 0.0 &&
+                        planes.ndc_y_max * p.w - p.y >= 0.0 && p.y - planes.ndc_y_min * p.w >= 0.0;
+    if (!inside) continue;
+    double x, y;
+    window(vp, p, x, y);
+    const int32_t px = floor_px(x), py = floor_px(y);
+    if (px < 0 || py < 0 || px >= vp.width || py >= vp.height) continue;
+    out.pixels[n] = {uint32_t((py % kTileSizePx) * kTileSizePx + px % kTileSizePx),
+                     c.orthographic ? -float(depth) : float(1.0 / depth), uint32_t(i)};
+    out.single_tile[n] = uint32_t((py / kTileSizePx) * vp.tiles_x + px / kTileSizePx);
+    ++n;
+  }
+  out.pixels.resize(n);
+  out.single_tile.resize(n);
+}
+
 // Per-tile record lists of one block (counting sort: records stay in primitive order).
 void bin_block(const Viewport& vp, PrimitiveBlock& block) {
   const std::size_t num_tiles = std::size_t(vp.num_tiles());
-  const std::size_t n = block.points ? block.dots.size() : block.lines.size();
   block.tile_begin.assign(num_tiles + 1, 0);
+  if (block.one_pixel) {  // one tile each, found by setup_pixels
+    const std::size_t n = block.pixels.size();
+    for (std::size_t i = 0; i < n; ++i) ++block.tile_begin[block.single_tile[i] + 1];
+    for (std::size_t t = 0; t < num_tiles; ++t) block.tile_begin[t + 1] += block.tile_begin[t];
+    std::vector<uint32_t> next(block.tile_begin.begin(), block.tile_begin.end() - 1);
+    block.binned_pixels.resize(n);
+    for (std::size_t i = 0; i < n; ++i) block.binned_pixels[next[block.single_tile[i]]++] = block.pixels[i];
+    return;
+  }
+  const std::size_t n = block.points ? block.dots.size() : block.lines.size();
   const auto for_tiles = [&](std::size_t i, auto&& fn) {
     int32_t box[4];
     if (block.points) {
@@ -206,12 +261,13 @@ void bin_block(const Viewport& vp, PrimitiveBlock& block) {
 struct Ref {
   uint32_t block, record;
 };
-SR_INLINE void plot(const OverlayTarget& t, int i, float key, float test_key, Ref ref) {
-  if (t.visible[i] != kNoTriangle && !(test_key > t.key[i] * t.tie)) return;
+SR_INLINE bool plot(const OverlayTarget& t, int i, float key, float test_key, Ref ref) {
+  if (t.visible[i] != kNoTriangle && !(test_key > t.key[i] * t.tie)) return false;
   t.key[i] = key;
   t.visible[i] = kPrimitivePixel;
   t.pixels->block[i] = ref.block;
   t.pixels->record[i] = ref.record;
+  return true;
 }
 
 // Where on line `r` pixel (x, y) is: the segment's point nearest the pixel centre in the window,
@@ -320,9 +376,11 @@ void validate_primitive(const PrimitiveDraw& d, const std::string& where) {
   const char* kind = d.points ? "Points" : "Lines";
   if (d.positions.size() > std::size_t(INT32_MAX))
     throw std::invalid_argument(where + " positions: too many");
-  for (std::size_t i = 0; i < d.positions.size(); ++i)
-    if (!finite3(d.positions[i]))
-      throw std::invalid_argument(where + " positions contains NaN or inf at row " + std::to_string(i));
+  if (!all_finite(d.positions))  // (then find the row)
+    for (std::size_t i = 0; i < d.positions.size(); ++i)
+      if (!finite3(d.positions[i]))
+        throw std::invalid_argument(where + " positions contains NaN or inf at row " +
+                                    std::to_string(i));
   for (std::size_t s = 0; s < d.segments.size(); ++s)
     for (int e = 0; e < 2; ++e)
       if (uint32_t(d.segments[s][e]) >= d.positions.size())
@@ -331,8 +389,7 @@ void validate_primitive(const PrimitiveDraw& d, const std::string& where) {
                                     std::to_string(d.positions.size()) + ")");
   if (!d.colors.empty() && d.colors.size() != d.positions.size())
     throw std::invalid_argument(where + " colors must have one row per position");
-  for (std::size_t i = 0; i < d.colors.size(); ++i)
-    if (!finite3(d.colors[i])) throw std::invalid_argument(where + " colors contains NaN or inf");
+  if (!all_finite(d.colors)) throw std::invalid_argument(where + " colors contains NaN or inf");
   if (!finite3(d.color)) throw std::invalid_argument(where + " color is not finite");
   if (!(d.depth_bias >= 0.0f && d.depth_bias < 1.0f))
     throw std::invalid_argument(where + " depth_bias must be in [0, 1)");
@@ -350,6 +407,7 @@ void PrimitiveSetup::build(const std::vector<PrimitiveDraw>& draws, const Camera
                            bool need_world, ThreadPool& pool) {
   algorithm = line_algorithm;
   orthographic = camera.orthographic;
+  this->need_world = need_world;
   num_blocks = 0;
   if (draws.empty()) return;  // a scene without lines or points: any() is false for every tile
   const ClipPlanes planes(camera, viewport.width, viewport.height);
@@ -369,9 +427,12 @@ void PrimitiveSetup::build(const std::vector<PrimitiveDraw>& draws, const Camera
     const Range& range = ranges[item];
     PrimitiveBlock& block = blocks[item];
     block.points = draws[range.draw].points;
+    block.one_pixel = block.points && draws[range.draw].width <= 1.0f;
+    block.draw = draws[range.draw];
     block.lines.clear();
     block.dots.clear();
-    if (block.points) setup_points(contexts[range.draw], range.begin, range.end, block);
+    if (block.one_pixel) setup_pixels(contexts[range.draw], range.begin, range.end, block);
+    else if (block.points) setup_points(contexts[range.draw], range.begin, range.end, block);
     else setup_lines(contexts[range.draw], range.begin, range.end, block);
     bin_block(viewport, block);
   });
@@ -387,6 +448,17 @@ void draw_primitives_tile(const PrimitiveSetup& setup, const TileRect& rect, int
   for (std::size_t b = 0; b < setup.num_blocks; ++b) {
     const PrimitiveBlock& block = setup.blocks[b];
     const uint32_t begin = block.tile_begin[tile], end = block.tile_begin[tile + 1];
+    if (block.one_pixel) {
+      // rect is the tile's: a record's pixel offset has the tile's row stride. The colour a
+      // winner will read is fetched now (the draw's colours are far from cache, read by index).
+      const vec3* colors = block.draw.colors.empty() ? nullptr : block.draw.colors.data();
+      for (uint32_t i = begin; i < end; ++i) {
+        const DotRecord& p = block.binned_pixels[i];
+        if (plot(target, int(p.pixel), p.key, p.key, Ref{uint32_t(b), p.index}) && colors)
+          __builtin_prefetch(colors + p.index);
+      }
+      continue;
+    }
     if (block.points) {
       for (uint32_t i = begin; i < end; ++i) {
         const PointRecord& p = block.binned_dots[i];
@@ -417,7 +489,13 @@ void draw_primitives_tile(const PrimitiveSetup& setup, const TileRect& rect, int
       const PrimitiveBlock& block = setup.blocks[t.pixels->block[i]];
       const uint32_t record = t.pixels->record[i];
       vec3 color, world;
-      if (block.points) {
+      if (block.one_pixel) {  // setup_points' colour and world point, for the winner only
+        const PrimitiveDraw& d = block.draw;
+        color = d.colors.empty() ? d.color : d.colors[record];
+        world = setup.need_world ? vec3(dvec3(d.model * dvec4(dvec3(d.positions[record]), 1.0)))
+                                 : vec3(0.0f);
+        t.pixels->instance[i] = d.instance_id;
+      } else if (block.points) {
         const PointRecord& p = block.binned_dots[record];
         color = p.color;
         world = p.world;

@@ -86,15 +86,30 @@ struct PointRecord {
   int32_t instance_id;
 };
 
+// A point of size <= 1 (one pixel: the common point cloud) after projection: its pixel as an
+// offset in its tile's rows (kTileSizePx wide), its depth key and its index in the draw. A third
+// of a PointRecord: a million points' records are written, binned and read once per render, and
+// the colour and position are read from the draw only for the pixels a point wins.
+struct DotRecord {
+  uint32_t pixel;
+  float key;
+  uint32_t index;
+};
+
 // The records of a block of one draw's primitives, binned, in primitive order within each tile:
 // a tile t's lines are lines[tile_records[tile_begin[t] .. tile_begin[t + 1])]; its points are
 // binned_dots[tile_begin[t] .. tile_begin[t + 1]) (copies, so a tile reads its points in one
 // sequential run: a million points' records do not fit in cache, and fetching them by index
 // missed it for every point).
+// Points of size <= 1 are DotRecords instead: a tile's are binned_pixels[tile_begin[t] ..
+// tile_begin[t + 1]), and the block keeps its draw to resolve them.
 struct PrimitiveBlock {
   bool points = false;
+  bool one_pixel = false;  // points of size <= 1: pixels / binned_pixels, not dots
+  PrimitiveDraw draw;      // the block's draw (one_pixel: its colours, positions and pose)
   std::vector<LineRecord> lines;
   std::vector<PointRecord> dots, binned_dots;
+  std::vector<DotRecord> pixels, binned_pixels;
   std::vector<uint32_t> tile_begin, tile_records;
   std::vector<uint32_t> single_tile;  // points: the one tile a point is binned to, or ~0u
 };
@@ -106,6 +121,7 @@ struct PrimitiveSetup {
   std::vector<uint8_t> tile_used;  // per tile: some block binned a record to it
   LineAlgorithm algorithm = LineAlgorithm::Bresenham;
   bool orthographic = false;
+  bool need_world = false;  // the position / ray_depth outputs
 
   // Transforms, clips, projects and bins `draws`, in parallel over blocks of primitives (the
   // result does not depend on the thread count).
@@ -118,7 +134,8 @@ struct PrimitiveSetup {
 };
 
 // What a primitive pixel holds beyond the tile buffers: the record that won it (its block, and
-// its index in the block's lines or binned_dots), its instance id and world position.
+// its index in the block's lines or binned_dots, or a one-pixel point's index in its draw), its
+// instance id and world position.
 struct PrimitivePixels {
   uint32_t block[kTilePixels];
   uint32_t record[kTilePixels];

@@ -294,6 +294,51 @@ def test_point_cloud_lands_where_numpy_projects(rng):
     assert (frame.instance_id[frame.mask] == 5).all() and (frame.triangle_id == -1).all()
 
 
+@pytest.mark.parametrize("size", [1.0, 0.25])
+def test_perspective_point_cloud_with_a_pose_against_numpy(size, rng):
+    """Points of size <= 1 under a perspective camera and a pose: each lands in the pixel holding
+    its pinhole projection, the nearest (then the first) wins, and its colour, depth, position and
+    ray depth are the point's own (read back for the winner only)."""
+    n, w, h, fy = 60_000, 211, 147, 120.0
+    pose = np.eye(4)
+    pose[:3, :3] = [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]  # 90 degrees about z
+    pose[:3, 3] = [0.25, -0.5, -1.0]
+    # Window positions away from pixel borders (float32 storage moves them by < 1e-4 px) and
+    # depths, some off the image, a few pairs sharing a pixel.
+    xy = rng.uniform(-30.0, [w + 30.0, h + 30.0], (n, 2))
+    xy = np.floor(xy) + rng.uniform(0.01, 0.99, (n, 2))
+    xy[1::50] = xy[::50][: len(xy[1::50])]
+    depth = rng.uniform(1.0, 50.0, n)
+    cam_pts = np.c_[(xy[:, 0] - w / 2) / fy * depth, -(xy[:, 1] - h / 2) / fy * depth, -depth]
+    world = cam_pts
+    model = np.linalg.solve(pose, np.c_[world, np.ones(n)].T).T[:, :3]
+    colors = rng.uniform(0, 1, (n, 3)).astype(np.float32)
+    scene = sr.Scene()
+    scene.add(sr.Points(model, colors=colors, size=size), pose=pose, instance_id=9)
+    cam = sr.PerspectiveCamera(fov_y=np.degrees(2 * np.arctan(h / 2 / fy)), width=w, height=h,
+                               near=0.5, far=100.0)
+    frame = render(scene, cam, outputs=("mask", "depth", "radiance", "position", "ray_depth",
+                                        "instance_id"), w=w, h=h)
+    px, py = np.floor(xy).astype(np.int64).T
+    inside = (px >= 0) & (px < w) & (py >= 0) & (py < h)
+    idx = np.flatnonzero(inside)
+    flat = py[idx] * w + px[idx]
+    order = np.lexsort((idx, depth[idx], flat))
+    flat_sorted = flat[order]
+    first = np.r_[True, flat_sorted[1:] != flat_sorted[:-1]]
+    winner = idx[order][first]
+    expected = np.zeros(w * h, bool)
+    expected[flat_sorted[first]] = True
+    np.testing.assert_array_equal(frame.mask.ravel(), expected)
+    wy, wx = np.divmod(flat_sorted[first], w)
+    np.testing.assert_allclose(frame.depth[wy, wx], depth[winner], rtol=1e-5)
+    np.testing.assert_array_equal(frame.radiance[wy, wx], colors[winner])
+    np.testing.assert_allclose(frame.position[wy, wx], world[winner], rtol=1e-5, atol=1e-5)
+    np.testing.assert_allclose(frame.ray_depth[wy, wx], np.linalg.norm(world[winner], axis=1),
+                               rtol=1e-5)
+    assert (frame.instance_id[frame.mask] == 9).all()
+
+
 @pytest.mark.parametrize("size", [1.0, 2.0, 3.0, 2.5, 0.4])
 def test_point_squares(size, rng):
     xy = rng.uniform(10, [W - 10, H - 10], (12, 2))
@@ -378,6 +423,11 @@ def busy_scene(rng) -> sr.Scene:
     scene.add(sr.Lines(pts, seg, colors=rng.uniform(0, 1, (400, 3))), instance_id=1)
     scene.add(sr.Lines(pts, seg[::7], width=3.5), instance_id=2)
     scene.add(sr.Points(pts, size=2.0, colors=rng.uniform(0, 1, (400, 4))), instance_id=3)
+    # One pixel each (their own setup and records), over everything and among each other.
+    cloud = window_points(rng.uniform(-5, [W + 5, H + 5], (3000, 2)))
+    cloud[:, 2] = -rng.uniform(1, 30, 3000)
+    scene.add(sr.Points(cloud, colors=rng.uniform(0, 1, (3000, 3))), instance_id=4)
+    scene.add(sr.Points(cloud[::3] * [1, 1, 0.9], size=0.5), instance_id=5)
     return scene
 
 
