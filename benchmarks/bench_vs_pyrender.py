@@ -463,6 +463,13 @@ class SoftrastLitRow:
                 lin = r.render(s, cam, srgb=False, **kw)
                 cells.append(Cell(f"softrast t{t} color+depth out linear",
                                   lambda r=r, f=lin: r.render(s, cam, out=f, srgb=False, **kw)))
+                # The floor under the lit frame: the same geometry with no lighting at all.
+                for label, extra in (("depth", dict(outputs=("depth",))),
+                                     ("unlit color+depth", dict(shading="unlit"))):
+                    kw2 = dict(kw, **extra)
+                    f2 = r.render(s, cam, **kw2)
+                    cells.append(Cell(f"softrast t{t} {label} out",
+                                      lambda r=r, f=f2, kw2=kw2: r.render(s, cam, out=f, **kw2)))
         return cells
 
 
@@ -522,6 +529,20 @@ def report_lit(results: list[dict]) -> None:
     errors = {k: v for r in results for k, v in r["errors"].items()}
     for name, err in errors.items():
         print(f"  {name}: {err}")
+    print(f"\nThe goal's frame time (pyrender / {LIT_GOAL:.0f}) against the same row's softrast frames"
+          "\nwithout lighting (t2): depth only, and unlit colour+depth (interpolated base colour, sRGB)")
+    head = (f"{'model':<12}{'scene':<7}{'size':>10}{'goal ms':>9}{'depth':>8}{'unlit':>8}{'lit':>8}"
+            f"{'goal/depth':>11}{'goal/unlit':>11}")
+    print(head)
+    print("-" * len(head))
+    for r in results:
+        pyr, t2, depth, unlit = (get(r, k) for k in ("pyrender color+depth", "softrast t2 color+depth out",
+                                                     "softrast t2 depth out",
+                                                     "softrast t2 unlit color+depth out"))
+        goal = pyr / LIT_GOAL
+        print(f"{r['model']:<12}{r['scene']:<7}{str(r['width']) + 'x' + str(r['height']):>10}{fmt(goal, 9, 2)}"
+              f"{fmt(depth, 8, 2)}{fmt(unlit, 8, 2)}{fmt(t2, 8, 2)}{fmt(ratio(goal, depth), 11, 2)}"
+              f"{fmt(ratio(goal, unlit), 11, 2)}")
 
 
 # ------------------------------------------------------------------ textured rows (issue 17)
@@ -711,6 +732,12 @@ def report_aa(results: list[dict]) -> None:
         print(f"{r['row']:<16}{fmt(pyr, 9)}" + "".join(fmt(get(r, f"softrast t2 {label}"), 8, 2)
                                                     for label, _ in AA_MODES)
               + f"{fmt(x, 9)}{fmt(ratio(m4, m1), 7, 2)}  {status}")
+    print(f"The goal's frame time (pyrender / {AA_GOAL:.0f}) against softrast's frame without anti-aliasing:")
+    for r in results:
+        pyr, m1 = get(r, "pyrender color+depth"), get(r, "softrast t2 msaa1")
+        goal = pyr / AA_GOAL
+        print(f"  {r['row']:<16} goal {fmt(goal, 0, 2)} ms, msaa1 {fmt(m1, 0, 2)} ms: msaa=4 would have to cost "
+              f"{fmt(ratio(goal, m1), 0, 2)}x a render without it")
 
 
 # ------------------------------------------------------------------ point clouds (issue 18)
