@@ -115,7 +115,7 @@ struct Resolve {
       if (!shading) continue;
       // Which pass shades which samples. ssaa: every covered sample its own. msaa: the
       // representative shades its triangle's samples; another triangle's are shaded by its
-      // lowest-index sample (found one pixel at a time, only where several triangles show).
+      // lowest-index sample (its leader), found only where several triangles show.
       if (per_sample) {
         for (int s = 0; s < count; ++s)
           store(ms.weight[s] + i, (load<i8>(ms.sample[s]->visible + i) != none) & splat(1));
@@ -126,18 +126,22 @@ struct Resolve {
         const i8 v = load<i8>(ms.sample[s]->visible + i);
         mine -= (v == visible) & (v != none);
       }
-      for (int s = 0; s < count; ++s) store(ms.weight[s] + i, rep == ids[s] ? mine : i8{});
-      if (!any(mine != covered)) continue;
-      for (int l = i; l < i + kLanes; ++l) {
-        const uint32_t owner = ms.resolved.visible[l];
+      // Each sample of another triangle adds one to its leader's weight (msaa: at most 16
+      // samples, count^2 / 2 compares per group).
+      i8 weight[kMaxMsaaSamples];
+      for (int s = 0; s < count; ++s) weight[s] = rep == ids[s] ? mine : i8{};
+      if (any(mine != covered)) {
         for (int s = 0; s < count; ++s) {
-          const uint32_t v = ms.sample[s]->visible[l];
-          if (v == kNoTriangle || v == owner) continue;
-          int leader = 0;
-          while (ms.sample[leader]->visible[l] != v) ++leader;
-          ++ms.weight[leader][l];
+          const i8 v = load<i8>(ms.sample[s]->visible + i);
+          const i8 other = (v != none) & (v != visible);  // all ones where counted
+          if (!any(other)) continue;
+          i8 leader = ids[s];
+          for (int t = s - 1; t >= 0; --t)
+            leader = load<i8>(ms.sample[t]->visible + i) == v ? ids[t] : leader;
+          for (int t = 0; t <= s; ++t) weight[t] -= (leader == ids[t]) & other;
         }
       }
+      for (int s = 0; s < count; ++s) store(ms.weight[s] + i, weight[s]);
     }
   }
 };

@@ -33,6 +33,10 @@ namespace sr {
 struct PrimitiveSetup;   // lines.hpp
 struct PrimitivePixels;
 
+// The most samples msaa_pattern makes: the resolve of a render shading once per pixel per
+// triangle keeps that many weights per lane group (multisample_tile requires it).
+constexpr int kMaxMsaaSamples = 16;
+
 // The Direct3D / Vulkan standard sample positions for msaa = 1, 2, 4, 8, 16 (offsets from the
 // pixel's top-left corner, fixed point); throws std::invalid_argument for another count.
 SamplePattern msaa_pattern(int count);

@@ -247,6 +247,8 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   // anti-aliasing keeps the renderer's one-sample viewport.
   const SamplePattern pattern =
       options.ssaa != 1 ? ssaa_pattern(options.ssaa) : msaa_pattern(options.msaa);
+  if (options.ssaa <= 1 && pattern.count > kMaxMsaaSamples)  // (msaa_pattern never makes one)
+    throw std::logic_error("msaa pattern with more than 16 samples");
   const Viewport viewport =
       pattern.count > 1 ? Viewport(width(), height(), pattern) : viewport_;
   const bool multisample = viewport.samples.count > 1;
