@@ -260,13 +260,23 @@ template <typename Pattern, typename Model, bool kColor, bool kNormal>
 struct ShadeVisible {
   SR_INLINE static void run(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
                             ShadeScratch& scratch) {
-    scratch.used.assign(raster.triangles.size(), 0);
+    // Which triangles own a pixel: eight entries at a time, groups with none skipped (an msaa
+    // pass other than the first owns few pixels), the rest marked without branches (an empty
+    // entry marks the spare last slot).
+    const uint32_t n = uint32_t(raster.triangles.size());
+    scratch.used.assign(n + 1, 0);
+    uint8_t* const used = scratch.used.data();
+    const i8 none = splat(int32_t(kNoTriangle)), lane = lane_index();
+    const int width = rect.x1 - rect.x0;
     for (int y = rect.y0; y < rect.y1; ++y) {
       const uint32_t* visible = raster.visible + (y - rect.y0) * kTileSizePx;
-      for (int x = 0; x < rect.x1 - rect.x0; ++x)
-        if (visible[x] != kNoTriangle) scratch.used[visible[x]] = 1;
+      for (int x = 0; x < width; x += kLanes) {
+        const i8 v = lane < width - x ? load<i8>(visible + x) : none;
+        if (!any(v != none)) continue;
+        for (int k = 0; k < kLanes; ++k) used[std::min(uint32_t(v[k]), n)] = 1;
+      }
     }
-    for (uint32_t v = 0; v < scratch.used.size(); ++v)
+    for (uint32_t v = 0; v < n; ++v)
       if (scratch.used[v]) shade_triangle<Pattern, Model, kColor, kNormal>(p, rect, raster, v, scratch);
     if constexpr (kColor && DefersLight<Model>::value) light_tile<Model>(p, rect, raster, scratch);
   }
