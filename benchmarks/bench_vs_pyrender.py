@@ -529,20 +529,22 @@ def report_lit(results: list[dict]) -> None:
     errors = {k: v for r in results for k, v in r["errors"].items()}
     for name, err in errors.items():
         print(f"  {name}: {err}")
+    report_lit_floor(results)
+
+
+def report_lit_floor(results: list[dict]) -> None:
+    """The goal's frame time (pyrender / 20) next to the row's frames without lighting."""
     print(f"\nThe goal's frame time (pyrender / {LIT_GOAL:.0f}) against the same row's softrast frames"
           "\nwithout lighting (t2): depth only, and unlit colour+depth (interpolated base colour, sRGB)")
-    head = (f"{'model':<12}{'scene':<7}{'size':>10}{'goal ms':>9}{'depth':>8}{'unlit':>8}{'lit':>8}"
-            f"{'goal/depth':>11}{'goal/unlit':>11}")
-    print(head)
-    print("-" * len(head))
+    names = ("pyrender color+depth", "softrast t2 depth out", "softrast t2 unlit color+depth out",
+             "softrast t2 color+depth out")
+    cols = ("goal ms", "depth", "unlit", "lit", "goal/depth", "goal/unlit")
+    print(f"{'row':<32}" + "".join(f"{c:>11}" for c in cols))
     for r in results:
-        pyr, t2, depth, unlit = (get(r, k) for k in ("pyrender color+depth", "softrast t2 color+depth out",
-                                                     "softrast t2 depth out",
-                                                     "softrast t2 unlit color+depth out"))
+        pyr, depth, unlit, lit = (r["ms"].get(k, float("nan")) for k in names)
         goal = pyr / LIT_GOAL
-        print(f"{r['model']:<12}{r['scene']:<7}{str(r['width']) + 'x' + str(r['height']):>10}{fmt(goal, 9, 2)}"
-              f"{fmt(depth, 8, 2)}{fmt(unlit, 8, 2)}{fmt(t2, 8, 2)}{fmt(ratio(goal, depth), 11, 2)}"
-              f"{fmt(ratio(goal, unlit), 11, 2)}")
+        values = (goal, depth, unlit, lit, ratio(goal, depth), ratio(goal, unlit))
+        print(f"{r['row']:<32}" + "".join(fmt(v, 11, 2) for v in values))
 
 
 # ------------------------------------------------------------------ textured rows (issue 17)

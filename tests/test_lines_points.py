@@ -262,6 +262,22 @@ def test_perspective_correct_depth_and_colour_along_a_line():
     assert np.abs(u - s).max() > 0.1
 
 
+def point_winners(frame, px, py, depth, w, h):
+    """The z-buffer of one-pixel points at pixels (px, py): per pixel the nearest, then the first
+    drawn. Asserts the frame's mask is exactly the pixels won; returns the winners' indices and
+    their pixels' rows and columns."""
+    idx = np.flatnonzero((px >= 0) & (px < w) & (py >= 0) & (py < h))
+    flat = py[idx] * w + px[idx]
+    order = np.lexsort((idx, depth[idx], flat))
+    flat_sorted = flat[order]
+    first = np.r_[True, flat_sorted[1:] != flat_sorted[:-1]]
+    expected_mask = np.zeros(w * h, bool)
+    expected_mask[flat_sorted[first]] = True
+    np.testing.assert_array_equal(frame.mask.ravel(), expected_mask)
+    wy, wx = np.divmod(flat_sorted[first], w)
+    return idx[order][first], wy, wx
+
+
 def test_point_cloud_lands_where_numpy_projects(rng):
     n = 100_000
     w, h = 300, 200
@@ -278,17 +294,7 @@ def test_point_cloud_lands_where_numpy_projects(rng):
     px = np.floor(stored[:, 0] + w / 2.0).astype(np.int64)
     py = np.floor(h / 2.0 - stored[:, 1]).astype(np.int64)
     depth = -stored[:, 2]
-    inside = (px >= 0) & (px < w) & (py >= 0) & (py < h)
-    idx = np.flatnonzero(inside)
-    flat = py[idx] * w + px[idx]
-    order = np.lexsort((idx, depth[idx], flat))  # per pixel: nearest, then first drawn
-    flat_sorted = flat[order]
-    first = np.r_[True, flat_sorted[1:] != flat_sorted[:-1]]
-    winner = idx[order][first]
-    expected_mask = np.zeros(w * h, bool)
-    expected_mask[flat_sorted[first]] = True
-    np.testing.assert_array_equal(frame.mask.ravel(), expected_mask)
-    wy, wx = np.divmod(flat_sorted[first], w)
+    winner, wy, wx = point_winners(frame, px, py, depth, w, h)
     np.testing.assert_allclose(frame.depth[wy, wx], depth[winner], rtol=1e-6)
     np.testing.assert_array_equal(frame.radiance[wy, wx], colors[winner])
     assert (frame.instance_id[frame.mask] == 5).all() and (frame.triangle_id == -1).all()
@@ -320,17 +326,7 @@ def test_perspective_point_cloud_with_a_pose_against_numpy(size, rng):
     frame = render(scene, cam, outputs=("mask", "depth", "radiance", "position", "ray_depth",
                                         "instance_id"), w=w, h=h)
     px, py = np.floor(xy).astype(np.int64).T
-    inside = (px >= 0) & (px < w) & (py >= 0) & (py < h)
-    idx = np.flatnonzero(inside)
-    flat = py[idx] * w + px[idx]
-    order = np.lexsort((idx, depth[idx], flat))
-    flat_sorted = flat[order]
-    first = np.r_[True, flat_sorted[1:] != flat_sorted[:-1]]
-    winner = idx[order][first]
-    expected = np.zeros(w * h, bool)
-    expected[flat_sorted[first]] = True
-    np.testing.assert_array_equal(frame.mask.ravel(), expected)
-    wy, wx = np.divmod(flat_sorted[first], w)
+    winner, wy, wx = point_winners(frame, px, py, depth, w, h)
     np.testing.assert_allclose(frame.depth[wy, wx], depth[winner], rtol=1e-5)
     np.testing.assert_array_equal(frame.radiance[wy, wx], colors[winner])
     np.testing.assert_allclose(frame.position[wy, wx], world[winner], rtol=1e-5, atol=1e-5)
