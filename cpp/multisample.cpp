@@ -161,9 +161,10 @@ struct MaskPass {
   }
 };
 
-// Adds pass s's shade times its weights; the representative's pass gives the normal.
+// Adds pass s's shade (`shaded`) times its weights; the representative's pass gives the normal.
 struct Accumulate {
-  SR_INLINE static void run(MultisampleScratch* ms, int n, int s, bool normals) {
+  SR_INLINE static void run(MultisampleScratch* ms, const ShadeScratch* shaded, int n, int s,
+                            bool normals) {
     const i8 me = splat(s);
     for (int i = 0; i < n; i += kLanes) {
       const i8 weight = load<i8>(ms->weight[s] + i);
@@ -172,12 +173,12 @@ struct Accumulate {
       // (selects, not products alone: a pixel this pass did not shade holds a stale value)
       for (int c = 0; c < 3; ++c)
         store(ms->radiance[c] + i, load<f8>(ms->radiance[c] + i) +
-                                       (weight != 0 ? w * load<f8>(ms->shaded.rgb[c] + i) : f8{}));
+                                       (weight != 0 ? w * load<f8>(shaded->rgb[c] + i) : f8{}));
       if (normals) {
         const i8 mine = (weight != 0) & (load<i8>(ms->representative + i) == me);
         for (int c = 0; c < 3; ++c)
           store(ms->resolved_shade.normal[c] + i,
-                mine ? load<f8>(ms->shaded.normal[c] + i) : load<f8>(ms->resolved_shade.normal[c] + i));
+                mine ? load<f8>(shaded->normal[c] + i) : load<f8>(ms->resolved_shade.normal[c] + i));
       }
     }
   }
@@ -241,11 +242,22 @@ void multisample_tile(const ShadeParams& params, const TileKernels& kernels,
     const bool normals = params.framebuffer->get<float>(kOutNormal) != nullptr;
     for (int c = 0; c < 3; ++c) std::fill_n(ms.radiance[c], n, 0.0f);
     const auto mask = kernel<MaskPass, bool (*)(MultisampleScratch*, int, int)>(isa);
-    const auto accumulate = kernel<Accumulate, void (*)(MultisampleScratch*, int, int, bool)>(isa);
-    for (int s = 0; s < count; ++s) {
-      if (!mask(&ms, n, s)) continue;
-      kernels.deferred(params, rect, *ms.sample[s], ms.shaded);
-      accumulate(&ms, n, s, normals);
+    const auto accumulate =
+        kernel<Accumulate, void (*)(MultisampleScratch*, const ShadeScratch*, int, int, bool)>(isa);
+    for (int first = 0; first < count; first += kShadeBatch) {
+      // The batch's passes that shade a pixel, each with its own scratch.
+      const TileScratch* rasters[kShadeBatch];
+      ShadeScratch* outs[kShadeBatch];
+      int pass[kShadeBatch], m = 0;
+      for (int s = first; s < std::min(count, first + kShadeBatch); ++s) {
+        if (!mask(&ms, n, s)) continue;
+        rasters[m] = ms.sample[s].get();
+        outs[m] = &ms.shaded[m];
+        pass[m++] = s;
+      }
+      if (m == 0) continue;
+      kernels.deferred(params, rect, rasters, outs, m);
+      for (int k = 0; k < m; ++k) accumulate(&ms, outs[k], n, pass[k], normals);
     }
     const float background[3] = {background_linear.x, background_linear.y, background_linear.z};
     kernel<Finish, void (*)(MultisampleScratch*, int, int, const float*)>(isa)(&ms, n, count,

@@ -54,12 +54,17 @@ struct ResolvedSamples {
   const uint32_t* coverage;       // fragments over all samples
 };
 
+// Sample passes shaded together: each visible triangle is prepared once per batch for all the
+// passes of it that it owns pixels in (most triangles of a detailed mesh own pixels in several:
+// their edges cross most pixels), at the cost of a shade scratch per pass of the batch.
+constexpr int kShadeBatch = 4;
+
 // Per-thread scratch of the multisample tile pass, allocated on a worker's first multisample
 // tile (renders without anti-aliasing never allocate it).
 struct MultisampleScratch {
   std::vector<std::unique_ptr<TileScratch>> sample;  // one per sample of the pattern
   TileScratch resolved;  // the representative sample's key and visible entry per pixel
-  ShadeScratch shaded;   // one pass's shade
+  ShadeScratch shaded[kShadeBatch];  // the shade of each pass of a batch
   ShadeScratch resolved_shade;  // rgb: the colour output's linear value; normal: the
                                 // representative's
   float radiance[3][kTileScratchPixels];

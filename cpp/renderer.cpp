@@ -385,7 +385,7 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
       ShadeScratch& shaded = *shade_scratch_[worker];
       rasterize_tile(kernels.raster, viewport, int(tile), chunks_, num_chunks, plan.coverage,
                      scratch);
-      if (kernels.deferred) kernels.deferred(shade, rect, scratch, shaded);
+      if (kernels.deferred) shade_deferred(kernels, shade, rect, scratch, shaded);
       PrimitivePixels* pixels = primitive_pixels_[worker].get();
       const OverlayTarget target{scratch.key, scratch.visible,
                                  {shaded.rgb[0], shaded.rgb[1], shaded.rgb[2]},

@@ -41,7 +41,7 @@ void rasterize_and_shade_tile(const ShadeParams& params, const TileKernels& kern
 void shade_tile(const ShadeParams& params, const TileKernels& kernels, const Viewport& viewport,
                 int tile, const TileScratch& raster, ShadeScratch& scratch) {
   const TileRect rect = tile_rect(viewport, tile);
-  if (kernels.deferred) kernels.deferred(params, rect, raster, scratch);
+  if (kernels.deferred) shade_deferred(kernels, params, rect, raster, scratch);
   write_tile(params, rect, raster, scratch, kernels.isa);
 }
 

@@ -38,7 +38,8 @@ struct ShadeParams {
 // Allocate default-initialised (new ShadeScratch): `normal` is then left untouched, which spares
 // a first frame its page faults unless normals are an output (read only where shaded).
 struct ShadeScratch {
-  std::vector<uint8_t> used;  // per binned-triangle index: owns at least one pixel of the tile
+  std::vector<uint32_t> used;  // per binned-triangle index: the passes it owns a pixel in (a bit
+                               // each: deferred shading, ShadeVisible)
   std::vector<uint32_t> large;  // forward shading: int64-path triangles left to a deferred pass
   float rgb[3][kTileScratchPixels] = {};  // linear radiance, one plane per channel (whole rows
                                           // are read, background pixels' values discarded)
@@ -62,7 +63,10 @@ struct ShadeScratch {
 struct TileKernels {
   RasterizeFn raster = nullptr;
   RasterizeSamplesFn raster_samples = nullptr;  // a pattern of several samples (multisample.cpp)
-  using Deferred = void (*)(const ShadeParams&, const TileRect&, const TileScratch&, ShadeScratch&);
+  // Shades `passes` (<= 32) raster passes of a tile, each into its own scratch (msaa's samples;
+  // one pass otherwise).
+  using Deferred = void (*)(const ShadeParams&, const TileRect&, const TileScratch* const*,
+                            ShadeScratch* const*, int passes);
   using Forward = void (*)(const ShadeParams&, const TileRect&, int, const std::vector<SetupChunk>&,
                            std::size_t, TileScratch&, ShadeScratch&);
   Deferred deferred = nullptr;
@@ -71,6 +75,14 @@ struct TileKernels {
   bool coverage = false;
 };
 TileKernels select_tile_kernels(const RenderPlan& plan, const Viewport& viewport, Isa isa);
+
+// Deferred shading of one raster pass (kernels.deferred not null).
+inline void shade_deferred(const TileKernels& kernels, const ShadeParams& params,
+                           const TileRect& rect, const TileScratch& raster, ShadeScratch& out) {
+  const TileScratch* rasters[1] = {&raster};
+  ShadeScratch* outs[1] = {&out};
+  kernels.deferred(params, rect, rasters, outs, 1);
+}
 
 // Forward shading: rasterizes `tile` (as rasterize_tile) and shades each fragment as it wins the
 // depth test, then writes the outputs as shade_tile does. The same bits as rasterize_tile +

@@ -197,10 +197,9 @@ SR_INLINE void light_tile(const ShadeParams& p, const TileRect& rect, const Tile
 // Shades the pixels of rows [y0, y1], columns [x0, x1] of the tile that visible triangle `index`
 // owns, into the scratch buffers.
 template <typename Model, bool kColor, bool kNormal, typename Edges>
-SR_INLINE void shade_pixels(const ShadeParams& p, const ShadeTriangle<Model>& s, Edges edges,
-                            int x0, int x1, int y0, int y1, const TileRect& rect,
+SR_INLINE void shade_pixels(const ShadeTriangle<Model>& s, const ShadeConstants<Model>& c,
+                            Edges edges, int x0, int x1, int y0, int y1, const TileRect& rect,
                             const TileScratch& raster, uint32_t index, ShadeScratch& out) {
-  const ShadeConstants<Model> c(p, s);
   const i8 lane = lane_index(), index_v = splat(int32_t(index));
   const int width = x1 - x0 + 1;
   for (int y = y0; y <= y1; ++y, edges.next_row()) {
@@ -217,11 +216,10 @@ SR_INLINE void shade_pixels(const ShadeParams& p, const ShadeTriangle<Model>& s,
 
 // The same for a small triangle whose box is at most four pixels wide, two rows at a time.
 template <typename Model, bool kColor, bool kNormal>
-SR_INLINE void shade_pairs(const ShadeParams& p, const ShadeTriangle<Model>& s,
+SR_INLINE void shade_pairs(const ShadeTriangle<Model>& s, const ShadeConstants<Model>& c,
                            SmallEdgePairs edges, int x0, int x1, int y0, int y1,
                            const TileRect& rect, const TileScratch& raster, uint32_t index,
                            ShadeScratch& out) {
-  const ShadeConstants<Model> c(p, s);
   const i8 lane = lane_index(), index_v = splat(int32_t(index));
   const i8 in_box_x = (lane & 3) < x1 - x0 + 1, row = lane >> 2;
   for (int y = y0; y <= y1; y += 2, edges.next_rows()) {
@@ -234,51 +232,76 @@ SR_INLINE void shade_pairs(const ShadeParams& p, const ShadeTriangle<Model>& s,
   }
 }
 
-template <typename Pattern, typename Model, bool kColor, bool kNormal>
-SR_INLINE void shade_triangle(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
-                              uint32_t index, ShadeScratch& out) {
-  const VisibleTriangle& vt = raster.triangles[index];
-  const TriangleSetup& t = *vt.tri;
+// Shades the pixels of `raster` that visible triangle `index` owns, the triangle prepared (s, c):
+// its edges are evaluated at the raster's sample offset.
+template <typename Model, bool kColor, bool kNormal>
+SR_INLINE void shade_prepared(const TileRect& rect, const TileScratch& raster, uint32_t index,
+                              const ShadeTriangle<Model>& s, const ShadeConstants<Model>& c,
+                              ShadeScratch& out) {
+  const TriangleSetup& t = *raster.triangles[index].tri;
   const int x0 = std::max(int(t.x0), rect.x0), x1 = std::min(int(t.x1), rect.x1 - 1);
   const int y0 = std::max(int(t.y0), rect.y0), y1 = std::min(int(t.y1), rect.y1 - 1);
-  ShadeTriangle<Model> s;
-  prepare<Model, Model::kReadsNormal || kNormal>(p, vt, s);
   const EdgeEquations eq = edge_equations(t, x0, y0, raster);
   if (is_small(t) && x1 - x0 < 4 && y1 > y0)
-    shade_pairs<Model, kColor, kNormal>(p, s, SmallEdgePairs(eq), x0, x1, y0, y1, rect, raster,
+    shade_pairs<Model, kColor, kNormal>(s, c, SmallEdgePairs(eq), x0, x1, y0, y1, rect, raster,
                                         index, out);
   else if (is_small(t))
-    shade_pixels<Model, kColor, kNormal>(p, s, SmallEdges(eq), x0, x1, y0, y1, rect, raster,
+    shade_pixels<Model, kColor, kNormal>(s, c, SmallEdges(eq), x0, x1, y0, y1, rect, raster,
                                          index, out);
   else
-    shade_pixels<Model, kColor, kNormal>(p, s, LargeEdges(eq), x0, x1, y0, y1, rect, raster,
+    shade_pixels<Model, kColor, kNormal>(s, c, LargeEdges(eq), x0, x1, y0, y1, rect, raster,
                                          index, out);
 }
 
-// Deferred shading: each triangle that owns a pixel of the tile, once, over the pixels it owns.
+template <typename Pattern, typename Model, bool kColor, bool kNormal>
+SR_INLINE void shade_triangle(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
+                              uint32_t index, ShadeScratch& out) {
+  ShadeTriangle<Model> s;
+  prepare<Model, Model::kReadsNormal || kNormal>(p, raster.triangles[index], s);
+  shade_prepared<Model, kColor, kNormal>(rect, raster, index, s, ShadeConstants<Model>(p, s), out);
+}
+
+// Deferred shading: each triangle that owns a pixel of the tile, once, over the pixels it owns,
+// for each of `passes` raster passes of the tile (msaa's samples, each into its own scratch;
+// one pass otherwise). The passes binned the same triangles: a triangle is prepared once for all
+// the passes it owns pixels of.
 template <typename Pattern, typename Model, bool kColor, bool kNormal>
 struct ShadeVisible {
-  SR_INLINE static void run(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
-                            ShadeScratch& scratch) {
-    // Which triangles own a pixel: eight entries at a time, groups with none skipped (an msaa
-    // pass other than the first owns few pixels), the rest marked without branches (an empty
-    // entry marks the spare last slot).
-    const uint32_t n = uint32_t(raster.triangles.size());
-    scratch.used.assign(n + 1, 0);
-    uint8_t* const used = scratch.used.data();
+  SR_INLINE static void run(const ShadeParams& p, const TileRect& rect,
+                            const TileScratch* const* rasters, ShadeScratch* const* outs,
+                            int passes) {
+    // Per triangle, the passes in which it owns a pixel: eight entries at a time, groups with
+    // none skipped (an msaa pass other than the first owns few pixels), the rest marked without
+    // branches (an empty entry marks the spare last slot).
+    const uint32_t n = uint32_t(rasters[0]->triangles.size());
+    std::vector<uint32_t>& used = outs[0]->used;
+    used.assign(n + 1, 0);
     const i8 none = splat(int32_t(kNoTriangle)), lane = lane_index();
     const int width = rect.x1 - rect.x0;
-    for (int y = rect.y0; y < rect.y1; ++y) {
-      const uint32_t* visible = raster.visible + (y - rect.y0) * kTileSizePx;
-      for (int x = 0; x < width; x += kLanes) {
-        const i8 v = lane < width - x ? load<i8>(visible + x) : none;
-        if (!any(v != none)) continue;
-        for (int k = 0; k < kLanes; ++k) used[std::min(uint32_t(v[k]), n)] = 1;
+    for (int k = 0; k < passes; ++k) {
+      const uint32_t bit = 1u << k;
+      for (int y = rect.y0; y < rect.y1; ++y) {
+        const uint32_t* visible = rasters[k]->visible + (y - rect.y0) * kTileSizePx;
+        for (int x = 0; x < width; x += kLanes) {
+          const i8 v = lane < width - x ? load<i8>(visible + x) : none;
+          if (!any(v != none)) continue;
+          for (int l = 0; l < kLanes; ++l) used[std::min(uint32_t(v[l]), n)] |= bit;
+        }
       }
     }
-    for (uint32_t v = 0; v < n; ++v)
-      if (scratch.used[v]) shade_triangle<Pattern, Model, kColor, kNormal>(p, rect, raster, v, scratch);
-    if constexpr (kColor && DefersLight<Model>::value) light_tile<Model>(p, rect, raster, scratch);
+    for (uint32_t v = 0; v < n; ++v) {
+      uint32_t mask = used[v];
+      if (!mask) continue;
+      ShadeTriangle<Model> s;
+      prepare<Model, Model::kReadsNormal || kNormal>(p, rasters[0]->triangles[v], s);
+      const ShadeConstants<Model> c(p, s);
+      for (; mask; mask &= mask - 1) {
+        const int k = __builtin_ctz(mask);
+        shade_prepared<Model, kColor, kNormal>(rect, *rasters[k], v, s, c, *outs[k]);
+      }
+    }
+    if constexpr (kColor && DefersLight<Model>::value)
+      for (int k = 0; k < passes; ++k) light_tile<Model>(p, rect, *rasters[k], *outs[k]);
   }
 };
 
