@@ -57,7 +57,7 @@ struct ResolvedSamples {
 // Sample passes shaded together: each visible triangle is prepared once per batch for all the
 // passes of it that it owns pixels in (most triangles of a detailed mesh own pixels in several:
 // their edges cross most pixels), at the cost of a shade scratch per pass of the batch.
-constexpr int kShadeBatch = 4;
+constexpr int kShadeBatch = kMaxShadePasses;
 
 // Per-thread scratch of the multisample tile pass, allocated on a worker's first multisample
 // tile (renders without anti-aliasing never allocate it).

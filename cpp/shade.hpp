@@ -33,13 +33,16 @@ struct ShadeParams {
   dvec3 camera_centre;           // world space (ray_depth of a perspective camera)
   int32_t sample_x, sample_y;    // the pixels' sample (viewport.hpp): where surfaces are read
 };
+// The most raster passes one call of deferred shading takes (TileKernels::Deferred).
+constexpr int kMaxShadePasses = 4;
+
 // Per-thread scratch for shade_tile: which binned triangles own a pixel, and the tile's shaded
 // values (row stride kTileSizePx, padded like TileScratch) before they go to the framebuffer.
 // Allocate default-initialised (new ShadeScratch): `normal` is then left untouched, which spares
 // a first frame its page faults unless normals are an output (read only where shaded).
 struct ShadeScratch {
-  std::vector<uint32_t> used;  // per binned-triangle index: the passes it owns a pixel in (a bit
-                               // each: deferred shading, ShadeVisible)
+  std::vector<uint8_t> used;  // per binned-triangle index, kMaxShadePasses bytes: owns a pixel
+                              // in that pass (deferred shading, ShadeVisible)
   std::vector<uint32_t> large;  // forward shading: int64-path triangles left to a deferred pass
   float rgb[3][kTileScratchPixels] = {};  // linear radiance, one plane per channel (whole rows
                                           // are read, background pixels' values discarded)
@@ -63,8 +66,8 @@ struct ShadeScratch {
 struct TileKernels {
   RasterizeFn raster = nullptr;
   RasterizeSamplesFn raster_samples = nullptr;  // a pattern of several samples (multisample.cpp)
-  // Shades `passes` (<= 32) raster passes of a tile, each into its own scratch (msaa's samples;
-  // one pass otherwise).
+  // Shades `passes` (<= kMaxShadePasses) raster passes of a tile, each into its own scratch
+  // (msaa's samples; one pass otherwise).
   using Deferred = void (*)(const ShadeParams&, const TileRect&, const TileScratch* const*,
                             ShadeScratch* const*, int passes);
   using Forward = void (*)(const ShadeParams&, const TileRect&, int, const std::vector<SetupChunk>&,

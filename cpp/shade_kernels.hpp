@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 namespace sr {
 namespace shading {
@@ -270,35 +271,37 @@ struct ShadeVisible {
   SR_INLINE static void run(const ShadeParams& p, const TileRect& rect,
                             const TileScratch* const* rasters, ShadeScratch* const* outs,
                             int passes) {
-    // Per triangle, the passes in which it owns a pixel: eight entries at a time, groups with
-    // none skipped (an msaa pass other than the first owns few pixels), the rest marked without
-    // branches (an empty entry marks the spare last slot).
+    // Per triangle and pass, whether it owns a pixel (a byte each, written without reading):
+    // eight entries at a time, groups with none skipped (an msaa pass other than the first owns
+    // few pixels), the rest marked without branches (an empty entry marks the spare last slot).
+    constexpr int kStride = kMaxShadePasses;
     const uint32_t n = uint32_t(rasters[0]->triangles.size());
-    std::vector<uint32_t>& used = outs[0]->used;
-    used.assign(n + 1, 0);
+    std::vector<uint8_t>& used = outs[0]->used;
+    used.assign(std::size_t(n + 1) * kStride, 0);
     const i8 none = splat(int32_t(kNoTriangle)), lane = lane_index();
     const int width = rect.x1 - rect.x0;
     for (int k = 0; k < passes; ++k) {
-      const uint32_t bit = 1u << k;
+      uint8_t* const mark = used.data() + k;
       for (int y = rect.y0; y < rect.y1; ++y) {
         const uint32_t* visible = rasters[k]->visible + (y - rect.y0) * kTileSizePx;
         for (int x = 0; x < width; x += kLanes) {
           const i8 v = lane < width - x ? load<i8>(visible + x) : none;
           if (!any(v != none)) continue;
-          for (int l = 0; l < kLanes; ++l) used[std::min(uint32_t(v[l]), n)] |= bit;
+          for (int l = 0; l < kLanes; ++l)
+            mark[std::size_t(std::min(x + l < width ? visible[x + l] : kNoTriangle, n)) * kStride] = 1;
         }
       }
     }
     for (uint32_t v = 0; v < n; ++v) {
-      uint32_t mask = used[v];
-      if (!mask) continue;
+      const uint8_t* const owns = used.data() + std::size_t(v) * kStride;
+      uint32_t any_pass;
+      std::memcpy(&any_pass, owns, sizeof any_pass);
+      if (!any_pass) continue;
       ShadeTriangle<Model> s;
       prepare<Model, Model::kReadsNormal || kNormal>(p, rasters[0]->triangles[v], s);
       const ShadeConstants<Model> c(p, s);
-      for (; mask; mask &= mask - 1) {
-        const int k = __builtin_ctz(mask);
-        shade_prepared<Model, kColor, kNormal>(rect, *rasters[k], v, s, c, *outs[k]);
-      }
+      for (int k = 0; k < passes; ++k)
+        if (owns[k]) shade_prepared<Model, kColor, kNormal>(rect, *rasters[k], v, s, c, *outs[k]);
     }
     if constexpr (kColor && DefersLight<Model>::value)
       for (int k = 0; k < passes; ++k) light_tile<Model>(p, rect, *rasters[k], *outs[k]);
