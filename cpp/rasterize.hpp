@@ -254,11 +254,12 @@ SR_INLINE i8 edges_cover(const i8 (&e)[3], const TriangleLanes& lanes) {
 }
 
 // A small triangle (is_small), eight pixels of a row at a time in exact int32.
+// (`lanes`: TriangleLanes(t, index, s.tie), made once for all of a pixel's samples.)
 template <typename Pattern, bool kCoverage, typename Hook>
 SR_INLINE void rasterize_small(const TriangleSetup& t, int x0, int x1, int y0, int y1,
-                               const TileRect& rect, uint32_t index, TileScratch& s, Hook& hook) {
+                               const TileRect& rect, const TriangleLanes& lanes, TileScratch& s,
+                               Hook& hook) {
   SmallEdges edges(edge_equations(t, x0, y0, s));
-  const TriangleLanes lanes(t, index, s.tie);
   const i8 lane = lane_index();
   const int width = x1 - x0 + 1;
   for (int y = y0; y <= y1; ++y, edges.next_row()) {
@@ -276,9 +277,9 @@ SR_INLINE void rasterize_small(const TriangleSetup& t, int x0, int x1, int y0, i
 // row high: two rows of four pixels at a time (SmallEdgePairs), otherwise as rasterize_small.
 template <typename Pattern, bool kCoverage, typename Hook>
 SR_INLINE void rasterize_pairs(const TriangleSetup& t, int x0, int x1, int y0, int y1,
-                               const TileRect& rect, uint32_t index, TileScratch& s, Hook& hook) {
+                               const TileRect& rect, const TriangleLanes& lanes, TileScratch& s,
+                               Hook& hook) {
   SmallEdgePairs edges(edge_equations(t, x0, y0, s));
-  const TriangleLanes lanes(t, index, s.tie);
   const i8 lane = lane_index(), row = lane >> 2;
   const i8 in_box_x = (lane & 3) < x1 - x0 + 1;
   for (int y = y0; y <= y1; y += 2, edges.next_rows()) {
@@ -342,10 +343,11 @@ SR_INLINE void rasterize_all(const TileRect& rect, int tile, const std::vector<S
         continue;
       }
       if (is_small(t)) {
+        const TriangleLanes lanes(t, index, s.tie);
         if (x1 - x0 < 4 && y1 > y0)
-          rasterize_pairs<Pattern, kCoverage>(t, x0, x1, y0, y1, rect, index, s, hook);
+          rasterize_pairs<Pattern, kCoverage>(t, x0, x1, y0, y1, rect, lanes, s, hook);
         else
-          rasterize_small<Pattern, kCoverage>(t, x0, x1, y0, y1, rect, index, s, hook);
+          rasterize_small<Pattern, kCoverage>(t, x0, x1, y0, y1, rect, lanes, s, hook);
       }
       else {
         rasterize_large<Pattern, kCoverage>(t, x0, x1, y0, y1, rect, index, s, hook);
@@ -391,12 +393,13 @@ SR_INLINE void rasterize_all_samples(const TileRect& rect, int tile,
         continue;
       }
       if (is_small(t)) {
+        const TriangleLanes lanes(t, index, samples[0]->tie);  // (every pass has the render's)
         if (x1 - x0 < 4 && y1 > y0)
           for (int s = 0; s < count; ++s)
-            rasterize_pairs<void, kCoverage>(t, x0, x1, y0, y1, rect, index, *samples[s], hook);
+            rasterize_pairs<void, kCoverage>(t, x0, x1, y0, y1, rect, lanes, *samples[s], hook);
         else
           for (int s = 0; s < count; ++s)
-            rasterize_small<void, kCoverage>(t, x0, x1, y0, y1, rect, index, *samples[s], hook);
+            rasterize_small<void, kCoverage>(t, x0, x1, y0, y1, rect, lanes, *samples[s], hook);
       }
       else {
         for (int s = 0; s < count; ++s)
