@@ -356,6 +356,48 @@ SR_INLINE void rasterize_all(const TileRect& rect, int tile, const std::vector<S
   }
 }
 
+// A small triangle's samples in one walk (rasterize_small / rasterize_pairs for each sample's
+// scratch): the edge functions are affine, so sample s's exact values are sample 0's plus one
+// constant per edge, E_s - E_0 = dx_k (sy_s - sy_0) - dy_k (sx_s - sx_0), and both fit in int32
+// (|E| < 2^30, above): the same integers, so the same depth tests as a walk per sample.
+template <bool kCoverage, bool kPairs>
+SR_INLINE void rasterize_small_samples(const TriangleSetup& t, int x0, int x1, int y0, int y1,
+                                       const TileRect& rect, const TriangleLanes& lanes,
+                                       TileScratch* const* samples, int count) {
+  const EdgeEquations eq = edge_equations(t, x0, y0, *samples[0]);
+  int32_t offset[kMaxSamples][3];
+  for (int s = 0; s < count; ++s) {
+    const EdgeEquations es = edge_equations(t, x0, y0, *samples[s]);
+    for (int k = 0; k < 3; ++k) offset[s][k] = int32_t(es.origin[k] - eq.origin[k]);
+  }
+  NoShading hook;
+  const i8 lane = lane_index();
+  const auto run = [&](const i8 (&e0)[3], int i, i8 in_box) {
+    for (int s = 0; s < count; ++s) {
+      const i8 e[3] = {e0[0] + offset[s][0], e0[1] + offset[s][1], e0[2] + offset[s][2]};
+      const i8 covered = edges_cover(e, lanes) & in_box;
+      if (any(covered))
+        depth_test<kCoverage, kPairs>(covered, i, to_float(e[0]), to_float(e[1]), to_float(e[2]),
+                                      lanes, *samples[s], hook);
+    }
+  };
+  if constexpr (kPairs) {
+    SmallEdgePairs edges(eq);
+    const i8 row = lane >> 2, in_box_x = (lane & 3) < x1 - x0 + 1;
+    for (int y = y0; y <= y1; y += 2, edges.next_rows())
+      run(edges.e, (y - rect.y0) * kTileSizePx + (x0 - rect.x0), in_box_x & (row < y1 - y + 1));
+  } else {
+    SmallEdges edges(eq);
+    const int width = x1 - x0 + 1;
+    for (int y = y0; y <= y1; ++y, edges.next_row()) {
+      int i = (y - rect.y0) * kTileSizePx + (x0 - rect.x0);
+      SmallEdges::Cursor c = edges.cursor();
+      for (int dx = 0; dx < width; dx += kLanes, i += kLanes, c.next(edges))
+        run(c.e, i, lane < width - dx);
+    }
+  }
+}
+
 // rasterize_all for `count` samples at once (NoShading): samples[s] is rasterized at its own
 // offset, with the same per-sample operations as rasterize_all, so the same bits.
 template <bool kCoverage, bool kScanline>
@@ -395,11 +437,9 @@ SR_INLINE void rasterize_all_samples(const TileRect& rect, int tile,
       if (is_small(t)) {
         const TriangleLanes lanes(t, index, samples[0]->tie);  // (every pass has the render's)
         if (x1 - x0 < 4 && y1 > y0)
-          for (int s = 0; s < count; ++s)
-            rasterize_pairs<void, kCoverage>(t, x0, x1, y0, y1, rect, lanes, *samples[s], hook);
+          rasterize_small_samples<kCoverage, true>(t, x0, x1, y0, y1, rect, lanes, samples, count);
         else
-          for (int s = 0; s < count; ++s)
-            rasterize_small<void, kCoverage>(t, x0, x1, y0, y1, rect, lanes, *samples[s], hook);
+          rasterize_small_samples<kCoverage, false>(t, x0, x1, y0, y1, rect, lanes, samples, count);
       }
       else {
         for (int s = 0; s < count; ++s)
