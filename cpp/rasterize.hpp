@@ -360,6 +360,21 @@ SR_INLINE void rasterize_all(const TileRect& rect, int tile, const std::vector<S
 // scratch): the edge functions are affine, so sample s's exact values are sample 0's plus one
 // constant per edge, E_s - E_0 = dx_k (sy_s - sy_0) - dy_k (sx_s - sx_0), and both fit in int32
 // (|E| < 2^30, above): the same integers, so the same depth tests as a walk per sample.
+// (A function, not a lambda: a lambda is not always inline, and out of line it would be compiled
+// for the generic target, not the kernel's: dispatch.hpp.)
+template <bool kCoverage, bool kPairs>
+SR_INLINE void test_samples(const i8 (&e0)[3], const int32_t (*offset)[3], int i, i8 in_box,
+                            const TriangleLanes& lanes, TileScratch* const* samples, int count) {
+  NoShading hook;
+  for (int s = 0; s < count; ++s) {
+    const i8 e[3] = {e0[0] + offset[s][0], e0[1] + offset[s][1], e0[2] + offset[s][2]};
+    const i8 covered = edges_cover(e, lanes) & in_box;
+    if (any(covered))
+      depth_test<kCoverage, kPairs>(covered, i, to_float(e[0]), to_float(e[1]), to_float(e[2]),
+                                    lanes, *samples[s], hook);
+  }
+}
+
 template <bool kCoverage, bool kPairs>
 SR_INLINE void rasterize_small_samples(const TriangleSetup& t, int x0, int x1, int y0, int y1,
                                        const TileRect& rect, const TriangleLanes& lanes,
@@ -370,22 +385,13 @@ SR_INLINE void rasterize_small_samples(const TriangleSetup& t, int x0, int x1, i
     const EdgeEquations es = edge_equations(t, x0, y0, *samples[s]);
     for (int k = 0; k < 3; ++k) offset[s][k] = int32_t(es.origin[k] - eq.origin[k]);
   }
-  NoShading hook;
   const i8 lane = lane_index();
-  const auto run = [&](const i8 (&e0)[3], int i, i8 in_box) {
-    for (int s = 0; s < count; ++s) {
-      const i8 e[3] = {e0[0] + offset[s][0], e0[1] + offset[s][1], e0[2] + offset[s][2]};
-      const i8 covered = edges_cover(e, lanes) & in_box;
-      if (any(covered))
-        depth_test<kCoverage, kPairs>(covered, i, to_float(e[0]), to_float(e[1]), to_float(e[2]),
-                                      lanes, *samples[s], hook);
-    }
-  };
   if constexpr (kPairs) {
     SmallEdgePairs edges(eq);
     const i8 row = lane >> 2, in_box_x = (lane & 3) < x1 - x0 + 1;
     for (int y = y0; y <= y1; y += 2, edges.next_rows())
-      run(edges.e, (y - rect.y0) * kTileSizePx + (x0 - rect.x0), in_box_x & (row < y1 - y + 1));
+      test_samples<kCoverage, kPairs>(edges.e, offset, (y - rect.y0) * kTileSizePx + (x0 - rect.x0),
+                                      in_box_x & (row < y1 - y + 1), lanes, samples, count);
   } else {
     SmallEdges edges(eq);
     const int width = x1 - x0 + 1;
@@ -393,7 +399,7 @@ SR_INLINE void rasterize_small_samples(const TriangleSetup& t, int x0, int x1, i
       int i = (y - rect.y0) * kTileSizePx + (x0 - rect.x0);
       SmallEdges::Cursor c = edges.cursor();
       for (int dx = 0; dx < width; dx += kLanes, i += kLanes, c.next(edges))
-        run(c.e, i, lane < width - dx);
+        test_samples<kCoverage, kPairs>(c.e, offset, i, lane < width - dx, lanes, samples, count);
     }
   }
 }
