@@ -356,42 +356,22 @@ SR_INLINE void rasterize_all(const TileRect& rect, int tile, const std::vector<S
   }
 }
 
-// A small triangle's samples in one walk (rasterize_small / rasterize_pairs for each sample's
-// scratch): the edge functions are affine, so sample s's exact values are sample 0's plus one
-// constant per edge, E_s - E_0 = dx_k (sy_s - sy_0) - dy_k (sx_s - sx_0), and both fit in int32
-// (|E| < 2^30, above): the same integers, so the same depth tests as a walk per sample.
-// (A function, not a lambda: a lambda is not always inline, and out of line it would be compiled
-// for the generic target, not the kernel's: dispatch.hpp.)
-template <bool kCoverage, bool kPairs>
-SR_INLINE void test_samples(const i8 (&e0)[3], const int32_t (*offset)[3], int i, i8 in_box,
-                            const TriangleLanes& lanes, TileScratch* const* samples, int count) {
-  NoShading hook;
-  for (int s = 0; s < count; ++s) {
-    const i8 e[3] = {e0[0] + offset[s][0], e0[1] + offset[s][1], e0[2] + offset[s][2]};
-    const i8 covered = edges_cover(e, lanes) & in_box;
-    if (any(covered))
-      depth_test<kCoverage, kPairs>(covered, i, to_float(e[0]), to_float(e[1]), to_float(e[2]),
-                                    lanes, *samples[s], hook);
-  }
-}
-
-template <bool kCoverage, bool kPairs>
-SR_INLINE void rasterize_small_samples(const TriangleSetup& t, int x0, int x1, int y0, int y1,
-                                       const TileRect& rect, const TriangleLanes& lanes,
-                                       TileScratch* const* samples, int count) {
-  const EdgeEquations eq = edge_equations(t, x0, y0, *samples[0]);
-  int32_t offset[kMaxSamples][3];
-  for (int s = 0; s < count; ++s) {
-    const EdgeEquations es = edge_equations(t, x0, y0, *samples[s]);
-    for (int k = 0; k < 3; ++k) offset[s][k] = int32_t(es.origin[k] - eq.origin[k]);
-  }
+// Walks a small triangle's box [x0, x1] x [y0, y1] (within the tile) eight lanes at a time, as
+// rasterize_pairs (two rows of four pixels: kPairs) or rasterize_small (eight pixels of a row) do,
+// calling group.run(e, i, in_box): the exact edge values of `eq` at the lanes' pixels, their scratch
+// index and the lanes inside the box. (`group` is a struct with an SR_INLINE member, never a
+// lambda: a lambda is not always inline, and out of line it is compiled for the generic target,
+// not the kernel's, dispatch.hpp.)
+template <bool kPairs, typename Group>
+SR_INLINE void walk_small_box(const EdgeEquations& eq, int x0, int x1, int y0, int y1,
+                              const TileRect& rect, Group& group) {
   const i8 lane = lane_index();
   if constexpr (kPairs) {
     SmallEdgePairs edges(eq);
     const i8 row = lane >> 2, in_box_x = (lane & 3) < x1 - x0 + 1;
     for (int y = y0; y <= y1; y += 2, edges.next_rows())
-      test_samples<kCoverage, kPairs>(edges.e, offset, (y - rect.y0) * kTileSizePx + (x0 - rect.x0),
-                                      in_box_x & (row < y1 - y + 1), lanes, samples, count);
+      group.run(edges.e, (y - rect.y0) * kTileSizePx + (x0 - rect.x0),
+                in_box_x & (row < y1 - y + 1));
   } else {
     SmallEdges edges(eq);
     const int width = x1 - x0 + 1;
@@ -399,9 +379,49 @@ SR_INLINE void rasterize_small_samples(const TriangleSetup& t, int x0, int x1, i
       int i = (y - rect.y0) * kTileSizePx + (x0 - rect.x0);
       SmallEdges::Cursor c = edges.cursor();
       for (int dx = 0; dx < width; dx += kLanes, i += kLanes, c.next(edges))
-        test_samples<kCoverage, kPairs>(c.e, offset, i, lane < width - dx, lanes, samples, count);
+        group.run(c.e, i, lane < width - dx);
     }
   }
+}
+
+// Several sample passes of a small triangle in one walk: the edge functions are affine, so pass
+// s's exact values are the first pass's (`eq`) plus one constant per edge, E_s - E_0 =
+// dx_k (sy_s - sy_0) - dy_k (sx_s - sx_0), all of them within int32 (|E| < 2^30, above): the same
+// integers as a walk per pass. The constants for the pass of scratch `s`:
+SR_INLINE void edge_offset(const TriangleSetup& t, int x0, int y0, const EdgeEquations& eq,
+                           const TileScratch& s, int32_t (&offset)[3]) {
+  const EdgeEquations es = edge_equations(t, x0, y0, s);
+  for (int k = 0; k < 3; ++k) offset[k] = int32_t(es.origin[k] - eq.origin[k]);
+}
+
+// rasterize_small / rasterize_pairs for each sample's scratch, in one walk (walk_small_box).
+template <bool kCoverage, bool kPairs>
+struct SampleTests {
+  const int32_t (*offset)[3];
+  const TriangleLanes& lanes;
+  TileScratch* const* samples;
+  int count;
+  SR_INLINE void run(const i8 (&e0)[3], int i, i8 in_box) {
+    NoShading hook;
+    for (int s = 0; s < count; ++s) {
+      const i8 e[3] = {e0[0] + offset[s][0], e0[1] + offset[s][1], e0[2] + offset[s][2]};
+      const i8 covered = edges_cover(e, lanes) & in_box;
+      if (any(covered))
+        depth_test<kCoverage, kPairs>(covered, i, to_float(e[0]), to_float(e[1]), to_float(e[2]),
+                                      lanes, *samples[s], hook);
+    }
+  }
+};
+
+template <bool kCoverage, bool kPairs>
+SR_INLINE void rasterize_small_samples(const TriangleSetup& t, int x0, int x1, int y0, int y1,
+                                       const TileRect& rect, const TriangleLanes& lanes,
+                                       TileScratch* const* samples, int count) {
+  const EdgeEquations eq = edge_equations(t, x0, y0, *samples[0]);
+  int32_t offset[kMaxSamples][3];
+  for (int s = 0; s < count; ++s) edge_offset(t, x0, y0, eq, *samples[s], offset[s]);
+  SampleTests<kCoverage, kPairs> tests{offset, lanes, samples, count};
+  walk_small_box<kPairs>(eq, x0, x1, y0, y1, rect, tests);
 }
 
 // rasterize_all for `count` samples at once (NoShading): samples[s] is rasterized at its own

@@ -254,59 +254,42 @@ SR_INLINE void shade_prepared(const TileRect& rect, const TileScratch& raster, u
                                          index, out);
 }
 
-// Eight lanes of a small triangle in each pass it owns pixels of (shade_small_passes).
+// shade_prepared in each of the passes (the `owned` ones) a small triangle owns pixels in, in one
+// walk (walk_small_box; each pass's exact edge values by edge_offset), so the same shades.
 template <typename Model, bool kColor, bool kNormal, bool kPairs>
-SR_INLINE void shade_passes_group(const i8 (&e0)[3], const int32_t (*offset)[3], int i, i8 in_box,
-                                  i8 index_v, const TileScratch* const* rasters,
-                                  ShadeScratch* const* outs, const int* owned, int count,
-                                  const ShadeTriangle<Model>& s, const ShadeConstants<Model>& c) {
-  for (int j = 0; j < count; ++j) {
-    const TileScratch& raster = *rasters[owned[j]];
-    const i8 mine = (raster::load_lanes<kPairs, i8>(raster.visible + i) == index_v) & in_box;
-    if (any(mine))
-      shade_group<Model, kColor, kNormal, kPairs>(
-          s, c, to_float(e0[0] + offset[j][0]), to_float(e0[1] + offset[j][1]),
-          to_float(e0[2] + offset[j][2]), mine, i, *outs[owned[j]]);
+struct PassShades {
+  const int32_t (*offset)[3];
+  i8 index_v;
+  const TileScratch* const* rasters;
+  ShadeScratch* const* outs;
+  const int* owned;
+  int count;
+  const ShadeTriangle<Model>& s;
+  const ShadeConstants<Model>& c;
+  SR_INLINE void run(const i8 (&e0)[3], int i, i8 in_box) {
+    for (int j = 0; j < count; ++j) {
+      const TileScratch& raster = *rasters[owned[j]];
+      const i8 mine = (raster::load_lanes<kPairs, i8>(raster.visible + i) == index_v) & in_box;
+      if (any(mine))
+        shade_group<Model, kColor, kNormal, kPairs>(
+            s, c, to_float(e0[0] + offset[j][0]), to_float(e0[1] + offset[j][1]),
+            to_float(e0[2] + offset[j][2]), mine, i, *outs[owned[j]]);
+    }
   }
-}
+};
 
-// A small triangle's pixels in several passes (the `owned` ones) in one walk, as shade_prepared
-// in each: pass k's exact edge values are the first pass's plus a constant per edge
-// (rasterize_small_samples), so the same shades.
 template <typename Model, bool kColor, bool kNormal, bool kPairs>
-SR_INLINE void shade_small_passes(const TileRect& rect, const TileScratch* const* rasters,
+SR_INLINE void shade_small_passes(const TriangleSetup& t, int x0, int x1, int y0, int y1,
+                                  const TileRect& rect, const TileScratch* const* rasters,
                                   ShadeScratch* const* outs, const int* owned, int count,
                                   uint32_t index, const ShadeTriangle<Model>& s,
                                   const ShadeConstants<Model>& c) {
-  const TriangleSetup& t = *rasters[owned[0]]->triangles[index].tri;
-  const int x0 = std::max(int(t.x0), rect.x0), x1 = std::min(int(t.x1), rect.x1 - 1);
-  const int y0 = std::max(int(t.y0), rect.y0), y1 = std::min(int(t.y1), rect.y1 - 1);
   const EdgeEquations eq = edge_equations(t, x0, y0, *rasters[owned[0]]);
   int32_t offset[kMaxShadePasses][3];
-  for (int j = 0; j < count; ++j) {
-    const EdgeEquations ej = edge_equations(t, x0, y0, *rasters[owned[j]]);
-    for (int k = 0; k < 3; ++k) offset[j][k] = int32_t(ej.origin[k] - eq.origin[k]);
-  }
-  const i8 lane = lane_index(), index_v = splat(int32_t(index));
-  if constexpr (kPairs) {
-    SmallEdgePairs edges(eq);
-    const i8 row = lane >> 2, in_box_x = (lane & 3) < x1 - x0 + 1;
-    for (int y = y0; y <= y1; y += 2, edges.next_rows())
-      shade_passes_group<Model, kColor, kNormal, true>(
-          edges.e, offset, (y - rect.y0) * kTileSizePx + (x0 - rect.x0),
-          in_box_x & (row < y1 - y + 1), index_v, rasters, outs, owned, count, s, c);
-  } else {
-    SmallEdges edges(eq);
-    const int width = x1 - x0 + 1;
-    for (int y = y0; y <= y1; ++y, edges.next_row()) {
-      int i = (y - rect.y0) * kTileSizePx + (x0 - rect.x0);
-      SmallEdges::Cursor cur = edges.cursor();
-      for (int dx = 0; dx < width; dx += kLanes, i += kLanes, cur.next(edges))
-        shade_passes_group<Model, kColor, kNormal, false>(cur.e, offset, i, lane < width - dx,
-                                                          index_v, rasters, outs, owned, count,
-                                                          s, c);
-    }
-  }
+  for (int j = 0; j < count; ++j) raster::edge_offset(t, x0, y0, eq, *rasters[owned[j]], offset[j]);
+  PassShades<Model, kColor, kNormal, kPairs> shades{
+      offset, splat(int32_t(index)), rasters, outs, owned, count, s, c};
+  raster::walk_small_box<kPairs>(eq, x0, x1, y0, y1, rect, shades);
 }
 
 template <typename Pattern, typename Model, bool kColor, bool kNormal>
@@ -363,11 +346,11 @@ struct ShadeVisible {
         const int x0 = std::max(int(t.x0), rect.x0), x1 = std::min(int(t.x1), rect.x1 - 1);
         const int y0 = std::max(int(t.y0), rect.y0), y1 = std::min(int(t.y1), rect.y1 - 1);
         if (x1 - x0 < 4 && y1 > y0)
-          shade_small_passes<Model, kColor, kNormal, true>(rect, rasters, outs, owned, count, v,
-                                                           s, c);
+          shade_small_passes<Model, kColor, kNormal, true>(t, x0, x1, y0, y1, rect, rasters, outs,
+                                                           owned, count, v, s, c);
         else
-          shade_small_passes<Model, kColor, kNormal, false>(rect, rasters, outs, owned, count, v,
-                                                            s, c);
+          shade_small_passes<Model, kColor, kNormal, false>(t, x0, x1, y0, y1, rect, rasters,
+                                                            outs, owned, count, v, s, c);
         continue;
       }
       for (int j = 0; j < count; ++j)
