@@ -16,10 +16,10 @@ import softrast as sr
 from softrast.loaders import srgb_to_linear
 
 ROOT = Path(__file__).resolve().parents[1]
-SHARED = ROOT.parent / "shared" / "assets"
-BOX_TEXTURED = SHARED / "BoxTextured" / "BoxTextured.gltf"
-SPOT = ROOT / "assets" / "meshes" / "spot.obj"
-SPOT_TEXTURE = SHARED / "spot" / "spot_texture.png"
+ASSETS = ROOT / "assets" / "meshes"
+BOX_TEXTURED = ASSETS / "BoxTextured.gltf"
+SPOT = ASSETS / "spot.obj"
+SPOT_TEXTURE = ASSETS / "spot_texture.png"
 
 
 def decode(byte):

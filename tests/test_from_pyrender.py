@@ -201,7 +201,7 @@ print(json.dumps({"shape": list(tex.image.shape), "dtype": str(tex.image.dtype),
 def test_from_pyrender_keeps_textures(tmp_path) -> None:
     """BoxTextured through pyrender.Scene.from_trimesh_scene and sr.from_pyrender renders (unlit)
     exactly as sr.load_scene of the file: the same texture, slot, sampler and uv convention."""
-    box = pathlib.Path(__file__).resolve().parents[2] / "shared" / "assets" / "BoxTextured" / "BoxTextured.gltf"
+    box = pathlib.Path(__file__).resolve().parents[1] / "assets" / "meshes" / "BoxTextured.gltf"
     env = dict(os.environ, PYOPENGL_PLATFORM="osmesa")
     parent = str(pathlib.Path(sr.__file__).resolve().parent.parent)
     out = tmp_path / "radiance.npy"
