@@ -7,7 +7,9 @@ Run ``bash benchmarks/setup_baselines.sh`` once first, then::
     python3 benchmarks/bench_vs_pyrender.py --textured [--png DIR]            # issue 17's rows
     python3 benchmarks/bench_vs_pyrender.py --aa [--png DIR]                  # issue 18's msaa rows
     python3 benchmarks/bench_vs_pyrender.py --points [--png DIR]              # issue 18's point cloud
-    python3 benchmarks/bench_vs_pyrender.py --ab OLD_PYTHONPATH [--rows 1,2,3,4]  # Lambert A/B
+    python3 benchmarks/bench_vs_pyrender.py --ab-python OLD_PY [--new-python NEW_PY]   # A/B, all rows
+        [--groups plain,lit,textured,aa,points] [--quick] [--json out.json]
+    python3 benchmarks/bench_vs_pyrender.py --ab OLD_PYTHONPATH [--rows 1,2,3,4] [--lit-only]
 
 Scenes: trimesh icospheres (radius 1, smooth normals) seen by a 45-degree perspective camera at a
 distance that makes the sphere's silhouette 0.8 of the image height (about half of a square
@@ -32,12 +34,33 @@ renderers. pyrender has no Blinn-Phong: both rows run its standard metallic-roug
 colour+depth into out=, with the default sRGB-encoded colour, and t2 with srgb=False (linear).
 --png DIR writes each lit row's colour image from each renderer.
 
---ab OLD_PYTHONPATH (Lambert rows, old build vs new): two worker processes, one importing softrast
-from OLD_PYTHONPATH and one from this file's ../python (the new build), each holding the rows'
-scenes and renderers; the parent alternates blocks of frames between them (only one renders at a
-time, who goes first alternating), cell by cell, and reports medians over all frames and new/old.
-The old build is timed as the bench always timed it; the new one with srgb=False (the kernels'
-cost, the same bits as the old build) and with the default srgb=True.
+A/B, old build vs new build (--ab-python OLD_PY: the rule for kernel changes is no cell more than
+3% slower and the same bits in every cell). OLD_PY and NEW_PY (default: the running interpreter)
+are Python interpreters, each with its own softrast installed; the old side runs without
+PYTHONPATH, so OLD_PY imports only its own build, and NEW_PY given explicitly does too (the
+default new side keeps this process's environment). Each side is a worker process running this
+file, holding the scenes and renderers of every cell of the chosen groups, built by the same code
+as the non-A/B rows (the same scenes, sizes, thread counts and options; with --quick, the rows
+their --quick keeps: no 2048x2048 plain row, no lit, textured or aa row above 640x480):
+  plain     ROWS, t2 and t1 colour+depth out=          lit       LIT_ROWS, t2, t2 linear, t1
+  textured  TEXTURED_ROWS, every softrast column       aa        AA_ROWS, t2, every AA_MODES level
+  points    POINT_ROWS, t2 and t1
+(--all-cells adds the plain rows' depth, flat and t2 "new" cells and the lit rows' depth and unlit
+cells.) The parent alternates blocks of frames between the workers (only one renders at a time;
+old first in even rounds, new first in odd ones), cell by cell, --ab-rounds times (16, --quick 8),
+~--ab-seconds per cell and build in all (3 s, --quick 0.6 s; at least 3 frames a block), and
+prints per cell the old and new median ms over all frames, new/old, the lowest and highest
+new/old of one round (the noise), and whether one frame of each build had the same bits (a hash
+of every output array, taken after warm-up and again at the end), then the worst new/old.
+--ab-cells SUBSTR reruns a few cells. Exit status 1 when a cell's bits differ or a cell exists on
+one side only. pyrender is not needed. The noise floor depends on what else the machine runs (the
+load average is printed before and after): with the same build on both sides, cells read
+0.78-1.22 with --quick at a load of 3-5 on 2 cores, and 0.92-1.06 in a full run at a load of 1.4-2.6.
+Rerun a cell above 1.03 (--ab-cells) before believing it.
+--ab OLD_PYTHONPATH: the same A/B on this interpreter, softrast from OLD_PYTHONPATH against this
+checkout's ../python; default group plain with rows 1-4 (--lit-only: the lit group, --rows then
+indexing LIT_ROWS). Both builds run the same calls (colour is sRGB-encoded by default on both
+sides: an old build from before srgb= existed (feca5f9) is not comparable).
 
 The "first" column is context + first frame: creating the renderer (and its GL context), uploading
 the scene and rendering and reading back one colour+depth frame; scene build (mesh conversion and
@@ -551,12 +574,10 @@ def report_lit_floor(results: list[dict]) -> None:
 
 TEXTURED_ROWS = [("spot", 640, 480), ("spot", 1024, 1024), ("box", 640, 480)]
 TEXTURED_GOAL = 20.0  # issue 17: textured rows >= 20x pyrender
-SHARED_ASSETS = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
-                             "shared", "assets")
 
 
 def textured_trimesh_scene(name: str) -> "trimesh.Scene":
-    """Spot with its 1024x1024 texture (assets/meshes), or ../shared/assets' BoxTextured."""
+    """Spot with its 1024x1024 texture, or BoxTextured (both in assets/meshes)."""
     from PIL import Image
 
     if name == "spot":
@@ -564,7 +585,7 @@ def textured_trimesh_scene(name: str) -> "trimesh.Scene":
         image = Image.open(os.path.join(os.path.dirname(SPOT_PATH), "spot_texture.png"))
         tm.visual = trimesh.visual.TextureVisuals(uv=tm.visual.uv, image=image)
         return trimesh.Scene(tm)
-    return trimesh.load(os.path.join(SHARED_ASSETS, "BoxTextured", "BoxTextured.gltf"))
+    return trimesh.load(os.path.join(os.path.dirname(SPOT_PATH), "BoxTextured.gltf"))
 
 
 class TexturedRow:
@@ -802,134 +823,317 @@ def report_points(results: list[dict]) -> None:
         print(f"{r['row']:<26}{fmt(pyr, 9)}{fmt(t2, 8, 2)}{fmt(t1, 8, 2)}{fmt(x, 9)}  {verdict(x, POINTS_GOAL)}")
 
 
-# ------------------------------------------------------------------ Lambert A/B (old vs new)
+# ------------------------------------------------------------------- A/B: old build vs new build
+
+AB_GROUPS = ("plain", "lit", "textured", "aa", "points")
+AB_LIMIT = 1.03  # the rule for kernel changes: no cell slower than this (new / old)
 
 
-def ab_lit_cells(sr_mod, lit_rows) -> dict[str, Callable[[], object]]:
-    """The lit cells of `lit_rows` (LIT_ROWS entries) for one build: {key: frame callable}."""
-    cells = {}
-    for model, scene_name, w, h in lit_rows:
-        row = SoftrastLitRow(LitScene(model, scene_name, w, h))
-        for t, r in row.renderers.items():
-            for name, kw in (("color+depth srgb", row.kwargs), ("color+depth", dict(row.kwargs, srgb=False))):
-                f = r.render(row.scene, row.cam, **kw)
-                cells[f"{row.lit.label} t{t} {name}"] = (lambda r=r, f=f, kw=kw, s=row.scene, c=row.cam:
-                                                         r.render(s, c, out=f, **kw))
+def ab_rows(groups: list[str], quick: bool, rows_arg: str | None, legacy: bool, lit_only: bool) -> dict:
+    """The rows each group's cells use: those of the group's non-A/B run (with --quick, the same rows
+    --quick keeps). --rows indexes ROWS (the plain group); with --ab and --lit-only, LIT_ROWS."""
+    small = lambda w, h: not quick or w * h <= 640 * 480  # noqa: E731 (what --quick keeps elsewhere)
+    rows = {"plain": [r for r in ROWS if not (quick and r[1] >= 2048)],
+            "lit": [r for r in LIT_ROWS if small(r[2], r[3])],
+            "textured": [r for r in TEXTURED_ROWS if small(r[1], r[2])],
+            "aa": [r for r in AA_ROWS if small(r[1], r[2])],
+            "points": list(POINT_ROWS)}
+    if legacy:  # --ab's defaults: Lambert rows 1-4, every lit row
+        rows["plain"], rows["lit"] = ROWS[1:], list(LIT_ROWS)
+    if rows_arg:
+        index = [int(i) for i in rows_arg.split(",")]
+        if legacy and lit_only:
+            rows["lit"] = [LIT_ROWS[i] for i in index]
+        else:
+            rows["plain"] = [ROWS[i] for i in index]
+    return {g: [list(r) for r in rows[g]] for g in groups}
+
+
+def ab_aa_cells(sub: int, w: int, h: int) -> list[Cell]:
+    """run_aa's softrast cells for one row (the same scene, renderer and calls)."""
+    srow = SoftrastRow(trimesh.creation.icosphere(subdivisions=sub, radius=1.0), w, h, threads=(2,))
+    r, s, cam = srow.renderers[2], srow.scene, srow.cam
+    cells = []
+    for label, mode in AA_MODES:
+        f = r.render(s, cam, outputs=("color", "depth"), **mode)
+        cells.append(Cell(f"softrast t2 {label}", lambda f=f, mode=mode: r.render(
+            s, cam, outputs=("color", "depth"), out=f, **mode)))
     return cells
 
 
-def ab_cells(sr_mod, rows, new: bool) -> dict[str, Callable[[], object]]:
-    """The Lambert cells of `rows` for one build: {key: frame callable}."""
-    if rows and isinstance(rows[0][0], str):  # lit rows (--ab with --lit-only)
-        return ab_lit_cells(sr_mod, rows)
-    cells = {}
-    for sub, w, h in rows:
-        tm = trimesh.creation.icosphere(subdivisions=sub, radius=1.0)
-        scene = sr_mod.Scene()
-        scene.add(sr_mod.Mesh.from_trimesh(fresh_trimesh(tm)), color=(1.0, 1.0, 1.0))
-        cam = sr_mod.PerspectiveCamera(fov_y=FOV_Y_DEG, width=w, height=h, near=NEAR, far=FAR)
-        cam.pose = camera_pose()
-        row = f"ico{sub} {w}x{h}"
-        for t in (2, 1):
-            r = sr_mod.Renderer(w, h, threads=t)
-            variants = [("color+depth", ("color", "depth"), {}), ("depth", ("depth",), {})]
-            if new:  # the old build has no srgb=; its colour is linear
-                variants = [("color+depth", ("color", "depth"), {"srgb": False}),
-                            ("color+depth srgb", ("color", "depth"), {"srgb": True}),
-                            ("depth", ("depth",), {})]
-            for name, outs, kw in variants:
-                f = r.render(scene, cam, outputs=outs, **kw)
-                cells[f"{row} t{t} {name}"] = (lambda r=r, f=f, outs=outs, kw=kw, s=scene, c=cam:
-                                               r.render(s, c, outputs=outs, out=f, **kw))
+def ab_points_cells(n: int, w: int, h: int) -> list[Cell]:
+    """run_points' softrast cells for one row (the same random cloud, renderers and calls)."""
+    rng = np.random.default_rng(0)
+    xyz = rng.normal(size=(n, 3))
+    xyz *= (rng.uniform(size=(n, 1)) ** (1 / 3)) / np.linalg.norm(xyz, axis=1, keepdims=True)
+    rgb = rng.uniform(size=(n, 3))
+    s = sr.Scene()
+    s.add(sr.Points(xyz, colors=rgb))
+    cam = sr.PerspectiveCamera(fov_y=FOV_Y_DEG, width=w, height=h, near=NEAR, far=FAR)
+    cam.pose = camera_pose()
+    cells = []
+    for t in (2, 1):
+        r = sr.Renderer(w, h, threads=t)
+        f = r.render(s, cam, outputs=("color", "depth"))
+        cells.append(Cell(f"softrast t{t} color+depth out", lambda r=r, f=f: r.render(
+            s, cam, outputs=("color", "depth"), out=f)))
     return cells
 
 
-def ab_worker(rows) -> int:
-    """Worker of --ab: holds one build's cells, times blocks on request (JSON lines on stdio)."""
+def ab_row_cells(group: str, row: list, all_cells: bool) -> tuple[str, list[Cell]]:
+    """(row label, softrast cells) of one row of a group, built by the classes the non-A/B rows use.
+    Without all_cells: the cells of the group's table (plain: colour+depth t2 and t1; lit: t2, t2
+    linear, t1); with it also plain depth, flat and t2 "new", and the lit rows' depth and unlit."""
+    if group == "plain":
+        sub, w, h = row
+        srow = SoftrastRow(trimesh.creation.icosphere(subdivisions=sub, radius=1.0), w, h, threads=(2, 1))
+        return f"ico{sub} {w}x{h}", [c for c in srow.cells() if all_cells or c.name.endswith("color+depth out")]
+    if group == "lit":
+        lrow = SoftrastLitRow(LitScene(*row))
+        return lrow.lit.label, [c for c in lrow.cells() if all_cells
+                                or c.name.endswith(("color+depth out", "color+depth out linear"))
+                                and "unlit" not in c.name]
+    if group == "textured":
+        trow = TexturedRow(None, *row)  # no pyrender: only the softrast cells
+        return trow.label, trow.cells()
+    if group == "aa":
+        sub, w, h = row
+        return f"ico{sub} {w}x{h}", ab_aa_cells(sub, w, h)
+    if group == "points":
+        n, w, h = row
+        return f"{n // 1000}k points {w}x{h}", ab_points_cells(n, w, h)
+    raise ValueError(f"unknown A/B group {group!r} (groups: {', '.join(AB_GROUPS)})")
+
+
+def ab_digest(frame) -> dict[str, str]:
+    """{output: hash of its dtype, shape and bytes} of one frame (every output array it holds)."""
     import hashlib
-    cells = ab_cells(sr, rows, new=hasattr(sr, "Material"))
-    digests = {}
-    for key, fn in cells.items():
-        fr = fn()
-        digests[key] = hashlib.sha1(b"".join(np.ascontiguousarray(a).tobytes() for a in
-                                             (fr.color, fr.depth) if a is not None)).hexdigest()[:12]
-    print(json.dumps({"ready": list(cells), "file": sr.__file__, "digest": digests}), flush=True)
+    arrays = (frame.as_dict() if hasattr(frame, "as_dict") else
+              {n: getattr(frame, n) for n in ("color", "depth") if getattr(frame, n, None) is not None})
+    return {name: hashlib.sha1(f"{a.dtype.str}{a.shape}".encode() + np.ascontiguousarray(a).tobytes())
+            .hexdigest()[:16] for name, a in sorted(arrays.items())}
+
+
+def ab_worker(spec: dict) -> int:
+    """Worker of the A/B modes: builds the cells of spec's groups for the softrast it imports, then
+    answers JSON lines on stdin ({"cell", "n"}: times of n frames; {"digest"}; {"quit"})."""
+    proto = os.fdopen(os.dup(1), "w")
+    os.dup2(2, 1)  # whatever else prints (Python or C++) goes to stderr, not into the protocol
+
+    def send(obj: dict) -> None:
+        proto.write(json.dumps(obj) + "\n")
+        proto.flush()
+
+    t0 = time.perf_counter()
+    cells, errors = {}, {}
+    for group in spec["groups"]:
+        for row in spec["rows"][group]:
+            try:
+                label, row_cells = ab_row_cells(group, row, spec.get("all_cells", False))
+            except Exception as exc:  # noqa: BLE001 (an old build may lack a feature: reported)
+                errors[f"{group}: {row}"] = f"{type(exc).__name__}: {exc}"
+                continue
+            for c in row_cells:
+                name = c.name[len("softrast "):] if c.name.startswith("softrast ") else c.name
+                cells[f"{group}: {label} {name}"] = c.frame
+    digests = {key: ab_digest(fn()) for key, fn in cells.items()}
+    core = getattr(getattr(sr, "_core", None), "__file__", None)
+    send({"ready": list(cells), "digest": digests, "errors": errors, "file": os.path.dirname(sr.__file__),
+          "version": getattr(sr, "__version__", "?"), "python": sys.executable,
+          "core_mtime": os.path.getmtime(core) if core else None, "setup_s": time.perf_counter() - t0})
     for line in sys.stdin:
         cmd = json.loads(line)
         if cmd.get("quit"):
             break
+        if cmd.get("digest"):
+            send({"digest": {key: ab_digest(fn()) for key, fn in cells.items()}})
+            continue
         fn = cells[cmd["cell"]]
         times = []
         for _ in range(cmd["n"]):
-            t0 = time.perf_counter()
+            t1 = time.perf_counter()
             fn()
-            times.append(time.perf_counter() - t0)
-        print(json.dumps({"times": times}), flush=True)
+            times.append(time.perf_counter() - t1)
+        send({"times": times})
     return 0
 
 
-def run_ab(old_path: str, rows, target_s: float, rounds: int) -> dict:
-    new_path = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "python")
-    lit = bool(rows) and isinstance(rows[0][0], str)
-    rows_arg = ",".join(str((LIT_ROWS if lit else ROWS).index(r)) for r in rows)
-    workers = {}
-    for name, path in (("old", old_path), ("new", new_path)):
-        env = dict(os.environ, PYTHONPATH=path)
-        proc = subprocess.Popen([sys.executable, os.path.abspath(__file__), "--ab-worker", "--rows", rows_arg]
-                                + (["--lit-only"] if lit else []),
-                                stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env)
-        workers[name] = (proc, json.loads(proc.stdout.readline()))
-        print(f"{name}: softrast from {workers[name][1]['file']}", flush=True)
+class AbWorker:
+    """One side of the A/B: a worker process (ab_worker) on `python` with environment `env`."""
 
-    def block(name, cell, n):
-        proc = workers[name][0]
-        proc.stdin.write(json.dumps({"cell": cell, "n": n}) + "\n")
-        proc.stdin.flush()
-        return json.loads(proc.stdout.readline())["times"]
+    def __init__(self, side: str, python: str, env: dict, spec: dict) -> None:
+        self.side, self.python = side, python
+        self.proc = subprocess.Popen([python, os.path.abspath(__file__), "--ab-worker", json.dumps(spec)],
+                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env)
 
-    # (old cell, new cell) pairs; the old cell is the baseline of every new variant.
-    pairs = []
-    for key in workers["new"][1]["ready"]:
-        # an old build with the same cell (srgb included) is its own baseline
-        old_key = key if key in workers["old"][1]["ready"] else key.replace(" srgb", "")
-        pairs.append((old_key, key))
-    same_bits = {key: workers["new"][1]["digest"][key] == workers["old"][1]["digest"][key]
-                 for key in workers["old"][1]["ready"] if key in workers["new"][1]["digest"]}
-    times = {("old", k): [] for k in workers["old"][1]["ready"]}
-    times.update({("new", k): [] for k in workers["new"][1]["ready"]})
-    counts = {}
-    for name, key in times:  # size blocks from one warm-up block
-        est = statistics.median(block(name, key, 3))
-        counts[(name, key)] = max(3, min(400, math.ceil(target_s / max(est, 1e-6) / rounds)))
-    for r in range(rounds):
-        for old_key, new_key in pairs:
-            order = [("old", old_key), ("new", new_key)]
-            if r % 2:
-                order.reverse()
-            for name, key in order:
-                times[(name, key)] += block(name, key, counts[(name, key)])
-    for proc, _ in workers.values():
-        proc.stdin.write(json.dumps({"quit": True}) + "\n")
-        proc.stdin.flush()
-        proc.wait()
-    ms = {f"{name} {key}": 1e3 * statistics.median(v) for (name, key), v in times.items() if v}
-    return {"ms": ms, "pairs": pairs, "same_bits": same_bits, "rounds": rounds,
-            "n": {f"{name} {key}": len(v) for (name, key), v in times.items()}}
+    def read(self) -> dict:
+        line = self.proc.stdout.readline()
+        if not line:
+            raise RuntimeError(f"the {self.side} worker ({self.python}) exited with code {self.proc.wait()};"
+                               " its error is above")
+        return json.loads(line)
+
+    def ask(self, cmd: dict) -> dict:
+        self.proc.stdin.write(json.dumps(cmd) + "\n")
+        self.proc.stdin.flush()
+        return self.read()
+
+    def close(self) -> None:
+        if self.proc.poll() is None:
+            try:
+                self.proc.stdin.write(json.dumps({"quit": True}) + "\n")
+                self.proc.stdin.close()
+            except OSError:
+                pass
+            self.proc.wait()
 
 
-def report_ab(ab: dict) -> None:
-    print("\nLambert A/B, old build vs new, in one run (median ms per frame, out=, readback included);"
-          "\nnew linear = srgb=False (the same kernels' work as old), new sRGB = the default srgb=True")
-    head = f"{'cell':<50}{'old':>9}{'new':>9}{'new/old':>9}  same bits as old"
+def run_ab(sides: dict, spec: dict, target_s: float, rounds: int, only: list[str] | None = None) -> dict:
+    """Times every cell both workers hold: blocks of frames alternating between the builds (one
+    renders at a time; old first in even rounds, new first in odd ones), cell by cell, `rounds`
+    times; about target_s per cell and build in all. sides: {"old"/"new": (python, env)}."""
+    t_start = time.perf_counter()
+    workers = {side: AbWorker(side, python, env, spec) for side, (python, env) in sides.items()}
+    try:  # both build their scenes at once; nothing is timed until both are ready
+        info = {side: w.read() for side, w in workers.items()}
+        for side in ("old", "new"):
+            i = info[side]
+            built = (time.strftime(", core built %Y-%m-%d %H:%M", time.localtime(i["core_mtime"]))
+                     if i.get("core_mtime") else "")
+            print(f"{side}: softrast {i['version']} from {i['file']}{built} (python {i['python']}; "
+                  f"{len(i['ready'])} cells in {i['setup_s']:.1f} s)", flush=True)
+            for row, err in i["errors"].items():
+                print(f"  {side} could not build {row}: {err}", flush=True)
+        if info["old"]["file"] == info["new"]["file"]:
+            print("note: both sides import the same softrast: this run measures the A/B's noise floor",
+                  flush=True)
+        keys = [k for k in info["new"]["ready"] if k in info["old"]["ready"]
+                and (not only or any(s in k for s in only))]
+        missing = {side: [k for k in info[side]["ready"] if k not in info[other]["ready"]
+                          and (not only or any(s in k for s in only))]
+                   for side, other in (("old", "new"), ("new", "old"))}
+
+        def block(side: str, key: str, n: int) -> list[float]:
+            return workers[side].ask({"cell": key, "n": n})["times"]
+
+        counts = {}
+        for key in keys:  # a warm-up block on each side sizes the cell's blocks (the same n for both)
+            est = min(statistics.median(block(side, key, 3)) for side in ("old", "new"))
+            counts[key] = max(3, min(400, math.ceil(target_s / max(est, 1e-6) / rounds)))
+        times = {(side, key): [] for side in ("old", "new") for key in keys}
+        for r in range(rounds):
+            for key in keys:
+                for side in (("old", "new") if r % 2 == 0 else ("new", "old")):
+                    times[(side, key)].append(block(side, key, counts[key]))
+            print(f"  A/B round {r + 1}/{rounds} done ({time.perf_counter() - t_start:.0f} s)", flush=True)
+        final = {side: w.ask({"digest": True})["digest"] for side, w in workers.items()}
+    finally:
+        for w in workers.values():
+            w.close()
+
+    cells = []
+    for key in keys:
+        old_t, new_t = times[("old", key)], times[("new", key)]
+        old_ms = 1e3 * statistics.median([t for b in old_t for t in b])
+        new_ms = 1e3 * statistics.median([t for b in new_t for t in b])
+        d_old, d_new = info["old"]["digest"][key], info["new"]["digest"][key]
+        group, cell = key.split(": ", 1)
+        cells.append({
+            "group": group, "cell": cell, "old_ms": old_ms, "new_ms": new_ms, "ratio": new_ms / old_ms,
+            "round_ratios": [statistics.median(n) / statistics.median(o) for o, n in zip(old_t, new_t)],
+            "same_bits": d_old == d_new,
+            "differ": sorted(k for k in set(d_old) | set(d_new) if d_old.get(k) != d_new.get(k)),
+            "stable": final["old"][key] == d_old and final["new"][key] == d_new,
+            "n": {"old": sum(map(len, old_t)), "new": sum(map(len, new_t))}})
+    return {"cells": cells, "rounds": rounds, "target_s": target_s, "missing": missing,
+            "load_after": os.getloadavg()[0],
+            "errors": {side: info[side]["errors"] for side in info},
+            "sides": {side: {k: info[side][k] for k in ("file", "version", "python")} for side in info},
+            "seconds": time.perf_counter() - t_start}
+
+
+def report_ab(ab: dict, limit: float = AB_LIMIT) -> bool:
+    """Prints run_ab's table and summary; True when every cell's frames were bit-identical (and
+    repeatable) and no cell was built by one side only."""
+    if "pairs" in ab:  # a --json file of the earlier --ab (old key / new key pairs)
+        ab = {"rounds": ab.get("rounds"), "cells": [
+            {"group": "plain", "cell": new, "old_ms": ab["ms"][f"old {old}"], "new_ms": ab["ms"][f"new {new}"],
+             "ratio": ab["ms"][f"new {new}"] / ab["ms"][f"old {old}"], "round_ratios": [],
+             "same_bits": ab["same_bits"].get(old) if old == new else None, "differ": [], "stable": True}
+            for old, new in ab["pairs"]]}
+    cells = ab["cells"]
+    print(f"\nA/B, old build vs new build in one run: median ms per frame (steady state, out=, readback "
+          f"included), {ab.get('rounds')} alternations;\n'rounds' = the lowest and highest new/old of one "
+          f"alternation's medians (the noise); '!' = new/old above {limit:.2f}")
+    head = f"{'group':<9}{'cell':<49}{'old ms':>9}{'new ms':>9}{'new/old':>9}{'rounds':>13}  same bits"
     print(head)
     print("-" * len(head))
-    for old_key, new_key in ab["pairs"]:
-        o, n = ab["ms"][f"old {old_key}"], ab["ms"][f"new {new_key}"]
-        label = new_key + (" linear" if new_key.endswith("color+depth") else "")
-        bits = "" if new_key.endswith("srgb") else ("yes" if ab["same_bits"].get(old_key) else "NO")
-        print(f"{label:<50}{o:>9.3f}{n:>9.3f}{n / o:>9.3f}  {bits}")
-    print("(same bits: each build makes its mesh with its own Mesh.from_trimesh, whose vertex normals"
-          "\n may differ in the last bits between builds; colour then differs by 1/255 at a few pixels)")
+    for c in cells:
+        rr = c.get("round_ratios") or []
+        spread = f"{min(rr):.3f}-{max(rr):.3f}" if rr else ""
+        bits = ("n/a" if c["same_bits"] is None else "yes" if c["same_bits"]
+                else "NO (" + ", ".join(c.get("differ") or ["?"]) + ")")
+        if not c.get("stable", True):
+            bits += ", NOT REPEATABLE (a side's last frame differs from its first)"
+        flag = "!" if c["ratio"] > limit else " "
+        print(f"{c['group']:<9}{c['cell']:<49}{c['old_ms']:>9.3f}{c['new_ms']:>9.3f}{c['ratio']:>8.3f}{flag}"
+              f"{spread:>13}  {bits}")
+    for side, keys in (ab.get("missing") or {}).items():
+        for key in keys:
+            print(f"  only the {side} build has {key}")
+    for side, errors in (ab.get("errors") or {}).items():
+        for row, err in errors.items():
+            print(f"  the {side} build could not build {row}: {err}")
+    if not cells:
+        print("no cell on both sides")
+        return False
+    worst = max(cells, key=lambda c: c["ratio"])
+    same = sum(bool(c["same_bits"]) and c.get("stable", True) for c in cells)
+    over = sum(c["ratio"] > limit for c in cells)
+    print(f"\nworst new/old {worst['ratio']:.3f} ({worst['group']}: {worst['cell']}); best "
+          f"{min(c['ratio'] for c in cells):.3f}, median {statistics.median(c['ratio'] for c in cells):.3f}; "
+          f"{over} of {len(cells)} cells above {limit:.2f}; bit-identical frames in {same} of {len(cells)} cells"
+          + (f"; {ab['seconds']:.0f} s" if ab.get("seconds") else "")
+          + (f"; load average {ab['load_after']:.2f}" if ab.get("load_after") is not None else ""))
+    return same == len(cells) and not any((ab.get("missing") or {}).values())
+
+
+def main_ab(args, target_s: float) -> int:
+    """--ab-python / --ab: picks the sides and the cells, runs run_ab, prints, writes --json."""
+    import shutil
+    legacy = bool(args.ab)
+    if args.groups:
+        groups = [g.strip() for g in args.groups.split(",") if g.strip()]
+        unknown = [g for g in groups if g not in AB_GROUPS]
+        if unknown:
+            raise SystemExit(f"unknown --groups {', '.join(unknown)} (choose from {', '.join(AB_GROUPS)})")
+    else:
+        groups = (["lit"] if args.lit_only else ["plain"]) if legacy else list(AB_GROUPS)
+    spec = {"groups": groups, "rows": ab_rows(groups, args.quick, args.rows, legacy, args.lit_only),
+            "all_cells": args.all_cells}
+    if legacy:  # this interpreter on both sides: old softrast from OLD_PYTHONPATH, new from ../python
+        new_path = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "python")
+        sides = {"old": (sys.executable, dict(os.environ, PYTHONPATH=args.ab)),
+                 "new": (sys.executable, dict(os.environ, PYTHONPATH=new_path))}
+    else:  # each interpreter imports its own installed build; only the running one keeps PYTHONPATH
+        clean = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+        sides = {"old": (args.ab_python, clean),
+                 "new": (args.new_python, clean) if args.new_python else (sys.executable, dict(os.environ))}
+        for python, _ in sides.values():
+            if not (os.path.isfile(python) and os.access(python, os.X_OK)) and not shutil.which(python):
+                raise SystemExit(f"no Python interpreter {python}")
+    rounds = args.ab_rounds or (8 if args.quick else 16)
+    seconds = args.ab_seconds or target_s * 2
+    for line in machine_lines():
+        print(line)
+    print(f"A/B groups {', '.join(groups)}: {rounds} alternations, ~{seconds:.1f} s per cell and build in all; "
+          f"load average {os.getloadavg()[0]:.2f}", flush=True)
+    ab = run_ab(sides, spec, seconds, rounds, [s for s in args.ab_cells.split(",") if s] if args.ab_cells else None)
+    ok = report_ab(ab, args.ab_limit)
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump({"ab": ab}, fh, indent=1)
+    return 0 if ok else 1
 
 
 # ------------------------------------------------------------------------------- report
@@ -993,12 +1197,29 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--aa", action="store_true", help="only issue 18's anti-aliasing rows")
     ap.add_argument("--points", action="store_true", help="only issue 18's point cloud row")
     ap.add_argument("--png", help="write each lit row's colour image from each renderer into this directory")
-    ap.add_argument("--ab", metavar="OLD_PYTHONPATH",
-                    help="only the Lambert A/B: the old build (softrast importable from this path) vs "
-                         "this checkout's python/ (default rows 1,2,3,4); with --lit-only, the lit rows' A/B "
-                         "(--rows then indexes the lit rows)")
-    ap.add_argument("--ab-rounds", type=int, default=None, help="alternations of --ab (default 8, --quick 3)")
-    ap.add_argument("--ab-worker", action="store_true", help=argparse.SUPPRESS)
+    ab = ap.add_argument_group("A/B (old build vs new build, one run; no pyrender needed)")
+    ab.add_argument("--ab-python", metavar="OLD_PY",
+                    help="only the A/B: the softrast installed in the interpreter OLD_PY vs the one in "
+                         "--new-python, every cell of --groups")
+    ab.add_argument("--new-python", metavar="NEW_PY",
+                    help="the new side's interpreter (default: this one, with its environment)")
+    ab.add_argument("--groups", help="comma-separated A/B groups of " + ",".join(AB_GROUPS)
+                    + " (default: all with --ab-python; plain, or lit with --lit-only, with --ab)")
+    ab.add_argument("--ab", metavar="OLD_PYTHONPATH",
+                    help="only the A/B on this interpreter: softrast from OLD_PYTHONPATH vs this checkout's "
+                         "python/ (default group plain, rows 1,2,3,4; with --lit-only the lit rows, "
+                         "--rows then indexing the lit rows)")
+    ab.add_argument("--all-cells", action="store_true",
+                    help="A/B also the plain rows' depth, flat and t2 new cells and the lit rows' depth and "
+                         "unlit cells")
+    ab.add_argument("--ab-cells", metavar="SUBSTR[,SUBSTR]",
+                    help="A/B only the cells whose 'group: row cell' name contains one of these")
+    ab.add_argument("--ab-rounds", type=int, default=None, help="A/B alternations (default 16, --quick 8)")
+    ab.add_argument("--ab-seconds", type=float, default=None,
+                    help="A/B seconds per cell and build, all rounds (default 3, --quick 0.6)")
+    ab.add_argument("--ab-limit", type=float, default=AB_LIMIT,
+                    help=f"flag cells whose new/old exceeds this (default {AB_LIMIT})")
+    ap.add_argument("--ab-worker", metavar="SPEC", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.from_json:
         with open(args.from_json) as fh:
@@ -1013,29 +1234,15 @@ def main(argv: list[str] | None = None) -> int:
             report_ab(data["ab"])
         return 0
 
-    if (args.ab or args.ab_worker) and args.lit_only:  # the lit A/B: --rows index LIT_ROWS
-        rows = [LIT_ROWS[int(i)] for i in args.rows.split(",")] if args.rows else LIT_ROWS
-    elif args.rows:
+    if args.ab_worker:
+        return ab_worker(json.loads(args.ab_worker))
+    target_s, n_min, n_max, rounds = (0.3, 3, 60, 3) if args.quick else (1.5, 7, 400, 7)
+    if args.ab_python or args.ab:
+        return main_ab(args, target_s)
+    if args.rows:
         rows = [ROWS[int(i)] for i in args.rows.split(",")]
-    elif args.ab or args.ab_worker:
-        rows = ROWS[1:]
     else:
         rows = [r for r in ROWS if not (args.quick and r[1] >= 2048)]
-    target_s, n_min, n_max, rounds = (0.3, 3, 60, 3) if args.quick else (1.5, 7, 400, 7)
-    if args.ab_worker:
-        return ab_worker(rows)
-    if args.ab:
-        for line in machine_lines():
-            print(line)
-        ab_rounds = args.ab_rounds or (3 if args.quick else 8)
-        print(f"A/B: {ab_rounds} alternations, ~{target_s * 2:.1f} s per cell and build in all; old from "
-              f"{args.ab}", flush=True)
-        ab = run_ab(args.ab, rows, target_s * 2, ab_rounds)
-        report_ab(ab)
-        if args.json:
-            with open(args.json, "w") as fh:
-                json.dump({"ab": ab}, fh, indent=1)
-        return 0
     if args.lit_only or args.textured or args.aa or args.points:
         rows = []
 
