@@ -1,6 +1,6 @@
 // Binning: which tiles each setup record overlaps, as per-tile lists of record indices that keep
 // primitive order. Binning reads only a record's pixel box and area, never the record itself, so
-// any primitive kind's records are binned the same way.
+// any record is binned the same way.
 #pragma once
 
 #include "alpha_mask.hpp"
@@ -12,15 +12,10 @@
 
 namespace sr {
 
-// What a chunk's records are. Triangles only so far (lines and points: ARCHITECTURE.md, "Add a
-// primitive"); the tile pass branches on it once per chunk.
-enum class PrimitiveKind : uint8_t { Triangle };
-
 // The triangles one chunk of a draw produced, binned to tiles. Records keep primitive order.
 // Cache-line aligned: neighbouring chunks are set up by different threads, and every push_back
 // writes an array's end (sharing a line made the setup pass scale 1.1x on 2 threads).
 struct alignas(64) SetupChunk {
-  PrimitiveKind kind = PrimitiveKind::Triangle;  // what `records` hold
   GrowingArray<TriangleSetup> records;   // (grown without copies: a first frame grows them all)
   GrowingArray<TriangleShading> shading; // records[i]'s in shading[i]; empty unless SetupParams::shade
   std::vector<vec3> clip_bary;           // 3 per clipped record: source weights of its vertices

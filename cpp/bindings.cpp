@@ -214,11 +214,10 @@ E parse_name(const std::string& s, const std::pair<const char*, E> (&names)[N], 
   throw py::value_error(std::string(what) + ": unknown value '" + s + "'");
 }
 
-Shading parse_shading(const std::string& s) {
-  for (const ModelName& m : kShadingModelNames)
-    if (s == m.name) return m.id;
-  throw py::value_error("shading: unknown model '" + s + "'");
-}
+constexpr std::pair<const char*, Shading> kShadingNames[] = {
+    {"unlit", Shading::Unlit}, {"lambert", Shading::Lambert}, {"normal", Shading::Normal},
+    {"uv", Shading::Uv}, {"lit", Shading::Lit}};
+Shading parse_shading(const std::string& s) { return parse_name(s, kShadingNames, "shading"); }
 
 template <typename T, std::size_t N>
 py::tuple names_of(const T (&items)[N]) {
@@ -684,9 +683,7 @@ PYBIND11_MODULE(_core, m) {
   }
   m.attr("OUTPUTS") = names;
   m.attr("OUTPUT_TABLE") = table;
-  py::tuple models(kShadingModelNames.size());
-  for (std::size_t i = 0; i < kShadingModelNames.size(); ++i) models[i] = kShadingModelNames[i].name;
-  m.attr("SHADING_MODELS") = models;
+  m.attr("SHADING_MODELS") = names_of(kShadingNames);
   m.attr("CULL_MODES") = names_of(kCullNames);
   m.attr("SHADING_PATHS") = names_of(kShadingPathNames);
   m.attr("RASTER_ALGORITHMS") = names_of(kRasterNames);

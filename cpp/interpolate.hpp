@@ -13,20 +13,6 @@
 namespace sr {
 namespace interp {
 
-// What every model's classify() starts from: whether the three normals are one, and its unit
-// vector; then the model picks the triangle's colour kind.
-template <typename Model>
-SR_INLINE void classify(const ShadeInputs& in, bool uniform_color, ShadeTriangle<Model>& s) {
-  s.one_normal = s.normal[0] == s.normal[1] && s.normal[0] == s.normal[2];
-  if (s.one_normal) {
-    const vec3 n = s.normal[0];
-    const float len2 = glm::dot(n, n);
-    s.unit_normal = len2 > 0.0f ? n * (1.0f / std::sqrt(len2)) : vec3(0.0f);
-  }
-  Model::classify(in, uniform_color, s);
-}
-
-
 // The triangle's flat normal in world space: the counter-clockwise face normal of corners
 // c0, c1, c2, in double (a float cross product or a scaled normal can overflow: a triangle 1e20
 // units wide, a pose scaling by 0.1).
@@ -125,48 +111,54 @@ inline void attribute_derivatives(const TriangleSetup& t, const TriangleShading&
   }
 }
 
-// Prepares one visible triangle into `s`: its perspective weights and its attributes at its own
-// three vertices. An unclipped record names its mesh vertices; a clipped triangle's vertices
-// carry weights of the source face's corners, and attributes, linear in those weights, are
-// mapped here once. Normals only if the model reads them or they are an output (kNormals):
-// else one zero normal.
+// Prepares one visible triangle into `s`: its perspective weights and what its draw reads of its
+// three vertices (ShadeDraw::needs), then classifies it (shade_models.hpp). An unclipped record
+// names its mesh vertices; a clipped triangle's vertices carry weights of the source face's
+// corners, and attributes, linear in those weights, are mapped here once. Normals only if the
+// draw's model reads them or they are an output: else one zero normal.
 // (Written in place: returned by value, the copy cost as much as the rest.)
-template <typename Model, bool kNormals>
-SR_INLINE void prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTriangle<Model>& s) {
+// A plain kernel's draws (KernelKind) read normals and colours only, as its model does.
+// Returns the draw's model.
+template <KernelKind K>
+SR_INLINE Brdf prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTriangle& s) {
+  constexpr bool kLit = K == KernelKind::Lit;
+  constexpr bool kColors = K != KernelKind::NormalColor;  // (the normal as a colour reads none)
   const TriangleSetup& t = *vt.tri;
   const TriangleShading& a = vt.chunk->shading[std::size_t(vt.tri - vt.chunk->records.data())];
   const ShadeDraw& d = p.draws[t.draw];
   const MeshData& mesh = *d.mesh;
+  const uint8_t needs = d.needs;
+  const bool normals = K == KernelKind::Headlight || K == KernelKind::NormalColor ||
+                       (needs & kNeedsNormal);
+  const bool attributes = kLit && (needs & kNeedsUv);
   bool uniform_color;
   for (int k = 0; k < 3; ++k) s.persp[k] = a.persp[k];
-  // Attributes: always for a model that reads them, or (kAttributesIfTextured) for a textured draw.
-  const bool attributes = Model::kAttributes > 0 &&
-                          (!Model::kAttributesIfTextured || d.material.textured());
   if (a.clip_ref == kNoClip) {
     const int32_t* v = a.vertex;
-    if (!kNormals) {
-      s.normal[0] = s.normal[1] = s.normal[2] = vec3(0.0f);
+    if (!normals) {
+      // (nothing reads them: classify)
     } else if (d.world_normals) {
       for (int k = 0; k < 3; ++k) s.normal[k] = d.world_normals[v[k]];
     } else {  // no vertex normals => flat; the record's order is the face's, 1 and 2 swapped or not
       s.normal[0] = a.swapped ? flat_normal(d, v[0], v[2], v[1]) : flat_normal(d, v[0], v[1], v[2]);
       s.normal[1] = s.normal[2] = s.normal[0];
     }
-    if (mesh.colors.empty()) {
+    if (!kColors) {
+      uniform_color = true;
+    } else if (mesh.colors.empty()) {
       s.color[0] = s.color[1] = s.color[2] = vec3(d.color);
       uniform_color = true;
     } else {
       for (int k = 0; k < 3; ++k) s.color[k] = mesh.colors[v[k]];
       uniform_color = s.color[0] == s.color[1] && s.color[0] == s.color[2];
     }
-    if constexpr (Model::kReadsPosition)
+    if (kLit && (needs & kNeedsPosition))
       for (int k = 0; k < 3; ++k) s.position[k] = world_position(d, v[k]);
-    if constexpr (Model::kAttributes > 0)
-      if (attributes) triangle_attributes<Model::kAttributes>(mesh, t, a, *vt.chunk, s.attr);
+    if (attributes) triangle_attributes<2>(mesh, t, a, *vt.chunk, s.attr);
   } else {
     const ivec3 f = mesh.faces[t.prim];
     vec3 normal_src[3] = {}, color_src[3];
-    if (kNormals) {
+    if (normals) {
       if (d.world_normals) {
         for (int c = 0; c < 3; ++c) normal_src[c] = d.world_normals[f[c]];
       } else {
@@ -174,14 +166,14 @@ SR_INLINE void prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTri
       }
     }
     for (int c = 0; c < 3; ++c)
-      color_src[c] = mesh.colors.empty() ? vec3(d.color) : vec3(mesh.colors[f[c]]);
+      color_src[c] = !kColors || mesh.colors.empty() ? vec3(d.color) : vec3(mesh.colors[f[c]]);
     const vec3* weights = &vt.chunk->clip_bary[3 * std::size_t(a.clip_ref)];
     for (int k = 0; k < 3; ++k) {
       const vec3 w = weights[k];
-      s.normal[k] = w.x * normal_src[0] + w.y * normal_src[1] + w.z * normal_src[2];
+      if (normals) s.normal[k] = w.x * normal_src[0] + w.y * normal_src[1] + w.z * normal_src[2];
       s.color[k] = w.x * color_src[0] + w.y * color_src[1] + w.z * color_src[2];
     }
-    if constexpr (Model::kReadsPosition) {
+    if (kLit && (needs & kNeedsPosition)) {
       vec3 src[3];
       for (int c = 0; c < 3; ++c) src[c] = world_position(d, f[c]);
       for (int k = 0; k < 3; ++k) {
@@ -189,13 +181,12 @@ SR_INLINE void prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTri
         s.position[k] = w.x * src[0] + w.y * src[1] + w.z * src[2];
       }
     }
-    if constexpr (Model::kAttributes > 0)
-      if (attributes) triangle_attributes<Model::kAttributes>(mesh, t, a, *vt.chunk, s.attr);
+    if (attributes) triangle_attributes<2>(mesh, t, a, *vt.chunk, s.attr);
     uniform_color = s.color[0] == s.color[1] && s.color[0] == s.color[2];
   }
-  if constexpr (Model::kAttributesIfTextured)  // uvs for sampling (not the uv model's colours)
-    if (attributes) reduce_uv_period(s.attr, uv_periodic_axes(d.material));
-  if (kNormals && d.world_normals) {
+  const bool textured = kLit && (needs & kTexturedUv);  // uvs for sampling (not uv colours)
+  if (textured) reduce_uv_period(s.attr, uv_periodic_axes(d.material));
+  if (normals && d.world_normals) {
     // A zero vertex normal (a file's, or one a singular pose collapses) falls back to the face
     // normal, so that shading never loses the surface's orientation (one check per triangle).
     const bool zero0 = s.normal[0] == vec3(0.0f), zero1 = s.normal[1] == vec3(0.0f),
@@ -210,33 +201,19 @@ SR_INLINE void prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTri
       if (zero2) s.normal[2] = face;
     }
   }
-  if (kNormals && a.back_facing)  // two-sided: the side the camera sees
+  if (normals && a.back_facing)  // two-sided: the side the camera sees
     for (vec3& n : s.normal) n = -n;
-  s.back_facing = a.back_facing;
-  s.material = &d.material;
-  s.draw = t.draw;
-  s.reads = (Model::kReadsNormal ? ShadeTriangleBase::kReadNormal : 0) |
-            (Model::kReadsPosition ? ShadeTriangleBase::kReadPosition : 0) |
-            (Model::kAttributes > 0 && !Model::kAttributesIfTextured ? ShadeTriangleBase::kReadUv : 0);
-  if constexpr (Model::kAttributesIfTextured) {
-    if (attributes)
-      attribute_derivatives<Model::kAttributes>(t, a, s.attr, s.sum_dx, s.sum_dy, s.attr_dx,
-                                                s.attr_dy);
+  if (textured)
+    attribute_derivatives<2>(t, a, s.attr, s.sum_dx, s.sum_dy, s.attr_dx, s.attr_dy);
+  if (kLit && (needs & kNeedsFaceNormal)) {
+    const vec3 n = a.clip_ref != kNoClip ? flat_normal(d, mesh.faces[t.prim].x, mesh.faces[t.prim].y,
+                                                       mesh.faces[t.prim].z)
+                   : a.swapped ? flat_normal(d, a.vertex[0], a.vertex[2], a.vertex[1])
+                               : flat_normal(d, a.vertex[0], a.vertex[1], a.vertex[2]);
+    s.face_normal = a.back_facing ? -n : n;
   }
-  if constexpr (Model::kFaceNormal) {
-    if (p.in.frequency == Frequency::Face) {
-      const vec3 n = a.clip_ref != kNoClip ? flat_normal(d, mesh.faces[t.prim].x, mesh.faces[t.prim].y,
-                                                         mesh.faces[t.prim].z)
-                     : a.swapped ? flat_normal(d, a.vertex[0], a.vertex[2], a.vertex[1])
-                                 : flat_normal(d, a.vertex[0], a.vertex[1], a.vertex[2]);
-      s.face_normal = a.back_facing ? -n : n;
-    }
-  }
-  classify(p.in, uniform_color, s);
-  // (after classify, which may put the vertices' radiance in the colours: Gouraud). Only the lit
-  // model reads it: the others classify a triangle of one colour as constant or uniformly lit.
-  if constexpr (DefersLight<Model>::value)
-    s.uniform_color = s.color[0] == s.color[1] && s.color[0] == s.color[2];
+  classify<K>(p.in, d.brdf, needs, d.material, t.draw, a.back_facing, uniform_color, s);
+  return d.brdf;
 }
 
 using namespace simd;

@@ -1,9 +1,25 @@
-// The lit model's radiance with per-pixel material values (metallic-roughness and occlusion
-// textures): lighting.hpp's lit_radiance with kLanes, compiled once, for the generic target, and
-// called by both instruction sets' shading kernels (the same bits either way).
+// The lit radiance out of line, compiled once for the generic target and called by either
+// instruction set's kernels (the same bits either way): with per-pixel material values
+// (metallic-roughness and occlusion textures: lighting.hpp's lit_radiance with kLanes), and at
+// given points (the vertex and face frequencies, lit_kernels.hpp).
 #include "lighting.hpp"
 
+#include "lit_kernels.hpp"
+
 namespace sr {
+
+void radiance_at(const LitInputs& in, const Material& m, Brdf brdf, const vec3* n, const vec3* p,
+                 const vec3* base, int count, vec3* out) {
+  simd::f8 nl[3] = {}, pl[3] = {}, bl[3] = {}, o[3];
+  for (int i = 0; i < count; ++i)
+    for (int c = 0; c < 3; ++c) {
+      nl[c][i] = n[i][c];
+      pl[c][i] = p[i][c];
+      bl[c][i] = base[i][c];
+    }
+  lit_radiance<true>(in, m, brdf, nl, pl, bl, o);
+  for (int i = 0; i < count; ++i) out[i] = vec3(o[0][i], o[1][i], o[2][i]);
+}
 
 void lit_radiance_lanes(const LitInputs& in, const Material& m, Brdf brdf, const simd::f8* n,
                         const simd::f8* p, const simd::f8* base, const MaterialLanes& lanes,

@@ -30,8 +30,10 @@ struct Light {
   float cone_scale = 0.0f, cone_offset = 1.0f;  // spot: clamp(cos * scale + offset, 0, 1)^2
 };
 
-// How a material reflects light (render(shading=) names; Lit's per-triangle choice).
-enum class Brdf : uint8_t { Unlit, Lambert, Phong, BlinnPhong, Pbr, Normal };
+// How a draw is shaded (a per-triangle choice, shade_models.hpp): a material's reflectance
+// models and the debug views (render(shading=) names, in this order: bindings.cpp), then the
+// headlight's Lambert, the plan's choice for a plain scene (renderer.cpp).
+enum class Brdf : uint8_t { Unlit, Lambert, Phong, BlinnPhong, Pbr, Normal, Uv, Headlight };
 
 // Where lighting is evaluated: per pixel (Phong shading), at the vertices with the colour
 // interpolated (Gouraud), or once per face with its face normal (flat).

@@ -17,8 +17,6 @@ struct RenderPlan {
   bool coverage = false;
   bool shade = false;         // colour or normals: setup writes TriangleShading, tiles shade
   bool surface = false;       // surface outputs (kSurfaceOutputs): setup writes TriangleShading
-  bool world_normals = false; // vertex normals go to world space (the normal output, or a colour
-                              // whose model reads normals)
   bool estimate_overdraw = false;  // "auto" path: setup estimates each tile's overdraw
   bool forward_allowed = false;    // forward shading may be used (shading, not "deferred", no
                                    // coverage counting, not scanline)

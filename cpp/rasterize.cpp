@@ -10,12 +10,12 @@ namespace sr {
 
 namespace {
 
-template <typename Pattern, bool kCoverage, bool kScanline>
+template <bool kCoverage, bool kScanline>
 struct RasterizeAll {
   SR_INLINE static void run(const TileRect& rect, int tile, const std::vector<SetupChunk>& chunks,
                             std::size_t num_chunks, TileScratch& s) {
     NoShading hook;
-    raster::rasterize_all<Pattern, kCoverage, kScanline>(rect, tile, chunks, num_chunks, s, hook);
+    raster::rasterize_all<kCoverage, kScanline>(rect, tile, chunks, num_chunks, s, hook);
   }
 };
 
@@ -39,16 +39,13 @@ RasterizeSamplesFn select_rasterize_samples(Isa isa, bool want_coverage, bool sc
                   : (want_coverage ? K10::get(isa) : K00::get(isa));
 }
 
-RasterizeFn select_rasterize(Isa isa, const SamplePattern& pattern, bool want_coverage,
-                             bool scanline) {
-  return dispatch::select<RasterizeFn>(
-      [](auto i, auto sp, auto coverage, auto scan) -> RasterizeFn {
-        using K = RasterizeAll<typename decltype(sp)::type, decltype(coverage)::value,
-                               decltype(scan)::value>;
-        return decltype(i)::value == Isa::Avx2 ? dispatch::IsaKernel<K, RasterizeFn>::avx2
-                                               : dispatch::IsaKernel<K, RasterizeFn>::generic;
-      },
-      isa, pattern, want_coverage, scanline);
+RasterizeFn select_rasterize(Isa isa, bool want_coverage, bool scanline) {
+  using K00 = dispatch::IsaKernel<RasterizeAll<false, false>, RasterizeFn>;
+  using K10 = dispatch::IsaKernel<RasterizeAll<true, false>, RasterizeFn>;
+  using K01 = dispatch::IsaKernel<RasterizeAll<false, true>, RasterizeFn>;
+  using K11 = dispatch::IsaKernel<RasterizeAll<true, true>, RasterizeFn>;
+  return scanline ? (want_coverage ? K11::get(isa) : K01::get(isa))
+                  : (want_coverage ? K10::get(isa) : K00::get(isa));
 }
 
 void rasterize_tile(RasterizeFn kernel, const Viewport& viewport, int tile,

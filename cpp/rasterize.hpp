@@ -52,12 +52,11 @@ struct TileScratch {
 // Rasterizes every triangle binned to `tile`, chunks in order, records in order: ties in depth
 // keep the first triangle drawn, so the result is the same for any thread count.
 // `kernel` (select_rasterize, once per render) is compiled for an instruction set (the same bits
-// for either), the viewport's sample pattern, whether coverage is counted and whether triangles
-// are filled by scanline (RasterAlgorithm::Scanline).
+// for either), whether coverage is counted and whether triangles are filled by scanline
+// (RasterAlgorithm::Scanline).
 using RasterizeFn = void (*)(const TileRect&, int, const std::vector<SetupChunk>&, std::size_t,
                              TileScratch&);
-RasterizeFn select_rasterize(Isa isa, const SamplePattern& pattern, bool want_coverage,
-                             bool scanline);
+RasterizeFn select_rasterize(Isa isa, bool want_coverage, bool scanline);
 void rasterize_tile(RasterizeFn kernel, const Viewport& viewport, int tile,
                     const std::vector<SetupChunk>& chunks, std::size_t num_chunks,
                     bool want_coverage, TileScratch& scratch);
@@ -78,7 +77,7 @@ inline bool is_small(const TriangleSetup& t) {
 }
 
 // Unbiased edge functions E_k at the sample of pixel (x, y) at offset (sx, sy) from its corner
-// (fixed point; the kernels' Pattern gives it), and their change per pixel step.
+// (fixed point; the scratch's pass gives it), and their change per pixel step.
 // Exact: |E| < 2^51 in general (see kGuardBandPx). For a small triangle and a pixel within its
 // bounding box widened by a vector (kLanes - 1 pixels), |E| < 2^14 * (2^14 + 2^11) * 2 < 2^30,
 // so values and steps fit in int32 and may be stepped there.
@@ -182,7 +181,7 @@ namespace raster {
 using namespace simd;
 
 // Any triangle, one pixel at a time, edge functions in int64.
-template <typename Pattern, bool kCoverage, typename Hook>
+template <bool kCoverage, typename Hook>
 SR_INLINE void rasterize_large(const TriangleSetup& t, int x0, int x1, int y0, int y1,
                                const TileRect& rect, uint32_t index, TileScratch& s, Hook& hook) {
   const EdgeEquations eq = edge_equations(t, x0, y0, s);
@@ -255,7 +254,7 @@ SR_INLINE i8 edges_cover(const i8 (&e)[3], const TriangleLanes& lanes) {
 
 // A small triangle (is_small), eight pixels of a row at a time in exact int32.
 // (`lanes`: TriangleLanes(t, index, s.tie), made once for all of a pixel's samples.)
-template <typename Pattern, bool kCoverage, typename Hook>
+template <bool kCoverage, typename Hook>
 SR_INLINE void rasterize_small(const TriangleSetup& t, int x0, int x1, int y0, int y1,
                                const TileRect& rect, const TriangleLanes& lanes, TileScratch& s,
                                Hook& hook) {
@@ -275,7 +274,7 @@ SR_INLINE void rasterize_small(const TriangleSetup& t, int x0, int x1, int y0, i
 
 // A small triangle whose box (within the tile) is at most four pixels wide and more than one
 // row high: two rows of four pixels at a time (SmallEdgePairs), otherwise as rasterize_small.
-template <typename Pattern, bool kCoverage, typename Hook>
+template <bool kCoverage, typename Hook>
 SR_INLINE void rasterize_pairs(const TriangleSetup& t, int x0, int x1, int y0, int y1,
                                const TileRect& rect, const TriangleLanes& lanes, TileScratch& s,
                                Hook& hook) {
@@ -308,12 +307,11 @@ SR_INLINE void prefetch_record(const SetupChunk& chunk, uint32_t r) {
 
 // kScanline (render(raster="scanline"), deferred shading only: make_plan): every opaque
 // triangle is filled by edge walking (scanline.hpp) instead of the kernels above.
-template <typename Pattern, bool kCoverage, bool kScanline = false, typename Hook>
+template <bool kCoverage, bool kScanline = false, typename Hook>
 SR_INLINE void rasterize_all(const TileRect& rect, int tile, const std::vector<SetupChunk>& chunks,
                              std::size_t num_chunks, TileScratch& s, Hook& hook) {
   for (std::size_t c = 0; c < num_chunks; ++c) {
     const SetupChunk& chunk = chunks[c];
-    if (chunk.kind != PrimitiveKind::Triangle) continue;  // (no other kind yet)
     const uint32_t end = chunk.tile_begin[tile + 1];
     for (uint32_t r = chunk.tile_begin[tile]; r < end; ++r) {
       if (r + kPrefetchRecords < end) prefetch_record<Hook::kShades>(chunk, r + kPrefetchRecords);
@@ -345,12 +343,12 @@ SR_INLINE void rasterize_all(const TileRect& rect, int tile, const std::vector<S
       if (is_small(t)) {
         const TriangleLanes lanes(t, index, s.tie);
         if (x1 - x0 < 4 && y1 > y0)
-          rasterize_pairs<Pattern, kCoverage>(t, x0, x1, y0, y1, rect, lanes, s, hook);
+          rasterize_pairs<kCoverage>(t, x0, x1, y0, y1, rect, lanes, s, hook);
         else
-          rasterize_small<Pattern, kCoverage>(t, x0, x1, y0, y1, rect, lanes, s, hook);
+          rasterize_small<kCoverage>(t, x0, x1, y0, y1, rect, lanes, s, hook);
       }
       else {
-        rasterize_large<Pattern, kCoverage>(t, x0, x1, y0, y1, rect, index, s, hook);
+        rasterize_large<kCoverage>(t, x0, x1, y0, y1, rect, index, s, hook);
       }
     }
   }
@@ -433,7 +431,6 @@ SR_INLINE void rasterize_all_samples(const TileRect& rect, int tile,
   NoShading hook;
   for (std::size_t c = 0; c < num_chunks; ++c) {
     const SetupChunk& chunk = chunks[c];
-    if (chunk.kind != PrimitiveKind::Triangle) continue;  // (no other kind yet)
     const uint32_t end = chunk.tile_begin[tile + 1];
     for (uint32_t r = chunk.tile_begin[tile]; r < end; ++r) {
       if (r + kPrefetchRecords < end) prefetch_record<false>(chunk, r + kPrefetchRecords);
@@ -469,7 +466,7 @@ SR_INLINE void rasterize_all_samples(const TileRect& rect, int tile,
       }
       else {
         for (int s = 0; s < count; ++s)
-          rasterize_large<void, kCoverage>(t, x0, x1, y0, y1, rect, index, *samples[s], hook);
+          rasterize_large<kCoverage>(t, x0, x1, y0, y1, rect, index, *samples[s], hook);
       }
     }
   }

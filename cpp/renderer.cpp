@@ -2,6 +2,7 @@
 #include "renderer.hpp"
 
 #include "clip.hpp"
+#include "lit_kernels.hpp"
 #include "normals.hpp"
 #include "outputs.hpp"
 #include "plan.hpp"
@@ -153,6 +154,43 @@ void validate_camera(const CameraParams& camera) {
     throw std::invalid_argument("far must be finite and > near");
 }
 
+namespace {
+
+// A model lit by the render's lights (the tile's light pass, lighting.hpp).
+bool is_lit(Brdf brdf) {
+  return brdf == Brdf::Lambert || brdf == Brdf::Phong || brdf == Brdf::BlinnPhong ||
+         brdf == Brdf::Pbr;
+}
+
+void shade_draw(const RenderPlan& plan, const RenderOptions& options, ShadeDraw& d) {
+  // The draw's model: the render's, where it names one kernel-wide choice, else its material's.
+  // Without colour there is nothing to shade but normals.
+  switch (options.shading) {
+    case Shading::Unlit: d.brdf = Brdf::Unlit; break;
+    case Shading::Normal: d.brdf = Brdf::Normal; break;
+    case Shading::Uv: d.brdf = Brdf::Uv; break;
+    case Shading::Lambert: d.brdf = Brdf::Headlight; break;
+    case Shading::Lit: d.brdf = d.material.brdf; break;
+  }
+  if (!plan.color) d.brdf = Brdf::Unlit;
+  const Brdf b = d.brdf;
+  const bool textured = plan.color && d.material.textured() && b != Brdf::Uv && b != Brdf::Headlight;
+  d.needs = 0;
+  if (plan.normal || (plan.color && b != Brdf::Unlit && b != Brdf::Uv))
+    d.needs |= kNeedsNormal;
+  if (is_lit(b) || textured) d.needs |= kNeedsPosition;
+  if (b == Brdf::Uv || textured) d.needs |= kNeedsUv;
+  if (textured) d.needs |= kTexturedUv;
+  if (options.frequency == Frequency::Face && (is_lit(b) || b == Brdf::Normal))
+    d.needs |= kNeedsFaceNormal;
+  const bool plain = !d.material.textured() || !plan.color;
+  if (b == Brdf::Headlight || b == Brdf::Uv ||
+      (plain && (b == Brdf::Unlit || (b == Brdf::Normal && options.frequency == Frequency::Pixel))))
+    d.needs |= kInline;
+}
+
+}  // namespace
+
 RenderPlan make_plan(const RenderOptions& options, int width, int height) {
   RenderPlan plan;
   plan.outputs = options.outputs;
@@ -161,7 +199,6 @@ RenderPlan make_plan(const RenderOptions& options, int width, int height) {
   plan.coverage = options.outputs & kOutCoverage;
   plan.shade = plan.color || plan.normal;
   plan.surface = options.outputs & kSurfaceOutputs;
-  plan.world_normals = plan.normal || (plan.color && model_reads_normal(options.shading));
   // Forward shading kernels do not count coverage (a diagnostic), nor fill by scanline (a
   // cross-check): those renders are deferred, the same bits. The "auto" shading path picks per
   // tile, from overdraw estimated in setup. Anti-aliased renders shade each sample pass's
@@ -314,15 +351,27 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   std::vector<ShadeDraw> shade_draws;
   std::vector<Block> normal_blocks;
   world_normals_.resize(draws.size());
+  bool defers_light = false;
+  // The shading kernel: a plain one where every draw takes its model (shade_models.hpp).
+  KernelKind kind = KernelKind::Lit;
   for (std::size_t d = 0; d < draws.size(); ++d) {
     const MeshData& mesh = *draws[d].mesh;
-    const bool smooth = plan.world_normals && !mesh.normals.empty();
+    ShadeDraw sd{&mesh, transforms[d].normal_to_world, draws[d].color, draws[d].material,
+                 Brdf::Unlit, 0, draws[d].instance_id, nullptr, draws[d].model};
+    shade_draw(plan, options, sd);
+    defers_light |= plan.color && options.frequency == Frequency::Pixel && is_lit(sd.brdf);
+    const KernelKind mine = !(sd.needs & kInline)      ? KernelKind::Lit
+                            : sd.brdf == Brdf::Headlight ? KernelKind::Headlight
+                            : sd.brdf == Brdf::Unlit     ? KernelKind::Unlit
+                            : sd.brdf == Brdf::Normal    ? KernelKind::NormalColor
+                                                         : KernelKind::Lit;
+    kind = d == 0 || mine == kind ? mine : KernelKind::Lit;
+    const bool smooth = (sd.needs & kNeedsNormal) && !mesh.normals.empty();
     world_normals_[d].resize(smooth ? mesh.normals.size() : 0);
     for (std::size_t b = 0; b < world_normals_[d].size(); b += kVertexBlock)
       normal_blocks.push_back({uint32_t(d), b, std::min(world_normals_[d].size(), b + kVertexBlock)});
-    shade_draws.push_back({&mesh, transforms[d].normal_to_world, draws[d].color,
-                           draws[d].material, draws[d].instance_id,
-                           smooth ? world_normals_[d].data() : nullptr, draws[d].model});
+    if (smooth) sd.world_normals = world_normals_[d].data();
+    shade_draws.push_back(sd);
   }
   pool_.parallel_for(normal_blocks.size(), [&](std::size_t item, int) {
     const Block& blk = normal_blocks[item];
@@ -331,7 +380,12 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   });
   ShadeParams shade{};
   shade.draws = shade_draws.data();
-  shade.shading = options.shading;
+  shade.lit = &lit_kernels(isa_);
+  shade.color = plan.color;
+  shade.normal = plan.normal;
+  shade.work = uint8_t((plan.color ? kWorkColor : 0) | (plan.normal ? kWorkNormalOut : 0) |
+                       (plan.color && defers_light ? kWorkLitCode : 0));
+  shade.in.defers_light = defers_light;
   // Headlight: the light sits at the camera and shines along its viewing axis.
   const dvec3 to_camera = glm::normalize(dvec3(glm::inverse(camera.view) * dvec4(0, 0, 1, 0)));
   shade.in.to_light_world = vec3(to_camera);
@@ -365,7 +419,7 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   }
   const float tie = camera.orthographic ? kTieFactorOrthographic : kTieFactorPerspective;
   const std::size_t num_chunks = chunk_ranges.size();
-  const TileKernels kernels = select_tile_kernels(plan, viewport, isa_);
+  const TileKernels kernels = select_tile_kernels(plan, viewport, isa_, kind);
   pool_.parallel_for(viewport.num_tiles(), [&](std::size_t tile, int worker) {
     if (!tile_scratch_[worker]) tile_scratch_[worker].reset(new TileScratch);
     const bool overlay = primitives_.any(int(tile));  // lines or points in this tile

@@ -229,7 +229,6 @@ void setup_face(const SetupParams& params, std::size_t f, SetupChunk& out) {
 }
 
 void setup_chunk(const SetupParams& params, std::size_t begin, std::size_t end, SetupChunk& out) {
-  out.kind = PrimitiveKind::Triangle;
   out.alpha = params.alpha;
   out.records.clear();
   out.shading.clear();

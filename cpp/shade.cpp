@@ -1,5 +1,5 @@
-// Shade stage: picks the shading kernels for a render (shade_kernels.hpp, compiled per instruction
-// set in shade_avx2.cpp and shade_generic.cpp) and runs them over a tile, deferred (each
+// Shade stage: picks the shading kernels for a render (shade_kernels.hpp, compiled per path and
+// instruction set in the shade_kernels_*.cpp files) and runs them over a tile, deferred (each
 // triangle that owns pixels, once) or forward (the raster kernels' hook); then writes the tile.
 #include "shade.hpp"
 
@@ -10,18 +10,39 @@
 
 namespace sr {
 
-TileKernels select_tile_kernels(const RenderPlan& plan, const Viewport& viewport, Isa isa) {
-  const SamplePattern& pattern = viewport.samples;
+TileKernels select_tile_kernels(const RenderPlan& plan, const Viewport& viewport, Isa isa,
+                                KernelKind kind) {
   TileKernels k;
-  k.raster = select_rasterize(isa, pattern, plan.coverage, plan.scanline);
-  if (pattern.count > 1)
+  k.raster = select_rasterize(isa, plan.coverage, plan.scanline);
+  if (viewport.samples.count > 1)
     k.raster_samples = select_rasterize_samples(isa, plan.coverage, plan.scanline);
-  const bool avx2 = isa == Isa::Avx2;
-  k.deferred = (avx2 ? shading::select_deferred<Isa::Avx2> : shading::select_deferred<Isa::Generic>)(
-      pattern, plan.shading, plan.color, plan.normal);
-  if (plan.forward_allowed)  // (never with coverage counting: make_plan)
-    k.forward = (avx2 ? shading::select_forward<Isa::Avx2> : shading::select_forward<Isa::Generic>)(
-        pattern, plan.shading, plan.color, plan.normal);
+  if (plan.shade) {
+    using shading::deferred_kernel;
+    using shading::forward_kernel;
+    k.deferred = dispatch::select<TileKernels::Deferred>(
+        [&](auto avx2) {
+          constexpr Isa I = decltype(avx2)::value ? kBestIsa : Isa::Generic;
+          switch (kind) {
+            case KernelKind::Headlight: return deferred_kernel<I, KernelKind::Headlight>();
+            case KernelKind::Unlit: return deferred_kernel<I, KernelKind::Unlit>();
+            case KernelKind::NormalColor: return deferred_kernel<I, KernelKind::NormalColor>();
+            default: return deferred_kernel<I, KernelKind::Lit>();
+          }
+        },
+        isa != Isa::Generic);
+    if (plan.forward_allowed)  // (never with coverage counting: make_plan)
+      k.forward = dispatch::select<TileKernels::Forward>(
+          [&](auto avx2) {
+            constexpr Isa I = decltype(avx2)::value ? kBestIsa : Isa::Generic;
+            switch (kind) {
+              case KernelKind::Headlight: return forward_kernel<I, KernelKind::Headlight>();
+              case KernelKind::Unlit: return forward_kernel<I, KernelKind::Unlit>();
+              case KernelKind::NormalColor: return forward_kernel<I, KernelKind::NormalColor>();
+              default: return forward_kernel<I, KernelKind::Lit>();
+            }
+          },
+          isa != Isa::Generic);
+  }
   k.isa = isa;
   k.coverage = plan.coverage;
   return k;

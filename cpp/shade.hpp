@@ -8,21 +8,40 @@
 
 namespace sr {
 
-// What shading needs of one draw.
+struct LitKernels;
+
+// What shading needs of one draw: its geometry, material and model, and what its triangles read
+// (the plan's choices, made once per draw: renderer.cpp, shade_draw).
 struct ShadeDraw {
   const MeshData* mesh;
   dmat3 normal_to_world;  // inverse-transpose of the model matrix (double: see prepare())
   vec4 color;            // material colour (used when the mesh has no vertex colours)
-  Material material;     // the lit model's (Shading::Lit)
+  Material material;
+  Brdf brdf;             // its model in this render (the plan's choice)
+  uint8_t needs;         // DrawNeeds bits (shade_models.hpp)
   int32_t instance_id;
   const vec3* world_normals;  // per vertex (world_normals()), or null: flat face normals
   dmat4 model_to_world;       // for models that read world positions
 };
 
+// What each group of a visible triangle's pixels does (shade_kernels.hpp, Prepared::work), decided
+// once per triangle: the render's shaded outputs are run-time choices folded in here, not kernel
+// axes (benchmarks/RESULTS.md, "What each kernel axis is worth").
+enum ShadeWork : uint8_t {
+  kWorkVaryingColor = 1,    // the colour output, interpolated (ShadeTriangle::kVaryingColor)
+  kWorkVaryingNormal = 2,   // the normal output, interpolated
+  kWorkUnitNormal = 4,      // the normal output, one for the whole triangle
+  kWorkColor = 8,           // the colour output                     } the render's bits
+  kWorkNormalOut = 16,      // the normal output (normalised here)   } (ShadeParams::work)
+  kWorkLitCode = 32,        // colour, with codes for the light pass }
+};
+
 struct ShadeParams {
   const ShadeDraw* draws;
-  Shading shading;
-  ShadeInputs in;  // what the shading models read (shade_models.hpp)
+  bool color, normal;  // shaded outputs requested: colour (or radiance), normals
+  uint8_t work;        // the render's ShadeWork bits
+  ShadeInputs in;  // what shading reads (shade_models.hpp)
+  const LitKernels* lit;  // lighting and textures out of line, for the render's instruction set
   uint8_t background[3];  // the colour output's background, as given (not encoded)
   bool orthographic;
   bool stream;  // write depth and colour with non-temporal stores (frames larger than caches)
@@ -77,7 +96,9 @@ struct TileKernels {
   Isa isa = Isa::Generic;
   bool coverage = false;
 };
-TileKernels select_tile_kernels(const RenderPlan& plan, const Viewport& viewport, Isa isa);
+// kind: the plan's choice of shading kernel (shade_models.hpp, KernelKind).
+TileKernels select_tile_kernels(const RenderPlan& plan, const Viewport& viewport, Isa isa,
+                                KernelKind kind);
 
 // Deferred shading of one raster pass (kernels.deferred not null).
 inline void shade_deferred(const TileKernels& kernels, const ShadeParams& params,

@@ -1,28 +1,40 @@
 // Eight-lane vectors for the per-pixel kernels, and the run-time choice of instruction set.
 //
 // A kernel is written once, as an always-inline function over these GCC/Clang vector types, and
-// instantiated twice: inside a function compiled for AVX2 (one 256-bit instruction per operation)
-// and inside a plain x86-64 function (two SSE2 instructions, or scalar code elsewhere). Every
-// operation is an IEEE single operation per lane (no FMA contraction: the build passes
-// -ffp-contract=off and the AVX2 target excludes FMA), so both produce identical bits; the test
+// instantiated per instruction set: on x86-64 inside a function compiled for AVX2 (one 256-bit
+// instruction per operation) and inside a plain x86-64 function (two SSE2 instructions); on any
+// other machine (aarch64: two NEON instructions) only the latter, for the build's own target.
+// Every operation is an IEEE single operation per lane (no FMA contraction: the build passes
+// -ffp-contract=off and the AVX2 target excludes FMA), so all produce identical bits; the test
 // suite checks that. Only inlined code takes the target: nothing outside the kernel is compiled
 // for AVX2, so no out-of-line copy of a shared inline function can leak AVX2 instructions into
-// the generic path.
+// the generic path. x86-only code is guarded by SR_X86.
 #pragma once
 
 #include <cstdint>
 #include <cstring>
+
+#if defined(__x86_64__) || defined(__i386__)
+#define SR_X86 1
 #include <emmintrin.h>
+#define SR_TARGET_AVX2 __attribute__((target("avx2")))
+#else
+#define SR_X86 0
+#endif
 
 #define SR_INLINE inline __attribute__((always_inline))
-#define SR_TARGET_AVX2 __attribute__((target("avx2")))
 
 namespace sr {
 
 enum class Isa : uint8_t { Generic, Avx2 };
 
-// The best instruction set this CPU runs.
+// The best instruction set this CPU runs, and the best one the build has kernels for.
 Isa best_isa();
+#if SR_X86
+constexpr Isa kBestIsa = Isa::Avx2;
+#else
+constexpr Isa kBestIsa = Isa::Generic;
+#endif
 const char* isa_name(Isa isa);
 
 namespace simd {
@@ -85,14 +97,24 @@ SR_INLINE void load_xyz8(const float* p, f8& x, f8& y, f8& z) {
 SR_INLINE bool any(i8 mask) {
   const i4 lo = __builtin_shufflevector(mask, mask, 0, 1, 2, 3);
   const i4 hi = __builtin_shufflevector(mask, mask, 4, 5, 6, 7);
+#if SR_X86
   return _mm_movemask_epi8(__m128i(lo | hi)) != 0;
+#else
+  const i4 v = lo | hi;
+  return (v[0] | v[1] | v[2] | v[3]) != 0;
+#endif
 }
 
 // True if every lane of the mask is set.
 SR_INLINE bool all(i8 mask) {
   const i4 lo = __builtin_shufflevector(mask, mask, 0, 1, 2, 3);
   const i4 hi = __builtin_shufflevector(mask, mask, 4, 5, 6, 7);
+#if SR_X86
   return _mm_movemask_epi8(__m128i(lo & hi)) == 0xffff;
+#else
+  const i4 v = lo & hi;
+  return (v[0] & v[1] & v[2] & v[3]) == -1;
+#endif
 }
 
 // Correctly rounded square root per lane (as std::sqrt). Lane by lane, so that the compiler picks

@@ -48,16 +48,6 @@ struct SamplePattern {
   }
 };
 
-// The kernels' pattern axis (dispatch.hpp): one sample per pass, at the scratch's run-time
-// offset, whatever the render's pattern. (An axis kept so that a pattern needing its own kernels,
-// for example several samples per pass, can be added as a type here.)
-struct OneSamplePerPass {
-  static bool matches(const SamplePattern&) { return true; }
-};
-template <typename... P>
-struct PatternList {};
-using SamplePatterns = PatternList<OneSamplePerPass>;
-
 // Image size, tiling and sample pattern; the scissor is the whole image.
 struct Viewport {
   int width = 0, height = 0;

@@ -1,0 +1,12 @@
+// The forward shading kernels (shade_kernels.hpp): the lit kernel, for the avx2 instruction set.
+#include "shade_kernels.hpp"
+
+#if SR_X86
+namespace sr {
+namespace shading {
+
+SR_DEFINE_KERNEL(forward, Isa::Avx2, KernelKind::Lit, ForwardTile, TileKernels::Forward)
+
+}  // namespace shading
+}  // namespace sr
+#endif
