@@ -30,7 +30,7 @@ def run(metallic, roughness, base, lights, ambient, emissive=(0,0,0)):
         if kind == 0: L = pyrender.DirectionalLight(color=color, intensity=inten); sl = sr.DirectionalLight(color, inten)
         elif kind == 1: L = pyrender.PointLight(color=color, intensity=inten); sl = sr.PointLight(color, inten)
         else: L = pyrender.SpotLight(color=color, intensity=inten, innerConeAngle=extra[0], outerConeAngle=extra[1]); sl = sr.SpotLight(color, inten, extra[0], extra[1])
-        scene.add(L, pose=pose); recs.append(sl._core(pose))
+        scene.add(L, pose=pose); recs.append(sl._record_fields(pose))
     cam = sr.PerspectiveCamera(fov_y=40.0, near=0.5, far=10.0); cam.look_at((0.5, 0.8, 3.0), (0, 0, 0))
     scene.add(pyrender.PerspectiveCamera(yfov=math.radians(40.0), znear=0.5, zfar=10.0, aspectRatio=W/H), pose=cam.pose)
     r = pyrender.OffscreenRenderer(W, H)
@@ -74,7 +74,7 @@ vc8 = np.round(vc * 255).astype(np.uint8)
 tm = trimesh.Trimesh(sphere.vertices, sphere.faces, vertex_normals=sphere.vertices, vertex_colors=np.hstack([vc8, np.full((len(vc8),1),255,np.uint8)]), process=False)
 scene.add(pyrender.Mesh.from_trimesh(tm, smooth=True))
 L = lights[0]; scene.add(pyrender.DirectionalLight(color=L[1], intensity=L[2]), pose=L[3])
-recs = [sr.DirectionalLight(L[1], L[2])._core(L[3])]
+recs = [sr.DirectionalLight(L[1], L[2])._record_fields(L[3])]
 cam = sr.PerspectiveCamera(fov_y=40.0, near=0.5, far=10.0); cam.look_at((0.5, 0.8, 3.0), (0, 0, 0))
 scene.add(pyrender.PerspectiveCamera(yfov=math.radians(40.0), znear=0.5, zfar=10.0, aspectRatio=W/H), pose=cam.pose)
 r = pyrender.OffscreenRenderer(W, H); color, depth = r.render(scene); r.delete()

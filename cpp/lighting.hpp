@@ -8,6 +8,7 @@
 // is exp2(p * log2(x)) with polynomials below).
 #pragma once
 
+#include "materials.hpp"
 #include "math.hpp"
 #include "simd.hpp"
 
@@ -16,62 +17,6 @@
 
 namespace sr {
 
-class Texture;
-
-enum class LightKind : uint8_t { Directional, Point, Spot };
-
-// One light in world space (python/softrast/light.py, Light._core).
-struct Light {
-  LightKind kind = LightKind::Directional;
-  vec3 radiance{1.0f};     // colour * intensity
-  vec3 position{0.0f};     // point and spot lights
-  vec3 direction{0.0f, 0.0f, -1.0f};  // unit, the direction the light travels
-  bool inverse_square = true;          // point and spot: radiance / r^2
-  float cone_scale = 0.0f, cone_offset = 1.0f;  // spot: clamp(cos * scale + offset, 0, 1)^2
-};
-
-// How a draw is shaded (a per-triangle choice, shade_models.hpp): a material's reflectance
-// models and the debug views (render(shading=) names, in this order: bindings.cpp), then the
-// headlight's Lambert, the plan's choice for a plain scene (renderer.cpp).
-enum class Brdf : uint8_t { Unlit, Lambert, Phong, BlinnPhong, Pbr, Normal, Uv, Headlight };
-
-// Where lighting is evaluated: per pixel (Phong shading), at the vertices with the colour
-// interpolated (Gouraud), or once per face with its face normal (flat).
-enum class Frequency : uint8_t { Pixel, Vertex, Face };
-
-// A material as the core reads it (python/softrast/material.py). ka / kd follow the base colour
-// (vertex colours, else the draw's colour) where the flags say so.
-struct Material {
-  Brdf brdf = Brdf::Lambert;
-  bool kd_is_base = true;   // kd = the base colour
-  bool ka_is_kd = true;     // ka = kd
-  bool double_sided = true;
-  vec3 ka{0.0f}, kd{0.0f}, ks{0.0f};
-  float shininess = 32.0f;
-  float metallic = 0.0f, roughness = 0.5f;
-  vec3 emissive{0.0f};   // zero where an emissive texture carries it (emissive_factor)
-  // Textures (texture.hpp), null where absent; the lit model samples them per pixel.
-  const Texture* base_color_texture = nullptr;  // multiplies the base colour (rgb)
-  const Texture* emissive_texture = nullptr;    // emissive_factor * its rgb is added
-  const Texture* normal_texture = nullptr;      // tangent space, OpenGL-style unless normal_y_down
-  const Texture* metallic_roughness_texture = nullptr;  // glTF: green * roughness, blue * metallic
-  const Texture* occlusion_texture = nullptr;   // red: ambient *= 1 + strength (red - 1)
-  const Texture* bump_texture = nullptr;        // a height map (first channel), bump_scale
-  vec3 emissive_factor{0.0f};
-  float normal_scale = 1.0f;
-  float occlusion_strength = 1.0f;
-  float bump_scale = 1.0f;
-  bool normal_y_down = false;  // DirectX-style normal map (green = -v)
-  bool alpha_mask = false;     // glTF alphaMode MASK: fragments with alpha < alpha_cutoff are
-  float alpha_cutoff = 0.5f;   // discarded (alpha_mask.hpp); else the draw is opaque
-  bool textured() const {
-    return base_color_texture || emissive_texture || normal_texture || metallic_roughness_texture ||
-           occlusion_texture || bump_texture;
-  }
-  // Per-pixel material values (MaterialLanes) replace the scalar ones.
-  bool material_maps() const { return metallic_roughness_texture || occlusion_texture; }
-};
-
 // Per-pixel material values from textures (metallic-roughness, occlusion), eight lanes.
 struct MaterialLanes {
   simd::f8 metallic, roughness, occlusion;
@@ -79,7 +24,6 @@ struct MaterialLanes {
 
 namespace simd {
 
-SR_INLINE f8 max0(f8 v) { return f8{} < v ? v : f8{}; }  // NaN -> 0
 SR_INLINE f8 clamp01(f8 v) {
   const f8 one = splat(1.0f);
   const f8 c = f8{} < v ? v : f8{};

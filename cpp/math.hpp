@@ -22,7 +22,4 @@ using glm::vec2;
 using glm::vec3;
 using glm::vec4;
 
-// Floor division by 2^bits for signed fixed-point values (arithmetic shift rounds toward -inf).
-constexpr int64_t floor_shift(int64_t v, int bits) { return v >> bits; }
-
 }  // namespace sr

@@ -1,7 +1,7 @@
 // Records passed between pipeline stages, the option enums and the numeric limits they rely on.
 #pragma once
 
-#include "lighting.hpp"
+#include "materials.hpp"
 #include "math.hpp"
 
 #include <cstddef>
@@ -36,8 +36,11 @@ constexpr std::size_t kMaxFramebufferBytes = std::size_t(4) << 30;
 constexpr int kTriangleChunk = 8192;
 
 enum class Cull : uint8_t { None, Back, Front };
-// Shading models (shade_models.hpp): one policy struct each.
-enum class Shading : uint8_t { Unlit, Lambert, Normal, Uv, Lit };
+// render(shading=): each draw's own material model ("auto"), or one model for every draw: the
+// reflectance models and the debug views (names: bindings.cpp). The plan turns it into a Brdf
+// per draw (renderer.cpp).
+enum class Shading : uint8_t { Auto, Unlit, Lambert, Phong, BlinnPhong, Pbr, Normal, Uv };
+constexpr int kNumShadings = int(Shading::Uv) + 1;
 // When fragments are shaded: as they win the depth test (forward), or once per visible pixel
 // after the tile is rasterized (deferred). The same bits either way; Auto picks per tile by
 // its expected overdraw.
@@ -134,7 +137,7 @@ struct Draw {
   dmat4 model{1.0};      // model -> world
   int32_t instance_id = 0;
   vec4 color{0.8f, 0.8f, 0.8f, 1.0f};  // material colour, linear RGBA
-  Material material;     // how the lit model shades it (lighting.hpp); read only by Shading::Lit
+  Material material;     // how it is shaded (materials.hpp): the default one without a material
 };
 
 struct CameraParams {
@@ -148,13 +151,15 @@ struct CameraParams {
 struct RenderOptions {
   uint32_t outputs = kOutColor | kOutDepth;
   Cull cull = Cull::Back;
-  Shading shading = Shading::Lambert;
+  Shading shading = Shading::Auto;
   ShadingPath shading_path = ShadingPath::Auto;
   RasterAlgorithm raster = RasterAlgorithm::Edge;
   vec3 background{0.0f};  // colour of uncovered pixels, [0, 1], linear
-  float ambient = 0.25f;  // Lambert: ambient + (1 - ambient) * max(0, n . l)
-  // The lit model (Shading::Lit): world-space lights, the ambient light, the frequency.
+  // The scene's world-space lights; without any, the headlight: a white directional light along
+  // the viewing axis of intensity 1 - ambient, and an ambient light of `ambient` (renderer.cpp).
+  double ambient = 0.25;
   std::vector<Light> lights;
+  bool has_ambient_light = false;  // the scene sets its ambient light (else 0, or the headlight's)
   vec3 ambient_light{0.0f};
   Frequency frequency = Frequency::Pixel;
   bool srgb = true;  // the colour output is sRGB-encoded (IEC 61966-2-1), else linear
@@ -223,10 +228,7 @@ constexpr int kEdgeEnd[3] = {2, 0, 1};
 //   perspective: key = 1 / w_clip = 1 / depth_view   (the "1/w buffer": float32 keeps a relative
 //                precision of 2^-24 at any distance, so near/far ratios of 1e9 are harmless)
 //   orthographic: key = -depth_view                   (w = 1, depth itself is affine)
-// The z-buffer is cleared to -infinity.
-inline float depth_key(float depth_view, float w_clip, bool orthographic) {
-  return orthographic ? -depth_view : 1.0f / w_clip;
-}
+// The z-buffer is cleared to -infinity. (Setup computes keys; the write pass turns them back.)
 inline float depth_from_key(float key, bool orthographic) {
   return orthographic ? -key : 1.0f / key;
 }

@@ -162,17 +162,29 @@ bool is_lit(Brdf brdf) {
          brdf == Brdf::Pbr;
 }
 
-void shade_draw(const RenderPlan& plan, const RenderOptions& options, ShadeDraw& d) {
-  // The draw's model: the render's, where it names one kernel-wide choice, else its material's.
-  // Without colour there is nothing to shade but normals.
-  switch (options.shading) {
-    case Shading::Unlit: d.brdf = Brdf::Unlit; break;
-    case Shading::Normal: d.brdf = Brdf::Normal; break;
-    case Shading::Uv: d.brdf = Brdf::Uv; break;
-    case Shading::Lambert: d.brdf = Brdf::Headlight; break;
-    case Shading::Lit: d.brdf = d.material.brdf; break;
+// The render's model for every draw (render(shading=)), or none ("auto": each material's own).
+Brdf shading_brdf(Shading shading, Brdf own) {
+  switch (shading) {
+    case Shading::Unlit: return Brdf::Unlit;
+    case Shading::Lambert: return Brdf::Lambert;
+    case Shading::Phong: return Brdf::Phong;
+    case Shading::BlinnPhong: return Brdf::BlinnPhong;
+    case Shading::Pbr: return Brdf::Pbr;
+    case Shading::Normal: return Brdf::Normal;
+    case Shading::Uv: return Brdf::Uv;
+    default: return own;
   }
-  if (!plan.color) d.brdf = Brdf::Unlit;
+}
+
+// The plan's choices for one draw: its model in this render and what its triangles read.
+// headlight: the render lights plain Lambert draws with the headlight's own formula (Brdf
+// Headlight: a scene without lights, every draw plain Lambert, the pixel frequency).
+// Without colour there is nothing to shade but normals.
+void shade_draw(const RenderPlan& plan, const RenderOptions& options, bool headlight,
+                ShadeDraw& d) {
+  d.brdf = !plan.color ? Brdf::Unlit
+           : headlight ? Brdf::Headlight
+                       : shading_brdf(options.shading, d.material.model);
   const Brdf b = d.brdf;
   const bool textured = plan.color && d.material.textured() && b != Brdf::Uv && b != Brdf::Headlight;
   d.needs = 0;
@@ -187,6 +199,24 @@ void shade_draw(const RenderPlan& plan, const RenderOptions& options, ShadeDraw&
   if (b == Brdf::Headlight || b == Brdf::Uv ||
       (plain && (b == Brdf::Unlit || (b == Brdf::Normal && options.frequency == Frequency::Pixel))))
     d.needs |= kInline;
+}
+
+// A scene without lights is lit by the headlight: a white directional light along the camera's
+// viewing axis (the view matrix's third row, negated, for a rigid view) of intensity
+// 1 - ambient, and an ambient light of `ambient` unless the scene sets its own.
+Light headlight(const CameraParams& camera, double ambient) {
+  const dmat4& v = camera.view;  // (glm: v[column][row])
+  const double x = -v[0][2], y = -v[1][2], z = -v[2][2];
+  const double norm = std::sqrt(x * x + y * y + z * z);
+  Light light;
+  light.kind = LightKind::Directional;
+  light.radiance = vec3(float(1.0 - ambient));
+  light.position = vec3(0.0f);
+  light.direction = vec3(float(x / norm), float(y / norm), float(z / norm));
+  light.inverse_square = false;
+  light.cone_scale = 0.0f;
+  light.cone_offset = 1.0f;
+  return light;
 }
 
 }  // namespace
@@ -354,11 +384,18 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   bool defers_light = false;
   // The shading kernel: a plain one where every draw takes its model (shade_models.hpp).
   KernelKind kind = KernelKind::Lit;
+  // The headlight's own Lambert: a scene without lights or ambient light, at the pixel frequency,
+  // whose draws are all plain Lambert.
+  bool headlight_lambert = options.lights.empty() && !options.has_ambient_light &&
+                           options.frequency == Frequency::Pixel;
+  for (const Draw& d : draws)
+    headlight_lambert &= shading_brdf(options.shading, d.material.model) == Brdf::Lambert &&
+                         d.material.plain();
   for (std::size_t d = 0; d < draws.size(); ++d) {
     const MeshData& mesh = *draws[d].mesh;
     ShadeDraw sd{&mesh, transforms[d].normal_to_world, draws[d].color, draws[d].material,
                  Brdf::Unlit, 0, draws[d].instance_id, nullptr, draws[d].model};
-    shade_draw(plan, options, sd);
+    shade_draw(plan, options, headlight_lambert, sd);
     defers_light |= plan.color && options.frequency == Frequency::Pixel && is_lit(sd.brdf);
     const KernelKind mine = !(sd.needs & kInline)      ? KernelKind::Lit
                             : sd.brdf == Brdf::Headlight ? KernelKind::Headlight
@@ -389,12 +426,16 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   // Headlight: the light sits at the camera and shines along its viewing axis.
   const dvec3 to_camera = glm::normalize(dvec3(glm::inverse(camera.view) * dvec4(0, 0, 1, 0)));
   shade.in.to_light_world = vec3(to_camera);
-  shade.in.ambient = options.ambient;
+  shade.in.ambient = float(options.ambient);
   shade.in.frequency = options.frequency;
   shade.in.texture_filter = options.texture_filter;
-  shade.in.lit.lights = options.lights.data();
-  shade.in.lit.num_lights = int(options.lights.size());
-  shade.in.lit.ambient_light = options.ambient_light;
+  const bool lights = !options.lights.empty();
+  const Light head = lights ? Light{} : headlight(camera, options.ambient);
+  shade.in.lit.lights = lights ? options.lights.data() : &head;
+  shade.in.lit.num_lights = lights ? int(options.lights.size()) : 1;
+  shade.in.lit.ambient_light = options.has_ambient_light ? options.ambient_light
+                               : lights                  ? vec3(0.0f)
+                                                         : vec3(float(options.ambient));
   // The view vector: toward the camera centre (perspective), or along the axis (orthographic).
   const dmat4 camera_to_world = glm::inverse(camera.view);
   shade.in.lit.eye = camera.orthographic ? vec3(to_camera) : vec3(dvec3(camera_to_world[3]));
@@ -420,6 +461,9 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   const float tie = camera.orthographic ? kTieFactorOrthographic : kTieFactorPerspective;
   const std::size_t num_chunks = chunk_ranges.size();
   const TileKernels kernels = select_tile_kernels(plan, viewport, isa_, kind);
+  // Every tile is one sequence: rasterize (and shade, forward) -> shade (deferred) -> lines and
+  // points over the shaded tile -> write the outputs. Anti-aliased tiles run it per sample pass
+  // and resolve (multisample.cpp).
   pool_.parallel_for(viewport.num_tiles(), [&](std::size_t tile, int worker) {
     if (!tile_scratch_[worker]) tile_scratch_[worker].reset(new TileScratch);
     const bool overlay = primitives_.any(int(tile));  // lines or points in this tile
@@ -432,42 +476,38 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
       return;
     }
     if (!shade_scratch_[worker]) shade_scratch_[worker].reset(new ShadeScratch);
-    TileScratch& scratch = *tile_scratch_[worker];
-    scratch.tie = tie;
-    if (overlay) {  // deferred (the same bits), then the lines and points over the shaded tile
-      const TileRect rect = tile_rect(viewport, int(tile));
-      ShadeScratch& shaded = *shade_scratch_[worker];
+    TileScratch& raster = *tile_scratch_[worker];
+    ShadeScratch& shaded = *shade_scratch_[worker];
+    raster.tie = tie;
+    const TileRect rect = tile_rect(viewport, int(tile));
+
+    // Forward shades each fragment as it wins the depth test, deferred each visible pixel once
+    // after the walk: the same bits. Lines and points draw over a deferred tile.
+    bool forward = plan.forward_allowed && !overlay;
+    if (forward && plan.estimate_overdraw) {
+      // Deferred walks each triangle twice: forward wins up to about this much overdraw
+      // (benchmarks/RESULTS.md, the crossover).
+      constexpr float kForwardMaxOverdraw = 1.5f;
+      float area = 0.0f;
+      for (std::size_t c = 0; c < num_chunks; ++c) area += chunks_[c].tile_area[tile];
+      forward = area <= kForwardMaxOverdraw * float((rect.x1 - rect.x0) * (rect.y1 - rect.y0));
+    }
+    if (forward) {
+      shade_forward(kernels, shade, rect, int(tile), chunks_, num_chunks, raster, shaded);
+    } else {
       rasterize_tile(kernels.raster, viewport, int(tile), chunks_, num_chunks, plan.coverage,
-                     scratch);
-      if (kernels.deferred) shade_deferred(kernels, shade, rect, scratch, shaded);
-      PrimitivePixels* pixels = primitive_pixels_[worker].get();
-      const OverlayTarget target{scratch.key, scratch.visible,
+                     raster);
+      if (kernels.deferred) shade_deferred(kernels, shade, rect, raster, shaded);
+    }
+    PrimitivePixels* pixels = overlay ? primitive_pixels_[worker].get() : nullptr;
+    if (overlay) {
+      const OverlayTarget target{raster.key, raster.visible,
                                  {shaded.rgb[0], shaded.rgb[1], shaded.rgb[2]},
                                  {shaded.normal[0], shaded.normal[1], shaded.normal[2]},
                                  nullptr, {nullptr, nullptr, nullptr}, tie, pixels};
       draw_primitives_tile(primitives_, rect, int(tile), target);
-      write_tile(shade, rect, scratch, shaded, kernels.isa, nullptr, pixels);
-      return;
     }
-    bool forward = plan.forward_allowed;
-    if (plan.estimate_overdraw) {
-      // Forward shading shades every fragment that wins the depth test, deferred each visible
-      // pixel once after a second walk over its triangle: forward wins up to about this much
-      // overdraw (benchmarks/RESULTS.md, the crossover).
-      constexpr float kForwardMaxOverdraw = 1.5f;
-      float area = 0.0f;
-      for (std::size_t c = 0; c < num_chunks; ++c) area += chunks_[c].tile_area[tile];
-      const TileRect rect = tile_rect(viewport, int(tile));
-      forward = area <= kForwardMaxOverdraw * float((rect.x1 - rect.x0) * (rect.y1 - rect.y0));
-    }
-    if (forward) {
-      rasterize_and_shade_tile(shade, kernels, viewport, int(tile), chunks_, num_chunks, scratch,
-                               *shade_scratch_[worker]);
-    } else {
-      rasterize_tile(kernels.raster, viewport, int(tile), chunks_, num_chunks, plan.coverage,
-                     scratch);
-      shade_tile(shade, kernels, viewport, int(tile), scratch, *shade_scratch_[worker]);
-    }
+    write_tile(shade, rect, raster, shaded, kernels.isa, nullptr, pixels);
   });
   return framebuffer;
 }

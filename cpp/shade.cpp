@@ -48,22 +48,4 @@ TileKernels select_tile_kernels(const RenderPlan& plan, const Viewport& viewport
   return k;
 }
 
-void rasterize_and_shade_tile(const ShadeParams& params, const TileKernels& kernels,
-                              const Viewport& viewport, int tile,
-                              const std::vector<SetupChunk>& chunks, std::size_t num_chunks,
-                              TileScratch& raster, ShadeScratch& scratch) {
-  const TileRect rect = tile_rect(viewport, tile);
-  if (!kernels.forward) throw std::logic_error("rasterize_and_shade_tile: nothing to shade");
-  raster.clear(kernels.coverage);
-  kernels.forward(params, rect, tile, chunks, num_chunks, raster, scratch);
-  write_tile(params, rect, raster, scratch, kernels.isa);
-}
-
-void shade_tile(const ShadeParams& params, const TileKernels& kernels, const Viewport& viewport,
-                int tile, const TileScratch& raster, ShadeScratch& scratch) {
-  const TileRect rect = tile_rect(viewport, tile);
-  if (kernels.deferred) shade_deferred(kernels, params, rect, raster, scratch);
-  write_tile(params, rect, raster, scratch, kernels.isa);
-}
-
 }  // namespace sr

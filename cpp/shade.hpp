@@ -109,17 +109,13 @@ inline void shade_deferred(const TileKernels& kernels, const ShadeParams& params
 }
 
 // Forward shading: rasterizes `tile` (as rasterize_tile) and shades each fragment as it wins the
-// depth test, then writes the outputs as shade_tile does. The same bits as rasterize_tile +
-// shade_tile; faster without overdraw (no second walk over each triangle), slower with much.
-// Only when the plan shades (colour or normals requested).
-void rasterize_and_shade_tile(const ShadeParams& params, const TileKernels& kernels,
-                              const Viewport& viewport, int tile,
-                              const std::vector<SetupChunk>& chunks, std::size_t num_chunks,
-                              TileScratch& raster, ShadeScratch& scratch);
-
-// Writes every pixel of `tile` in each requested output. Each visible pixel is shaded once, by
-// the kernel for `isa` (the same bits for either).
-void shade_tile(const ShadeParams& params, const TileKernels& kernels, const Viewport& viewport,
-                int tile, const TileScratch& raster, ShadeScratch& scratch);
+// depth test. The same bits as rasterize_tile + shade_deferred; faster without overdraw (no
+// second walk over each triangle), slower with much. Only when the plan shades.
+inline void shade_forward(const TileKernels& kernels, const ShadeParams& params,
+                          const TileRect& rect, int tile, const std::vector<SetupChunk>& chunks,
+                          std::size_t num_chunks, TileScratch& raster, ShadeScratch& out) {
+  raster.clear(kernels.coverage);
+  kernels.forward(params, rect, tile, chunks, num_chunks, raster, out);
+}
 
 }  // namespace sr

@@ -118,3 +118,12 @@ def window_to_view_persp(xy_window: np.ndarray, depth: np.ndarray, width: int, h
     ndc_x = 2.0 * xy[:, 0] / width - 1.0
     ndc_y = 1.0 - 2.0 * xy[:, 1] / height
     return np.stack([ndc_x * t * width / height * d, ndc_y * t * d, -d], axis=1)
+
+
+def core_options(view, proj, orthographic: bool, near: float, far: float, outputs, **kw) -> dict:
+    """A render's options as the core reads them (``_core.RENDER_OPTIONS``): the required ones,
+    and any others by name (the core gives the rest their defaults). For tests that call
+    ``_core.Renderer.render`` directly, bypassing render.py's checks."""
+    return dict(view=np.asarray(view, np.float64), proj=np.asarray(proj, np.float64),
+                orthographic=bool(orthographic), near=float(near), far=float(far),
+                outputs=list(outputs), **kw)

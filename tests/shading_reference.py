@@ -10,9 +10,9 @@ core, so the renderer can be tested against it. Everything is vectorised over N 
     headlight(view_matrix, ambient) -> (lights, ambient_light) of a scene without lights
     light_records(scene, view_matrix) -> the core records of a scene's lights (camera_space too)
 
-A light record is what ``Light._core(pose_world)`` returns: (kind 0 directional / 1 point /
-2 spot, radiance rgb = colour * intensity, position, direction of travel (unit), inverse_square,
-cone scale, cone offset).
+A light record here is a tuple of what ``Light._record_fields(pose_world)`` holds by name: (kind 0
+directional / 1 point / 2 spot, radiance rgb = colour * intensity, position, direction of travel
+(unit), inverse_square, cone scale, cone offset).
 """
 from __future__ import annotations
 
@@ -62,7 +62,7 @@ def _rows(x: Any, n: int) -> np.ndarray:
 def light_dir_and_radiance(light: Sequence[Any], p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(l, I): the unit vector from each point towards the light and the radiance arriving there
     (colour * intensity * 1/r^2 if inverse_square * spot cone factor)."""
-    kind, rgb, pos, d, inverse_square, scale, offset = light
+    kind, rgb, pos, d, inverse_square, scale, offset = as_tuple(light)
     n = p.shape[0]
     rgb = np.broadcast_to(np.asarray(rgb, dtype=np.float64), (n, 3)).copy()
     d = np.asarray(d, dtype=np.float64)
@@ -206,10 +206,24 @@ def headlight(view_matrix: Any, ambient: float) -> tuple[list[tuple[Any, ...]], 
     return [record], (a, a, a)
 
 
+def as_tuple(light: Any) -> tuple[Any, ...]:
+    """A light record's fields by name (``Light._record_fields(pose)``, float64, or a
+    ``softrast._core.Light``, float32) as this module's tuple; a tuple is returned as it is."""
+    if isinstance(light, (tuple, list)):
+        return tuple(light)
+    if isinstance(light, dict):
+        from types import SimpleNamespace
+        light = SimpleNamespace(**light)
+    kind = ("directional", "point", "spot").index(light.kind)
+    return (kind, light.radiance, light.position, light.direction, light.inverse_square,
+            light.cone_scale, light.cone_offset)
+
+
 def light_records(scene: Any, view_matrix: Any) -> list[tuple[Any, ...]]:
     """The world-space records of ``scene.lights`` (camera_space poses are light-to-camera)."""
     cam = camera_to_world(view_matrix)
-    return [li.light._core(cam @ li.pose if li.camera_space else li.pose) for li in scene.lights]
+    return [as_tuple(li.light._record_fields(cam @ li.pose if li.camera_space else li.pose))
+            for li in scene.lights]
 
 
 def scene_lighting(scene: Any, view_matrix: Any, ambient: float) -> tuple[list[tuple[Any, ...]], tuple[float, float, float]]:

@@ -10,7 +10,7 @@ import trimesh
 
 import reference as ref
 import softrast as sr
-from conftest import pixel_mesh, pixel_ortho, render, scene_of
+from conftest import core_options, pixel_mesh, pixel_ortho, render, scene_of
 from softrast.report import disk_coverage
 
 MSAA = (2, 4, 8, 16)
@@ -479,12 +479,12 @@ def test_core_refuses_bad_counts_too():
     r = sr.Renderer(8, 8)
     scene = scene_of(pixel_mesh(np.array([[1.0, 1.0], [7.0, 1.0], [1.0, 7.0]]),
                                 np.array([[0, 1, 2]]), 8, 8))
-    from softrast.render import _draws, _spec
+    from softrast.render import _draws
     cam = pixel_ortho(8, 8)
-    draws, model = _draws(scene, "auto", "pixel")
+    draws = _draws(scene)
     view, proj = cam._render_matrices(8, 8)
     for msaa, ssaa in [(3, 1), (1, 0), (1, 9), (4, 4)]:
-        spec = _spec(view, proj, True, cam.near, cam.far, ["color"], msaa=msaa, ssaa=ssaa)
+        spec = core_options(view, proj, True, cam.near, cam.far, ["color"], msaa=msaa, ssaa=ssaa)
         with pytest.raises(ValueError):
             r._core.render(draws, spec)
 

@@ -545,27 +545,27 @@ def test_bad_inputs_raise_value_errors_naming_the_argument():
 
 def test_the_core_rechecks_what_it_views():
     # render.py's records go straight to the core, which views the arrays: it must refuse bad ones.
+    from conftest import core_options
     from softrast import _core
-    from softrast.render import _spec
 
     cam = pixel_ortho(W, H)
     view, proj = cam._render_matrices(W, H)
     good = np.zeros((2, 3), np.float32)
     seg = np.array([[0, 5]], np.int32)
-    for record, name in [
-        ((False, good, seg, None, (1, 1, 1), 1.0, np.eye(4), 0), "segments"),
-        ((True, good, None, None, (1, 1, 1), 0.0, np.eye(4), 0), "size"),
-        ((False, good, np.zeros((1, 2), np.int32), None, (1, 1, 1), 1e30, np.eye(4), 0), "width"),
-        ((False, good, np.zeros((1, 2), np.int32), None, (1, 1, 1), 1.0, np.eye(4), 0, 1.5),
-         "depth_bias"),
-        ((True, good.astype(np.float64), None, None, (1, 1, 1), 1.0, np.eye(4), 0), "positions"),
-        ((True, np.full((2, 3), np.nan, np.float32), None, None, (1, 1, 1), 1.0, np.eye(4), 0),
-         "positions"),
+    pair = np.zeros((1, 2), np.int32)
+    for fields, name in [
+        (dict(positions=good, segments=seg), "segments"),
+        (dict(points=True, positions=good, width=0.0), "size"),
+        (dict(positions=good, segments=pair, width=1e30), "width"),
+        (dict(positions=good, segments=pair, depth_bias=1.5), "depth_bias"),
+        (dict(points=True, positions=good.astype(np.float64)), "positions"),
+        (dict(points=True, positions=np.full((2, 3), np.nan, np.float32)), "positions"),
     ]:
         core = _core.Renderer(W, H, 1, True)
-        with pytest.raises(ValueError, match=name):
-            core.render([], _spec(view, proj, True, cam.near, cam.far, ["mask"],
-                                  primitives=[record]))
+        with pytest.raises(ValueError, match=name):  # when the record is made, or rendered
+            record = _core.Primitive(**fields)
+            core.render([], core_options(view, proj, True, cam.near, cam.far, ["mask"],
+                                         primitives=[record]))
 
 
 # -- render(wireframe=True) ----------------------------------------------------------------------

@@ -186,14 +186,12 @@ def _bytes_under(arr: np.ndarray) -> object:
 
 
 def _core_render(data) -> dict[str, np.ndarray]:
+    from conftest import core_options
     from softrast import _core
-    from softrast.render import _PLAIN_MATERIAL, _REFLECTANCE, _spec
 
-    # A draw is (mesh, pose, instance_id, rgba, material record) since issue 16.
-    material = (_REFLECTANCE["lambert"],) + _PLAIN_MATERIAL
-    return _core.Renderer(16, 16, 1).render([(data, np.eye(4), 0, (1.0, 1.0, 1.0, 1.0), material)],
-                                            _spec(np.eye(4), QUAD_PROJ, False, 0.1, 100.0,
-                                                  ["depth", "triangle_id"], "none"))
+    draw = _core.Draw(mesh=data, color=(1.0, 1.0, 1.0, 1.0))
+    return _core.Renderer(16, 16, 1).render([draw], core_options(
+        np.eye(4), QUAD_PROJ, False, 0.1, 100.0, ["depth", "triangle_id"], cull="none"))
 
 
 def _attributes_mesh() -> Mesh:

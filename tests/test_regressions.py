@@ -68,14 +68,14 @@ def test_core_render_refuses_a_nan_material_colour():
     code = textwrap.dedent("""
         import numpy as np
         from softrast import _core
-        from softrast.render import _spec
         tri = np.array([[-1, -1, -3], [1, -1, -3], [0, 1, -3]], np.float32)
         mesh = _core.MeshData(tri, np.array([[0, 1, 2]], np.int32))
         proj = np.array([[2.4, 0, 0, 0], [0, 2.4, 0, 0], [0, 0, -1, -0.2], [0, 0, -1, 0]])
         r = _core.Renderer(32, 32, 1)
         try:
-            r.render([(mesh, np.eye(4), 0, (float("nan"), 0.5, 0.5, 1.0))],
-                     _spec(np.eye(4), proj, False, 0.1, 100.0, ["color"], "none"))
+            draw = _core.Draw(mesh=mesh, color=(float("nan"), 0.5, 0.5, 1.0))
+            r.render([draw], dict(view=np.eye(4), proj=proj, orthographic=False, near=0.1,
+                                  far=100.0, outputs=["color"], cull="none"))
             print("rendered")
         except ValueError:
             print("ValueError")

@@ -18,7 +18,7 @@ pose_at = ref.pose_at
 
 
 def sun(travel, color=(1.0, 1.0, 1.0), intensity=1.0):
-    return sr.DirectionalLight(color, intensity)._core(pose_at(travel=travel))
+    return sr.DirectionalLight(color, intensity)._record_fields(pose_at(travel=travel))
 
 
 def unit(*v):
@@ -159,18 +159,18 @@ def test_inverse_square_and_no_falloff():
     p = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 3.0, 0.0]])
     n = np.tile(Z, (3, 1))
     pos = (0.0, 0.0, 2.0)
-    rec = sr.PointLight(intensity=8.0)._core(pose_at(pos))
+    rec = sr.PointLight(intensity=8.0)._record_fields(pose_at(pos))
     got = ref.radiance("lambert", n, p, (1, 1, 1), None, [rec], (0, 0, 0), (0, 0, 5))[:, 0]
     r2 = np.array([4.0, 5.0, 13.0])
     np.testing.assert_allclose(got, 8.0 / r2 * (2.0 / np.sqrt(r2)), rtol=1e-14)
-    rec = sr.PointLight(intensity=8.0, falloff="none")._core(pose_at(pos))
+    rec = sr.PointLight(intensity=8.0, falloff="none")._record_fields(pose_at(pos))
     got = ref.radiance("lambert", n, p, (1, 1, 1), None, [rec], (0, 0, 0), (0, 0, 5))[:, 0]
     np.testing.assert_allclose(got, 8.0 * (2.0 / np.sqrt(r2)), rtol=1e-14)
 
 
 def test_spot_cone_edges():
     inner, outer = math.radians(20), math.radians(40)
-    rec = sr.SpotLight(intensity=1.0, inner_cone=inner, outer_cone=outer, falloff="none")._core(
+    rec = sr.SpotLight(intensity=1.0, inner_cone=inner, outer_cone=outer, falloff="none")._record_fields(
         pose_at((0, 0, 1), travel=(0, 0, -1)))
     # points on the plane z = 0 at angle a from the axis: x = tan a; I = factor, n.l = cos a
     a = np.radians([0, 10, 19.99, 20.01, 25, 30, 35, 39.99, 40.01, 60, 85])
@@ -189,8 +189,8 @@ def test_spot_cone_edges():
 
 def test_spot_inner_zero_and_the_0_001_floor():
     # inner = 0: a cone that fades from the axis; tiny cone differences use scale = 1/0.001
-    rec = sr.SpotLight(inner_cone=0.0, outer_cone=0.01, falloff="none")._core(pose_at((0, 0, 1)))
-    scale, offset = rec[5], rec[6]
+    rec = sr.SpotLight(inner_cone=0.0, outer_cone=0.01, falloff="none")._record_fields(pose_at((0, 0, 1)))
+    scale, offset = rec["cone_scale"], rec["cone_offset"]
     assert scale == pytest.approx(1 / 0.001) and offset == pytest.approx(-math.cos(0.01) * 1000)
     got = ref.radiance("lambert", Z, O, (1, 1, 1), None, [rec], (0, 0, 0), (0, 0, 5))
     t = min(1.0, 1.0 * scale + offset)
@@ -198,7 +198,7 @@ def test_spot_inner_zero_and_the_0_001_floor():
 
 
 def test_light_record_radiance_and_direction():
-    rec = sr.DirectionalLight((0.5, 1.0, 0.25), 4.0)._core(pose_at(travel=(1, 2, 2)))
+    rec = ref.as_tuple(sr.DirectionalLight((0.5, 1.0, 0.25), 4.0)._record_fields(pose_at(travel=(1, 2, 2))))
     assert rec[0] == ref.DIRECTIONAL
     np.testing.assert_allclose(rec[1], (2.0, 4.0, 1.0))
     np.testing.assert_allclose(rec[3], unit(1, 2, 2), atol=1e-15)
@@ -244,7 +244,7 @@ def test_view_vector_perspective_and_orthographic():
 
 def test_unlit_and_normal_models():
     n = np.array([unit(1, 2, 3), unit(-1, 0, 0)])
-    lights = [sun((0, 0, -1), intensity=3.0), sr.PointLight()._core(pose_at((0, 0, 1)))]
+    lights = [sun((0, 0, -1), intensity=3.0), sr.PointLight()._record_fields(pose_at((0, 0, 1)))]
     mat = sr.Material(emissive=(0.5, 0.5, 0.5))
     got = ref.radiance("unlit", n, np.zeros((2, 3)), [[0.1, 0.2, 0.3], [0.4, 0.5, 0.6]], mat,
                        lights, (1, 1, 1), (0, 0, 3))

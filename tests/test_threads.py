@@ -12,11 +12,7 @@ import trimesh
 
 import softrast as sr
 from softrast import _core
-from softrast.render import _PLAIN_MATERIAL, _REFLECTANCE, _lighting, _spec
-
-# The core's material record of a mesh without a material, shaded lambert (issue 16: a draw is
-# (mesh, pose, instance_id, rgba, material record)).
-_LAMBERT_PLAIN = (_REFLECTANCE["lambert"],) + _PLAIN_MATERIAL
+from conftest import core_options
 
 OUTPUTS = ("color", "depth", "normal", "triangle_id", "coverage")
 
@@ -85,11 +81,10 @@ def test_gil_is_released_while_rendering():
     cam.look_at(eye=(0.0, 0.0, 3.0), target=(0.0, 0.0, 0.0))
     renderer = sr.Renderer(512, 512, threads=1)
     # The core's call directly: the Python wrapper around it could release the GIL itself.
-    draws = [(inst.mesh._core_data(), inst.pose, inst.instance_id, inst.color, _LAMBERT_PLAIN)
+    draws = [_core.Draw(mesh=inst.mesh._core_data(), pose=inst.pose, color=inst.color)
              for inst in scene]
-    lights, ambient_light = _lighting(scene, cam.view_matrix(), 0.25)  # the headlight
-    spec = _spec(cam.view_matrix(), cam.projection_matrix(512, 512), False, cam.near, cam.far,
-                 ["color", "depth", "normal"], lights=lights, ambient_light=ambient_light)
+    spec = core_options(cam.view_matrix(), cam.projection_matrix(512, 512), False, cam.near,
+                        cam.far, ["color", "depth", "normal"])  # no lights: the headlight
     count = 0
     counting, stop = threading.Event(), threading.Event()
 
@@ -163,17 +158,16 @@ def test_core_mesh_dropped_by_python_while_a_render_reads_it():
     def draws():
         data = _core.MeshData(immutable(tm.vertices, np.float32), immutable(tm.faces, np.int32),
                               immutable(tm.vertex_normals, np.float32))
-        return [(data, np.eye(4), 0, (1.0, 1.0, 1.0, 1.0), _LAMBERT_PLAIN)]
+        return [_core.Draw(mesh=data, color=(1.0, 1.0, 1.0, 1.0))]
 
     cam = sr.PerspectiveCamera(fov_y=45.0).look_at(eye=(0.0, 0.0, 3.0), target=(0.0, 0.0, 0.0))
     renderer = _core.Renderer(512, 512, 1)
-    lights, ambient_light = _lighting(sr.Scene(), cam.view_matrix(), 0.25)  # the headlight
-    spec = _spec(cam.view_matrix(), cam.projection_matrix(512, 512), False, cam.near, cam.far,
-                 ["color", "depth"], lights=lights, ambient_light=ambient_light)
+    spec = core_options(cam.view_matrix(), cam.projection_matrix(512, 512), False, cam.near,
+                        cam.far, ["color", "depth"])  # no lights: the headlight
     expected = renderer.render(draws(), spec)
     for attempt in range(20):
         pending = draws()
-        probe = weakref.ref(pending[0][0])
+        probe = weakref.ref(pending[0])  # the draw record, and through it the mesh
         out: dict = {}
         started = threading.Event()
 

@@ -1,5 +1,7 @@
-"""Type stub for the private compiled module ``softrast._core`` (cpp/bindings.cpp).
+"""Type stub for the private compiled module ``softrast._core`` (cpp/bind/).
 
+Written by ``python -m softrast._stubgen`` from the module itself (signatures as pybind11 3.1.0
+spells them): do not edit.
 Users do not call this module directly: ``softrast.Renderer`` and ``softrast.Mesh`` wrap it.
 
 Conventions shared with the Python layer
@@ -10,77 +12,179 @@ Conventions shared with the Python layer
   so row 0 is the top of the image and the centre of pixel (row i, col j) is (j + 0.5, i + 0.5).
 * depth output = distance along the camera's viewing axis (-z_view) in scene units; 0 = background.
 """
-from typing import Any, Sequence
+import collections.abc
+import typing
+from typing import Any, TypedDict
 
-import numpy as np
-import numpy.typing as npt
+import numpy
+import numpy.typing
 
-SUBPIXEL_BITS: int  # fixed-point precision of snapped window coordinates (8 => 1/256 px)
-TILE_SIZE_PX: int  # side of the square screen tiles owned by one thread at a time
+CONSTANT_DOCS: dict[str, Any]  # constant name -> its doc (the comments here)
+CULL_MODES: tuple[str, ...]  # cull=
+FREQUENCIES: tuple[str, ...]  # frequency=
+LIGHT_KINDS: tuple[str, ...]  # Light.kind
+LINE_ALGORITHMS: tuple[str, ...]  # line_algorithm=
+MAX_FRAMEBUFFER_BYTES: int  # a render whose requested outputs need more than this is refused
 MAX_IMAGE_SIDE: int  # largest width or height accepted
-MAX_FRAMEBUFFER_BYTES: int  # refuse a render whose requested outputs need more than this
-MAX_THREADS: int  # largest thread count a Renderer accepts (256)
-OUTPUTS: tuple[str, ...]  # every output name render() accepts, in the output table's order
-# The output table (cpp/framebuffer.hpp), one dict per output: name, dtype (numpy.dtype),
-# channels (1 => (h, w), else (h, w, channels)), bytes_per_pixel, background (value where
-# nothing is drawn; colour uses the render's background), pass ("resolve" | "shade"), doc.
-OUTPUT_TABLE: tuple[dict[str, Any], ...]
-SHADING_MODELS: tuple[str, ...]  # the core's models, from cpp/shade_models.hpp's model list ("lit":
-                                 # render.py maps lambert/phong/blinn_phong/pbr/auto to it)
-REFLECTANCE_MODELS: tuple[str, ...]  # a material record's model index names (cpp/lighting.hpp, Brdf)
-FREQUENCIES: tuple[str, ...]  # "pixel", "vertex", "face"
-CULL_MODES: tuple[str, ...]  # "none", "back", "front"
-SHADING_PATHS: tuple[str, ...]  # "auto", "forward", "deferred"
-RASTER_ALGORITHMS: tuple[str, ...]  # "edge", "scanline"
-LINE_ALGORITHMS: tuple[str, ...]  # "bresenham", "dda"
+MAX_THREADS: int  # largest thread count a Renderer accepts
+OUTPUTS: tuple[str, ...]  # every output name a render accepts, in the output table's order
+OUTPUT_TABLE: tuple[dict[str, Any], ...]  # one dict per output (cpp/framebuffer.hpp): name, dtype, channels (1 => (h, w), else (h, w, channels)), bytes_per_pixel, background, pass, doc
+RASTER_ALGORITHMS: tuple[str, ...]  # raster=
+RECORDS: dict[str, Any]  # record name -> its fields: (name, type, doc) tuples, in order
+REFLECTANCE_MODELS: tuple[str, ...]  # a material's models (Material.model)
+RENDER_OPTIONS: Any  # a render's options: (name, type, required, doc) tuples (RenderOptions)
+SHADING_MODELS: tuple[str, ...]  # render(shading=): 'auto' (each material's model) or one model for every draw
+SHADING_PATHS: tuple[str, ...]  # shading_path=
+SUBPIXEL_BITS: int  # fixed-point precision of snapped window coordinates (8 => 1/256 px)
+TEXTURE_FILTERS: tuple[str, ...]  # a texture's filter, or texture_filter=
+TEXTURE_WRAPS: tuple[str, ...]  # a texture's wrap modes
+TILE_SIZE_PX: int  # side of the square screen tiles owned by one thread at a time
+
+class RenderOptions(TypedDict, total=False):
+    """Renderer.render's options, by name (RENDER_OPTIONS); the required ones first."""
+    view: typing.Required[numpy.ndarray]  # world -> view, (4, 4) float64, OpenGL axes
+    proj: typing.Required[numpy.ndarray]  # view -> clip, (4, 4) float64
+    orthographic: typing.Required[bool]  # an orthographic projection (depth keys are -depth)
+    near: typing.Required[float]  # > 0, scene units along the viewing axis
+    far: typing.Required[float]  # > near
+    outputs: typing.Required[list[str]]  # names from OUTPUTS, at least one
+    cull: str  # CULL_MODES (default 'back')
+    shading: str  # SHADING_MODELS: 'auto' (default: each material's model, Lambert without one) or one model for every draw
+    shading_path: str  # SHADING_PATHS (default 'auto')
+    background: tuple[float, float, float]  # colour of uncovered pixels, [0, 1]
+    ambient: float  # [0, 1]: the headlight's ambient share, in a scene without lights (default 0.25)
+    out: dict[str, numpy.ndarray] | None  # arrays to render into in place
+    lights: list[Light]  # the scene's lights, world space (none: the headlight)
+    ambient_light: tuple[float, float, float] | None  # the scene's ambient light (None: 0, or the headlight's ambient)
+    frequency: str  # FREQUENCIES (default 'pixel')
+    srgb: bool  # the colour output sRGB-encoded (default True)
+    texture_filter: str | None  # TEXTURE_FILTERS for every texture, or None: each its own
+    normal_rotation: tuple[tuple[float, float, float], ...] | None  # rows of the world -> camera rotation for normal_space='camera', or None
+    raster: str  # RASTER_ALGORITHMS (default 'edge')
+    msaa: int  # 1, 2, 4, 8 or 16 samples per pixel (default 1)
+    ssaa: int  # a k x k grid of samples per pixel, k in [1, 8] (default 1)
+    primitives: list[Primitive]  # lines and points drawn over the triangles
+    line_algorithm: str  # LINE_ALGORITHMS (default 'bresenham')
+
+class Draw:
+    """One mesh instance: its mesh, pose, id, colour and material."""
+    def __init__(self, *,
+                 mesh: MeshData = ...,
+                 pose: numpy.ndarray = ...,
+                 instance_id: int = ...,
+                 color: tuple[float, float, float, float] = ...,
+                 material: Material | None = ...,
+                 ) -> None: ...
+    mesh: MeshData  # the geometry
+    pose: numpy.ndarray  # model -> world, (4, 4) float64
+    instance_id: int  # the instance_id output's value
+    color: tuple[float, float, float, float]  # linear RGBA: the base colour where the mesh has no vertex colours
+    material: Material | None  # None: Lambert of the base colour, two-sided
+
+class Light:
+    """A light in world space (python/softrast/light.py)."""
+    def __init__(self, *,
+                 kind: str = ...,
+                 radiance: tuple[float, float, float] = ...,
+                 position: tuple[float, float, float] = ...,
+                 direction: tuple[float, float, float] = ...,
+                 inverse_square: bool = ...,
+                 cone_scale: float = ...,
+                 cone_offset: float = ...,
+                 ) -> None: ...
+    kind: str  # 'directional', 'point' or 'spot'
+    radiance: tuple[float, float, float]  # colour times intensity, linear
+    position: tuple[float, float, float]  # point and spot lights
+    direction: tuple[float, float, float]  # unit: the direction the light travels
+    inverse_square: bool  # point and spot: radiance / r^2
+    cone_scale: float  # spot: clamp(cos * cone_scale + cone_offset, 0, 1)^2
+    cone_offset: float  # spot: see cone_scale
+
+class Material:
+    """A material (python/softrast/material.py states each field's meaning)."""
+    def __init__(self, *,
+                 model: str = ...,
+                 kd_is_base: bool = ...,
+                 ka_is_kd: bool = ...,
+                 double_sided: bool = ...,
+                 ka: tuple[float, float, float] = ...,
+                 kd: tuple[float, float, float] = ...,
+                 ks: tuple[float, float, float] = ...,
+                 shininess: float = ...,
+                 metallic: float = ...,
+                 roughness: float = ...,
+                 emissive: tuple[float, float, float] = ...,
+                 base_color_texture: Texture | None = ...,
+                 emissive_texture: Texture | None = ...,
+                 normal_texture: Texture | None = ...,
+                 normal_scale: float = ...,
+                 normal_y_down: bool = ...,
+                 metallic_roughness_texture: Texture | None = ...,
+                 occlusion_texture: Texture | None = ...,
+                 occlusion_strength: float = ...,
+                 bump_texture: Texture | None = ...,
+                 bump_scale: float = ...,
+                 alpha_mask: bool = ...,
+                 alpha_cutoff: float = ...,
+                 ) -> None: ...
+    model: str  # its reflectance model (REFLECTANCE_MODELS), drawn by shading='auto'
+    kd_is_base: bool  # kd is the base colour (vertex colours, else the draw's colour)
+    ka_is_kd: bool  # ka is kd
+    double_sided: bool  # back faces are lit as front faces (else dark side)
+    ka: tuple[float, float, float]  # ambient reflectance (unless ka_is_kd)
+    kd: tuple[float, float, float]  # diffuse reflectance (unless kd_is_base)
+    ks: tuple[float, float, float]  # specular reflectance (phong, blinn_phong)
+    shininess: float  # the specular exponent, >= 0
+    metallic: float  # pbr: in [0, 1]
+    roughness: float  # pbr: in [0, 1]
+    emissive: tuple[float, float, float]  # added radiance (times the emissive texture where there is one)
+    base_color_texture: Texture | None  # multiplies the base colour (rgb)
+    emissive_texture: Texture | None  # emissive times its rgb is added
+    normal_texture: Texture | None  # tangent-space normals
+    normal_scale: float  # scales the normal texture's x and y
+    normal_y_down: bool  # a DirectX-style normal texture (green = -v)
+    metallic_roughness_texture: Texture | None  # glTF: green * roughness, blue * metallic
+    occlusion_texture: Texture | None  # red: ambient *= 1 + strength (red - 1)
+    occlusion_strength: float  # in [0, 1]
+    bump_texture: Texture | None  # a height map (its first channel)
+    bump_scale: float  # the bump texture's height scale
+    alpha_mask: bool  # glTF alphaMode MASK: fragments below alpha_cutoff are discarded
+    alpha_cutoff: float  # alpha_mask's threshold
 
 class MeshData:
-    """Geometry uploaded once and validated.
-
-    Arrays that are C-contiguous, aligned and immutable (read-only views of a bytes object, as
-    ``softrast.Mesh`` stores them) are viewed in place and kept alive; any other array is copied,
-    so that no later write to it can reach the validated mesh.
-
-    positions : (n, 3) float32, C-contiguous, finite
-    faces     : (m, 3) int32, every index in [0, n)
-    normals   : (n, 3) float32 or None (per-vertex; None => flat face normals when lit)
-    colors    : (n, 4) float32 in [0, 1] or None (per-vertex RGBA)
-    uvs       : (n, 2) float32 or None (kept for the texture stage)
-    """
-
-    def __init__(
-        self,
-        positions: npt.NDArray[np.float32],
-        faces: npt.NDArray[np.int32],
-        normals: npt.NDArray[np.float32] | None = None,
-        colors: npt.NDArray[np.float32] | None = None,
-        uvs: npt.NDArray[np.float32] | None = None,
-    ) -> None: ...
+    # Validates (n,3) float32 positions, (m,3) int32 faces and optional (n,3) float32 normals, (n,4) float32 colors, (n,2) float32 uvs. Views immutable arrays (read-only views of a bytes object) in place and copies any other.
+    def __init__(self: MeshData, positions: object, faces: object, normals: object = None, colors: object = None, uvs: object = None) -> None: ...
     @property
     def num_vertices(self) -> int: ...
     @property
     def num_faces(self) -> int: ...
 
-def _distortion_resolve(valid: Any, nearest: Any, corner: Any, directions: Any, view_width: int, view_size: int,
-                        sample_to_normalized: Any, triangle_id: Any, instance_id: Any, instances: list,
-                        camera_to_world: Any, centre: Any, surface: bool, threads: int) -> dict:
-    """Lens distortion (python/softrast/distortion.py): per output pixel, the view sample it takes
-    ("sample", "covered") and, with surface, its point on its own ray ("depth", "ray_depth",
-    "position", "barycentric", float64)."""
-def _distortion_bilinear(valid: Any, nearest: Any, corner: Any, directions: Any, view_width: int,
-                         view_size: int, weights: Any, src: Any, out: Any) -> None:
-    """out[p] = the bilinear interpolation of the view output src at pixel p's ray."""
-def _fail_thread_start(n: int) -> None:
-    """Testing only: the n-th worker thread started from now on fails (0 = off)."""
-
-def _parked_threads() -> int:
-    """Testing only: threads parked for good after a render ended during interpreter exit."""
+class Primitive:
+    """Lines or points (python/softrast/primitives.py), viewed: the record keeps its arrays alive."""
+    def __init__(self, *,
+                 points: bool = ...,
+                 positions: numpy.ndarray = ...,
+                 segments: numpy.ndarray | None = ...,
+                 colors: numpy.ndarray | None = ...,
+                 color: tuple[float, float, float] = ...,
+                 width: float = ...,
+                 pose: numpy.ndarray = ...,
+                 instance_id: int = ...,
+                 depth_bias: float = ...,
+                 ) -> None: ...
+    points: bool  # points (each position) rather than lines (segments)
+    positions: numpy.ndarray  # (n, 3) float32, model space
+    segments: numpy.ndarray | None  # (m, 2) int32 endpoint indices (lines)
+    colors: numpy.ndarray | None  # (n, 3) float32 linear RGB per position
+    color: tuple[float, float, float]  # linear RGB without colors
+    width: float  # line width or point size, pixels
+    pose: numpy.ndarray  # model -> world, (4, 4) float64
+    instance_id: int  # the instance_id output's value
+    depth_bias: float  # lines: nearer by this fraction of their depth in the depth test (wireframe)
 
 class Renderer:
-    def __init__(self, width: int, height: int, threads: int = 0, simd: bool = True) -> None:
-        """threads = 0 => one worker per hardware core (at most MAX_THREADS); simd = False =>
-        generic kernels. ValueError for threads outside [0, MAX_THREADS]; RuntimeError naming
-        ``threads`` when the system refuses a worker thread (none is left running)."""
+    # A renderer of width x height pixels on `threads` threads (0: one per core); simd=False runs the generic kernels (the same bits).
+    def __init__(self: Renderer, width: int, height: int, threads: int = 0, simd: bool = True) -> None: ...
     @property
     def width(self) -> int: ...
     @property
@@ -89,35 +193,32 @@ class Renderer:
     def threads(self) -> int: ...
     @property
     def isa(self) -> str: ...
-    def render(
-        self,
-        draws: Sequence[tuple[MeshData, npt.NDArray[np.float64], int, Sequence[float], tuple[Any, ...]]],
-        spec: dict[str, Any],
-    ) -> dict[str, np.ndarray]:
-        """Render ``draws`` = [(mesh, model (4, 4) float64 model-to-world, instance_id, rgba,
-        material)], material = (REFLECTANCE_MODELS index, kd_is_base, ka_is_kd, double_sided, ka,
-        kd, ks, shininess, metallic, roughness, emissive) (softrast.Material._core).
+    # Renders the draws (Draw records) with the options (RENDER_OPTIONS, by name): a dict of the requested outputs' arrays (OUTPUT_TABLE gives dtypes and shapes).
+    def render(self: Renderer, draws: collections.abc.Sequence[Draw], options: RenderOptions) -> dict: ...
 
-        ``spec`` holds every option, checked by softrast.Renderer.render beforehand (the core
-        re-checks only memory and what it needs for safety):
-          view, proj : (4, 4) float64 world-to-view and view-to-clip
-          orthographic : bool; near, far : float
-          outputs : names from OUTPUTS (OUTPUT_TABLE gives each one's dtype and shape); only
-                    these buffers are allocated and written
-          cull : one of CULL_MODES; shading : one of SHADING_MODELS;
-          shading_path : one of SHADING_PATHS; raster : one of RASTER_ALGORITHMS
-          primitives (optional) : [(points, positions (n, 3) float32, segments (m, 2) int32 or
-                   None, colors (n, 3) float32 or None, rgb, width or size, pose, instance_id)],
-                   lines and points (softrast.Lines / Points); their arrays are viewed, not
-                   copied, for the render; line_algorithm (optional) : one of LINE_ALGORITHMS
-          background : 3 floats in [0, 1]; ambient : float in [0, 1]
-          lights : [(kind 0/1/2 = directional/point/spot, radiance rgb, position, direction of
-                   travel (unit), inverse_square, cone scale, cone offset)], world space
-                   (softrast.Light._core); read by the "lit" model
-          ambient_light : 3 floats; frequency : one of FREQUENCIES; srgb : bool
-          texture_filter : index into TEXTURE_FILTERS, or -1 (each texture's own)
-          normal_rotation : None (normals in world space) or 3 rows of 3 floats, world -> camera
-          out : dict of arrays to write into (exact dtype and shape, C-contiguous, writeable),
-                returned as they are, or None
-        Each other array views C++ memory owned by its ``base`` (no copy). The GIL is released.
-        """
+class Texture:
+    @typing.overload
+    def __init__(self: Texture, image: typing.Annotated[numpy.typing.ArrayLike, numpy.uint8], srgb: bool) -> None: ...
+    @typing.overload
+    def __init__(self: Texture, image: typing.Annotated[numpy.typing.ArrayLike, numpy.float32]) -> None: ...
+    def configure(self: Texture, filter: int, wrap_u: int, wrap_v: int, top_left: bool, max_anisotropy: int) -> None: ...
+    def build_mips(self: Texture) -> None: ...
+    @property
+    def has_mips(self) -> bool: ...
+    @property
+    def num_levels(self) -> int: ...
+    def level_size(self: Texture, arg0: int) -> tuple[int, int]: ...
+    def mip(self: Texture, level: int) -> numpy.typing.NDArray[numpy.float32]: ...
+    # Samples at n points: (n, 2) uv, (n, 4) derivatives (du/dx, dv/dx, du/dy, dv/dy); (n, 4) linear RGBA, exactly what a render reads.
+    def sample(self: Texture, uv: typing.Annotated[numpy.typing.ArrayLike, numpy.float32], duv: typing.Annotated[numpy.typing.ArrayLike, numpy.float32], filter: int) -> numpy.typing.NDArray[numpy.float32]: ...
+
+# out[p] = the bilinear interpolation of src at pixel p's ray (uint8 rounded half up).
+def _distortion_bilinear(valid: numpy.ndarray, nearest: numpy.ndarray, corner: numpy.ndarray, directions: numpy.ndarray, view_width: int, view_size: int, weights: numpy.ndarray, src: numpy.ndarray, out: numpy.ndarray) -> None: ...
+# Per output pixel: the view sample it takes and, with surface, its point on its own ray.
+def _distortion_resolve(valid: numpy.ndarray, nearest: numpy.ndarray, corner: numpy.ndarray, directions: numpy.ndarray, view_width: int, view_size: int, sample_to_normalized: typing.Annotated[collections.abc.Sequence[float], "FixedSize(4)"], triangle_id: numpy.ndarray, instance_id: numpy.ndarray, instances: list, camera_to_world: typing.Annotated[collections.abc.Sequence[float], "FixedSize(9)"], centre: typing.Annotated[collections.abc.Sequence[float], "FixedSize(3)"], surface: bool, threads: int) -> dict: ...
+# Testing only: the n-th worker thread started from now on (1 = the next) fails as if the system had refused it; 0 = off.
+def _fail_thread_start(n: int) -> None: ...
+# Testing only: threads parked for good because they finished a render while the interpreter finalized.
+def _parked_threads() -> int: ...
+# The sample offsets of an anti-aliasing mode, from each pixel's top-left corner in fixed point (1 / 2**SUBPIXEL_BITS px), in sample order (multisample.hpp).
+def _sample_pattern(msaa: int, ssaa: int) -> list[tuple[int, int]]: ...

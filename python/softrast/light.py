@@ -21,13 +21,14 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from . import _core
 from ._checks import choice, real, unit_rgb
 
 __all__ = ["DirectionalLight", "Light", "PointLight", "SpotLight"]
 
 FALLOFFS = ("inverse_square", "none")
-# Kinds as the core numbers them (cpp/lighting.hpp, LightKind).
-_DIRECTIONAL, _POINT, _SPOT = 0, 1, 2
+# Kinds as the core names them (cpp/bind/module.cpp, Light.kind).
+_DIRECTIONAL, _POINT, _SPOT = _core.LIGHT_KINDS  # "directional", "point", "spot"
 
 
 def _intensity(value: Any) -> float:
@@ -41,7 +42,7 @@ class Light:
     """Base class of the light types (not made directly)."""
 
     __slots__ = ("color", "intensity")
-    _kind = -1
+    _kind = ""
 
     def __init__(self, color: Sequence[float] = (1.0, 1.0, 1.0), intensity: float = 1.0) -> None:
         object.__setattr__(self, "color", unit_rgb(color, "color"))
@@ -68,9 +69,13 @@ class Light:
         fields = ", ".join(f"{k}={getattr(self, k)!r}" for k in self._fields())
         return f"{type(self).__name__}({fields})"
 
-    def _core(self, pose_world: np.ndarray) -> tuple[Any, ...]:
-        """The core's light record: (kind, radiance rgb, position, direction of travel,
-        inverse_square, cone scale, cone offset), in world space."""
+    def _core(self, pose_world: np.ndarray) -> Any:
+        """The core's light record (``softrast._core.Light``), in world space."""
+        return _core.Light(**self._record_fields(pose_world))
+
+    def _record_fields(self, pose_world: np.ndarray) -> dict[str, Any]:
+        """The fields of the core's light record, by name, in float64 (the record holds float32;
+        tests/shading_reference.py reads these)."""
         pos = pose_world[:3, 3]
         d = -pose_world[:3, 2]
         norm = float(np.linalg.norm(d))
@@ -78,11 +83,11 @@ class Light:
             raise ValueError(f"{type(self).__name__} pose: its z axis has zero length, so it has "
                              "no direction")
         d = d / norm
-        rgb = tuple(c * self.intensity for c in self.color)
-        inverse_square = getattr(self, "falloff", "none") == "inverse_square"
         scale, offset = self._cone()
-        return (self._kind, rgb, tuple(float(x) for x in pos), tuple(float(x) for x in d),
-                inverse_square, scale, offset)
+        return dict(kind=self._kind, radiance=tuple(c * self.intensity for c in self.color),
+                    position=tuple(float(x) for x in pos), direction=tuple(float(x) for x in d),
+                    inverse_square=getattr(self, "falloff", "none") == "inverse_square",
+                    cone_scale=scale, cone_offset=offset)
 
     def _cone(self) -> tuple[float, float]:
         return 0.0, 1.0  # factor = clamp(cd * 0 + 1) ** 2 = 1: no cone

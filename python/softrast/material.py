@@ -41,13 +41,14 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from . import _core
 from ._checks import real, real_array
 from .texture import Texture
 
 __all__ = ["Material", "MODELS", "ALPHA_MODES"]
 
 # Shading models a material may ask for (render(shading="auto") uses each material's own).
-MODELS = ("unlit", "lambert", "phong", "blinn_phong", "pbr", "normal")
+MODELS: tuple[str, ...] = tuple(_core.REFLECTANCE_MODELS)  # unlit, lambert, phong, blinn_phong, pbr, normal
 # How a material's alpha is used (glTF's alphaMode, less BLEND).
 ALPHA_MODES = ("opaque", "mask")
 
@@ -190,19 +191,22 @@ class Material:
             raise ValueError(f"alpha_cutoff must be finite, got {alpha_cutoff!r}")
         s(self, "alpha_cutoff", cutoff)
         core = lambda tex, srgb: tex._core(srgb) if tex is not None else None  # noqa: E731
-        # The core's record less its first field (the reflectance model, chosen per render):
-        # kd_is_base, ka_is_kd, double_sided, ka, kd, ks, shininess, metallic, roughness, emissive,
-        # then the core textures (colour slots decode sRGB unless the texture says otherwise),
-        # normal_scale, normal_y_down.
-        kd_rgb = self.kd if self.kd is not None else (0.0, 0.0, 0.0)
-        s(self, "_core", (self.kd is None, self.ka is None, self.double_sided,
-                          self.ka if self.ka is not None else (0.0, 0.0, 0.0), kd_rgb, self.ks,
-                          p, self.metallic, self.roughness, self.emissive,
-                          core(base_color_texture, True), core(emissive_texture, True),
-                          core(normal_texture, False), scale, normal_map_convention == "directx",
-                          core(metallic_roughness_texture, False), core(occlusion_texture, False),
-                          self.occlusion_strength, core(bump_texture, False), bump,
-                          alpha_mode == "mask", cutoff))
+        # The core's record (cpp/bind/records.cpp, every field by name): colour slots decode
+        # sRGB unless the texture says otherwise. A material without a model is Blinn-Phong.
+        s(self, "_core", _core.Material(
+            model=model or "blinn_phong", kd_is_base=self.kd is None, ka_is_kd=self.ka is None,
+            double_sided=self.double_sided,
+            ka=self.ka if self.ka is not None else (0.0, 0.0, 0.0),
+            kd=self.kd if self.kd is not None else (0.0, 0.0, 0.0), ks=self.ks, shininess=p,
+            metallic=self.metallic, roughness=self.roughness, emissive=self.emissive,
+            base_color_texture=core(base_color_texture, True),
+            emissive_texture=core(emissive_texture, True),
+            normal_texture=core(normal_texture, False), normal_scale=scale,
+            normal_y_down=normal_map_convention == "directx",
+            metallic_roughness_texture=core(metallic_roughness_texture, False),
+            occlusion_texture=core(occlusion_texture, False),
+            occlusion_strength=self.occlusion_strength, bump_texture=core(bump_texture, False),
+            bump_scale=bump, alpha_mask=alpha_mode == "mask", alpha_cutoff=cutoff))
 
     def __setattr__(self, key: str, value: Any) -> None:
         raise AttributeError("Material is immutable: make a new one (softrast.Material(...) or "

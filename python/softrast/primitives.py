@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from . import _core
 from ._checks import real
 from .mesh import _as_array, _rgba
 
@@ -150,9 +151,10 @@ class Lines(_Primitive):
     def width(self) -> float:
         return self._width
 
-    def _core_record(self, pose: np.ndarray, instance_id: int) -> tuple:
-        return (False, self._positions, self._segments, self._colors, self._color, self._width,
-                pose, instance_id)
+    def _core_record(self, pose: np.ndarray, instance_id: int, depth_bias: float = 0.0) -> Any:
+        return _core.Primitive(points=False, positions=self._positions, segments=self._segments,
+                               colors=self._colors, color=self._color, width=self._width,
+                               pose=pose, instance_id=instance_id, depth_bias=depth_bias)
 
     def __reduce__(self) -> tuple:
         return (Lines, (self._positions, self._segments, self._colors, self._width, self._color))
@@ -185,9 +187,10 @@ class Points(_Primitive):
     def size(self) -> float:
         return self._size
 
-    def _core_record(self, pose: np.ndarray, instance_id: int) -> tuple:
-        return (True, self._positions, None, self._colors, self._color, self._size, pose,
-                instance_id)
+    def _core_record(self, pose: np.ndarray, instance_id: int) -> Any:
+        return _core.Primitive(points=True, positions=self._positions, colors=self._colors,
+                               color=self._color, width=self._size, pose=pose,
+                               instance_id=instance_id)
 
     def __reduce__(self) -> tuple:
         return (Points, (self._positions, self._colors, self._size, self._color))

@@ -23,16 +23,9 @@ _RASTER = _core.RASTER_ALGORITHMS
 _LINE_ALGORITHMS = _core.LINE_ALGORITHMS
 _FREQUENCIES = _core.FREQUENCIES
 # render(shading=): "auto" (each material's own model), every reflectance model of a material
-# (python/softrast/material.py, MODELS) and the core's debug views ("uv").
-_REFLECTANCE = {name: i for i, name in enumerate(_core.REFLECTANCE_MODELS)}
-_SHADING = ("auto",) + _core.REFLECTANCE_MODELS + tuple(
-    m for m in _core.SHADING_MODELS if m not in _core.REFLECTANCE_MODELS and m != "lit")
-# A mesh without a material: lambert of its base colour, two-sided, no specular term.
-_PLAIN_MATERIAL = (True, True, True, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 32.0, 0.0,
-                   0.5, (0.0, 0.0, 0.0), None, None, None, 1.0, False, None, None, 1.0, None, 1.0,
-                   False, 0.5)
-_LAMBERT = _REFLECTANCE["lambert"]
-_FILTERS = _core.TEXTURE_FILTERS
+# (python/softrast/material.py, MODELS) and the debug views ("uv"). The core picks its kernels
+# from them and the scene (cpp/renderer.cpp, the plan).
+_SHADING = _core.SHADING_MODELS
 _NORMAL_SPACES = ("world", "camera")
 # Bytes per pixel of each output (see Frame): what a render allocates for it. From the core's
 # output table, as every list of outputs here is.
@@ -202,25 +195,6 @@ Frame.__doc__ = (Frame.__doc__ or "").replace("{outputs}", "\n".join(
     f"    {row['name']:<11} : {row['doc']}" for row in _core.OUTPUT_TABLE))
 
 
-def _spec(view: Any, proj: Any, orthographic: bool, near: float, far: float, outputs: list[str],
-          cull: str = "back", shading: str = "lambert",
-          background: Sequence[float] = (0.0, 0.0, 0.0), ambient: float = 0.25,
-          out: dict[str, np.ndarray] | None = None, shading_path: str = "auto",
-          lights: Sequence[tuple] = (), ambient_light: Sequence[float] = (0.0, 0.0, 0.0),
-          frequency: str = "pixel", srgb: bool = True, texture_filter: int = -1,
-          normal_rotation: tuple | None = None, raster: str = "edge", msaa: int = 1,
-          ssaa: int = 1, primitives: Sequence[tuple] = (),
-          line_algorithm: str = "bresenham") -> dict[str, Any]:
-    """The core's render spec (_core.pyi, Renderer.render): the options, already checked."""
-    return {"view": view, "proj": proj, "orthographic": orthographic, "near": near, "far": far,
-            "outputs": outputs, "cull": cull, "shading": shading, "shading_path": shading_path,
-            "background": background, "ambient": ambient, "out": out, "lights": lights,
-            "ambient_light": ambient_light, "frequency": frequency, "srgb": srgb,
-            "texture_filter": texture_filter, "normal_rotation": normal_rotation,
-            "raster": raster, "msaa": msaa, "ssaa": ssaa, "primitives": primitives,
-            "line_algorithm": line_algorithm}
-
-
 MSAA_COUNTS = (1, 2, 4, 8, 16)
 
 
@@ -249,42 +223,27 @@ def sample_positions(msaa: int = 1, ssaa: int = 1) -> npt.NDArray[np.float64]:
     return np.array(_core._sample_pattern(msaa, ssaa), dtype=np.float64) / (1 << _core.SUBPIXEL_BITS)
 
 
-def _lighting(scene: Scene, view: Any, ambient: float) -> tuple[list[tuple], tuple]:
-    """The core's light records (world space) and ambient light for one render, cached in the
-    scene for the last view matrix (cameras keep one array per pose) and ambient.
-
-    A scene without lights gets the headlight: a white directional light along the camera's
-    viewing axis of intensity 1 - ambient, and an ambient light of ``ambient``."""
+def _lights(scene: Scene, view: Any) -> list[Any]:
+    """The core's light records (world space) of the scene's lights for one render, cached in the
+    scene for the last view matrix (cameras keep one array per pose): camera-space lights move
+    with it. A scene without lights gets the headlight from the core."""
     cached = scene._render_cache.get("lights")
-    if cached is not None and cached[0] is view and cached[1] == ambient:
-        return cached[2]
-    lights = scene._lights
-    if not lights:
-        # The viewing axis in world space is -(the view matrix's third row) for a rigid view.
-        axis = -np.asarray(view, dtype=np.float64)[2, :3]
-        axis = axis / np.linalg.norm(axis)
-        rgb = 1.0 - ambient
-        headlight = (0, (rgb, rgb, rgb), (0.0, 0.0, 0.0), tuple(float(x) for x in axis), False,
-                     0.0, 1.0)
-        ia = scene.ambient_light if scene.ambient_light is not None else (ambient,) * 3
-        result: tuple[list[tuple], tuple] = ([headlight], ia)
-    else:
-        records = []
-        cam_to_world = None
-        for li in lights:
-            pose = li.pose
-            if li.camera_space:
-                if cam_to_world is None:
-                    cam_to_world = np.linalg.inv(np.asarray(view, dtype=np.float64))
-                pose = cam_to_world @ pose
-            records.append(li.light._core(pose))
-        ia = scene.ambient_light if scene.ambient_light is not None else (0.0, 0.0, 0.0)
-        result = (records, ia)
-    scene._render_cache["lights"] = (view, ambient, result)
-    return result
+    if cached is not None and cached[0] is view:
+        return cached[1]
+    records = []
+    cam_to_world = None
+    for li in scene._lights:
+        pose = li.pose
+        if li.camera_space:
+            if cam_to_world is None:
+                cam_to_world = np.linalg.inv(np.asarray(view, dtype=np.float64))
+            pose = cam_to_world @ pose
+        records.append(li.light._core(pose))
+    scene._render_cache["lights"] = (view, records)
+    return records
 
 
-def _primitive_draws(scene: Scene) -> list[tuple]:
+def _primitive_draws(scene: Scene) -> list[Any]:
     """The core's records of the scene's lines and points (cached in the scene until it
     changes); each holds its object's read-only arrays, which the core views during a render."""
     cached = scene._render_cache.get("primitives")
@@ -300,7 +259,7 @@ def _primitive_draws(scene: Scene) -> list[tuple]:
 WIREFRAME_DEPTH_BIAS = 2.0**-8
 
 
-def _wireframe_draws(scene: Scene, line_color: tuple, line_width: float) -> list[tuple]:
+def _wireframe_draws(scene: Scene, line_color: tuple, line_width: float) -> list[Any]:
     """Line records of every mesh instance's unique edges (cached in the scene until it changes;
     one Lines per mesh, shared by its instances)."""
     key = ("wireframe", line_color, line_width)
@@ -319,47 +278,22 @@ def _wireframe_draws(scene: Scene, line_color: tuple, line_width: float) -> list
                 edges = np.unique(edges, axis=0) if len(edges) else edges.reshape(0, 2)
                 lines = per_mesh[id(mesh)] = Lines(mesh.positions, edges, width=line_width,
                                                    color=line_color)
-            cached.append(lines._core_record(inst.pose, inst.instance_id) +
-                          (WIREFRAME_DEPTH_BIAS,))
+            cached.append(lines._core_record(inst.pose, inst.instance_id,
+                                             depth_bias=WIREFRAME_DEPTH_BIAS))
         scene._render_cache[key] = cached
     return cached
 
 
-def _draws(scene: Scene, shading: str, frequency: str) -> tuple[list[tuple], str]:
-    """The core's draw records and model (cached in the scene until it changes)."""
-    key = (shading, frequency)
-    cached = scene._render_cache.get(key)
+def _draws(scene: Scene) -> list[Any]:
+    """The core's draw records (``softrast._core.Draw``), cached in the scene until it changes.
+    The core decides how each is shaded (its material's model, or the render's shading=)."""
+    cached = scene._render_cache.get("draws")
     if cached is None:
-        cached = scene._render_cache[key] = _make_draws(scene, shading, frequency)
+        cached = scene._render_cache["draws"] = [
+            _core.Draw(mesh=i.mesh._core_data(), pose=i.pose, instance_id=i.instance_id,
+                       color=i.color, material=i.material._core if i.material is not None else None)
+            for i in scene._instances]
     return cached
-
-
-def _make_draws(scene: Scene, shading: str, frequency: str) -> tuple[list[tuple], str]:
-    """The core's draw records and model: "lit" with each draw's reflectance model, or one of the
-    core's fast kernels where every draw allows it (a scene of plain lambert meshes under the
-    headlight keeps the headlight kernel; unlit, normal and uv have their own)."""
-    instances = scene._instances
-    textured = any(i.material is not None and i.material.textured for i in instances)
-    if shading == "uv" or (not textured and (
-            shading == "unlit" or (shading == "normal" and frequency == "pixel"))):
-        index = _REFLECTANCE.get(shading, _LAMBERT)
-        return [(i.mesh._core_data(), i.pose, i.instance_id, i.color,
-                 (index,) + (i.material._core if i.material is not None else _PLAIN_MATERIAL))
-                for i in instances], shading
-    draws = []
-    plain = frequency == "pixel" and not scene._lights and scene.ambient_light is None
-    for i in instances:
-        m = i.material
-        if shading == "auto":
-            model = "lambert" if m is None else (m.model or "blinn_phong")
-        else:
-            model = shading
-        index = _REFLECTANCE[model]
-        if index != _LAMBERT or (m is not None and not m.plain):
-            plain = False
-        draws.append((i.mesh._core_data(), i.pose, i.instance_id, i.color,
-                      (index,) + (m._core if m is not None else _PLAIN_MATERIAL)))
-    return draws, "lambert" if plain else "lit"
 
 
 # Checked output tuples (and single names): a batch asks for the same outputs every render.
@@ -603,8 +537,8 @@ class Renderer:
         choice(normal_space, "normal_space", _NORMAL_SPACES)
         if not isinstance(srgb, (bool, np.bool_)):
             raise TypeError(f"srgb must be True or False, got {srgb!r:.80}")
-        filter_index = -1 if texture_filter is None else _FILTERS.index(
-            check_filter(texture_filter, "texture_filter"))
+        if texture_filter is not None:
+            check_filter(texture_filter, "texture_filter")
         bg = unit_rgb(background, "background")
         ambient_f = real(ambient, "ambient")
         if not 0.0 <= ambient_f <= 1.0:  # NaN fails too
@@ -630,20 +564,22 @@ class Renderer:
         if new:
             check_budget(w * h * sum(_OUTPUT_BYTES[n] for n in new), f"outputs {tuple(new)} at {w}x{h}")
 
-        draws, model = _draws(scene, shading, frequency)
+        draws = _draws(scene)
         primitives = _primitive_draws(scene)
         if wireframe:
             primitives = primitives + _wireframe_draws(scene, wire_color, float(np.float32(wire_width)))
         view, proj = camera._render_matrices(w, h)
-        lights, ambient_light = _lighting(scene, view, ambient_f)
-        # Every option is checked above, once; the core gets them as one spec.
-        buffers = self._core.render(draws, _spec(view, proj, camera.orthographic, camera.near,
-                                                 camera.far, names, cull, model, bg, ambient_f,
-                                                 out_arrays, shading_path, lights, ambient_light,
-                                                 frequency, bool(srgb), filter_index,
-                                                 None if normal_space == "world" else
-                                                 tuple(map(tuple, camera.pose[:3, :3].T.tolist())),
-                                                 raster, msaa, ssaa, primitives, line_algorithm))
+        # Every option is checked above, once; the core reads them by name (_core.RENDER_OPTIONS).
+        buffers = self._core.render(draws, {
+            "view": view, "proj": proj, "orthographic": camera.orthographic, "near": camera.near,
+            "far": camera.far, "outputs": names, "cull": cull, "shading": shading,
+            "shading_path": shading_path, "background": bg, "ambient": ambient_f, "out": out_arrays,
+            "lights": _lights(scene, view), "ambient_light": scene.ambient_light,
+            "frequency": frequency, "srgb": bool(srgb), "texture_filter": texture_filter,
+            "normal_rotation": None if normal_space == "world" else
+            tuple(map(tuple, camera.pose[:3, :3].T.tolist())),
+            "raster": raster, "msaa": msaa, "ssaa": ssaa, "primitives": primitives,
+            "line_algorithm": line_algorithm})
         return Frame(buffers)
 
     def render_many(self, scene: Scene, cameras: Iterable[Camera], outputs: str | Sequence[str] = ("color", "depth"),

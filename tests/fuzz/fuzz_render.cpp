@@ -4,16 +4,16 @@
 //
 // Input format (little-endian; a read past the end yields zero bytes, so every input decodes):
 //   u8 width-1, u8 height-1, u8 threads (1 + t % 3), u8 outputs (raw bits: 0 is
-//   invalid), u8 cull % 3, u8 shading % kNumShadingModels, u8 flags (bit 0 orthographic, bit 1 re-render with
+//   invalid), u8 cull % 3, u8 shading % kNumShadings, u8 flags (bit 0 orthographic, bit 1 re-render with
 //   another thread count and compare), 3 x F background, F ambient,
 //   camera: M view, P proj, D near, D far,
 //   mesh: u8 vertices, vertices x 3 F, u8 faces, faces x 3 I, then normals, colors, uvs each as
 //   u8 mode (0 absent, 1 one per vertex, 2 one too many, 3 one too few) and their values,
 //   u8 draws % 4, per draw: M model, i32 instance id, 4 x F colour,
-//   then (read by the lit model, Shading::Lit; an input that ends before them decodes them as
+//   then (read by lit draws; an input that ends before them decodes them as
 //   zero bytes: no lights, default-like materials) u8 lights % 5, per light: u8 kind % 3,
 //   3 x F radiance, 3 x F position, 3 x F direction, u8 inverse_square, F cone scale,
-//   F cone offset; 3 x F ambient light; u8 frequency % 3; u8 srgb; per draw: u8 brdf % 6,
+//   F cone offset; 3 x F ambient light; u8 frequency % 3; u8 srgb; per draw: u8 model % kNumMaterialModels,
 //   u8 flags (kd_is_base, ka_is_kd, double_sided), 3 x F ka, kd, ks, emissive, F shininess,
 //   metallic, roughness;
 //   then textures (an input that ends before them has none): u8 texture_filter (0xff: each
@@ -247,7 +247,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
   RenderOptions options;
   options.outputs = in.u8();
   options.cull = Cull(in.u8() % 3);
-  options.shading = Shading(in.u8() % kNumShadingModels);
+  options.shading = Shading(in.u8() % kNumShadings);
   const uint8_t flags = in.u8();
   for (int c = 0; c < 3; ++c) options.background[c] = in.value_f();
   options.ambient = in.value_f();
@@ -292,11 +292,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
     options.lights.push_back(light);
   }
   options.ambient_light = vec3(in.value_f(), in.value_f(), in.value_f());
+  options.has_ambient_light = options.ambient_light != vec3(0.0f);
   options.frequency = Frequency(in.u8() % 3);
   options.srgb = in.u8() & 1;
   for (Draw& d : draws) {
     Material& m = d.material;
-    m.brdf = Brdf(in.u8() % 6);
+    m.model = Brdf(in.u8() % kNumMaterialModels);
     const uint8_t f = in.u8();
     m.kd_is_base = !(f & 1);
     m.ka_is_kd = !(f & 2);
