@@ -14,7 +14,8 @@ namespace sr {
 
 // The triangles one chunk of a draw produced, binned to tiles. Records keep primitive order.
 // Cache-line aligned: neighbouring chunks are set up by different threads, and every push_back
-// writes an array's end (sharing a line made the setup pass scale 1.1x on 2 threads).
+// writes an array's end; chunks that shared a line kept the setup pass from scaling with threads
+// (benchmarks/RESULTS.md, "Measurements behind the code").
 struct alignas(64) SetupChunk {
   GrowingArray<TriangleSetup> records;   // (grown without copies: a first frame grows them all)
   GrowingArray<TriangleShading> shading; // records[i]'s in shading[i]; empty unless SetupParams::shade

@@ -110,10 +110,11 @@ struct FreeFrameBuffer {
 using FrameBufferPtr = std::unique_ptr<std::byte[], FreeFrameBuffer>;
 
 // Output buffers the user has released, kept for the next renders of the same size: a fresh
-// allocation pays a page fault per 4 KiB on its first write (ico7 at 2048x2048: 18.8 ms per
-// default render against 12.8 ms into out=). A buffer comes back only when nothing views it
-// any more (bindings.cpp: the NumPy array's capsule gives it back), so a frame the user still
-// holds is never written. Holds at most `max_bytes`; the rest is freed. Thread-safe.
+// allocation pays a page fault per 4 KiB on its first write, which made a default render of a
+// large frame much slower than one into out= (benchmarks/RESULTS.md, "Measurements behind the
+// code"). A buffer comes back only when nothing views it any more (bindings.cpp: the NumPy
+// array's capsule gives it back), so a frame the user still holds is never written. Holds at
+// most `max_bytes`; the rest is freed. Thread-safe.
 class BufferPool {
  public:
   explicit BufferPool(std::size_t max_bytes) : max_bytes_(max_bytes) {}

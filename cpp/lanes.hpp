@@ -4,7 +4,9 @@
 
 #include "simd.hpp"
 
+#if SR_X86
 #include <immintrin.h>
+#endif
 
 namespace sr {
 namespace simd {
@@ -16,6 +18,7 @@ SR_INLINE i8 float_bits(f8 v) { return i8(v); }
 SR_INLINE f4 low_half(f8 v) { return __builtin_shufflevector(v, v, 0, 1, 2, 3); }
 SR_INLINE f4 high_half(f8 v) { return __builtin_shufflevector(v, v, 4, 5, 6, 7); }
 // A lane mask (all-ones or zero per lane) as one bit per lane.
+#if SR_X86
 SR_INLINE unsigned mask_bits(i8 mask) {
   const i4 lo = __builtin_shufflevector(mask, mask, 0, 1, 2, 3);
   const i4 hi = __builtin_shufflevector(mask, mask, 4, 5, 6, 7);
@@ -26,6 +29,18 @@ SR_INLINE unsigned mask_bits(l4 mask) {
   const __m128d hi = __m128d(__builtin_shufflevector(mask, mask, 2, 3));
   return unsigned(_mm_movemask_pd(lo) | _mm_movemask_pd(hi) << 2);
 }
+#else  // each lane's sign bit, as movemask gives it
+SR_INLINE unsigned mask_bits(i8 mask) {
+  unsigned bits = 0;
+  for (int i = 0; i < 8; ++i) bits |= unsigned(mask[i] < 0) << i;
+  return bits;
+}
+SR_INLINE unsigned mask_bits(l4 mask) {
+  unsigned bits = 0;
+  for (int i = 0; i < 4; ++i) bits |= unsigned(mask[i] < 0) << i;
+  return bits;
+}
+#endif
 
 // Eight rows of eight 32-bit words become eight columns (records <-> fields).
 SR_INLINE void transpose8(i8 (&r)[8]) {

@@ -26,8 +26,9 @@ struct Light {
 // How a draw is shaded (a per-triangle choice, shade_models.hpp): a material's reflectance
 // models and the debug views (render(shading=) names, in this order: bindings.cpp), then the
 // headlight's Lambert, the plan's choice for a plain scene (renderer.cpp).
-enum class Brdf : uint8_t { Unlit, Lambert, Phong, BlinnPhong, Pbr, Normal, Uv, Headlight };
-// A material's models are the first six (Uv and Headlight only come from a render's options).
+enum class Brdf : uint8_t { Unlit, Lambert, Phong, BlinnPhong, Pbr, Normal, Uv, Depth, Headlight };
+// A material's models are the first six (the debug views Uv and Depth, and Headlight, only come
+// from a render's options).
 constexpr int kNumMaterialModels = int(Brdf::Normal) + 1;
 
 // Where lighting is evaluated: per pixel (Phong shading), at the vertices with the colour

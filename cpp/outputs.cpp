@@ -6,8 +6,11 @@
 
 #include <cmath>
 #include <cstring>
-#include <immintrin.h>
 #include <stdexcept>
+
+#if SR_X86
+#include <immintrin.h>
+#endif
 
 namespace sr {
 
@@ -96,6 +99,7 @@ void encode_row_generic(const float* r, const float* g, const float* b, const ui
   const int x = encode_linear_groups(r, g, b, n, out);
   for (int i = x; i < n; ++i) out[i] = to_unorm8(r[i]) | to_unorm8(g[i]) << 8 | to_unorm8(b[i]) << 16;
 }
+#if SR_X86
 SR_TARGET_AVX2 SR_INLINE __m256i srgb_code8(const int* table, __m256 x) {
   x = _mm256_max_ps(x, _mm256_castsi256_ps(_mm256_set1_epi32(int(kSrgbLowest))));  // NaN -> lo
   x = _mm256_min_ps(x, _mm256_castsi256_ps(_mm256_set1_epi32(int(kSrgbHighest))));
@@ -129,6 +133,9 @@ SR_TARGET_AVX2 void encode_row_avx2(const float* r, const float* g, const float*
   }
   encode_row_generic(r + x, g + x, b + x, visible + x, n - x, srgb, out + x);
 }
+#else  // the x86 kernels' names, for write_tile's choice (never taken elsewhere: no AVX2)
+constexpr auto encode_row_avx2 = encode_row_generic;
+#endif
 
 // A row of radiance planes interleaved to RGB floats, 0 where nothing is visible.
 void write_radiance_row(const float* r, const float* g, const float* b, const uint32_t* visible,
@@ -152,12 +159,13 @@ SR_INLINE void resolve_depth_row(const float* key, const uint32_t* visible, int 
   }
   for (; x < n; ++x) depth[x] = visible[x] != kNoTriangle ? depth_from_key(key[x], orthographic) : 0.0f;
 }
-SR_TARGET_AVX2 void resolve_depth_row_avx2(const float* key, const uint32_t* visible, int n,
-                                           bool orthographic, float* depth) {
-  resolve_depth_row(key, visible, n, orthographic, depth);
-}
 void resolve_depth_row_generic(const float* key, const uint32_t* visible, int n,
                                bool orthographic, float* depth) {
+  resolve_depth_row(key, visible, n, orthographic, depth);
+}
+#if SR_X86
+SR_TARGET_AVX2 void resolve_depth_row_avx2(const float* key, const uint32_t* visible, int n,
+                                           bool orthographic, float* depth) {
   resolve_depth_row(key, visible, n, orthographic, depth);
 }
 // The same values with non-temporal stores, where the row is 16-byte aligned and whole vectors.
@@ -177,6 +185,7 @@ SR_TARGET_AVX2 void resolve_depth_row_stream(const float* key, const uint32_t* v
     _mm_stream_ps(depth + x + 4, _mm256_extractf128_ps(v, 1));
   }
 }
+#endif
 
 // Unpacks a row of packed colours (r | g << 8 | b << 16) to 3-byte pixels, background where
 // nothing is visible.
@@ -189,6 +198,7 @@ void write_rgb_generic(const uint32_t* rgb, const uint32_t* visible, int n, uint
     out[3 * x + 2] = uint8_t(c >> 16);
   }
 }
+#if SR_X86
 // The same, four pixels per byte shuffle (each 16-byte store spills 4 bytes into the next pixel,
 // written afterwards; where a spill would leave the row, the last four go as 8 + 4 bytes).
 SR_TARGET_AVX2 SR_INLINE __m128i rgb_four(const uint32_t* rgb, const uint32_t* visible,
@@ -234,6 +244,12 @@ SR_TARGET_AVX2 void write_rgb_stream(const uint32_t* rgb, const uint32_t* visibl
     _mm_stream_si128(o + 2, _mm_or_si128(_mm_srli_si128(p2, 8), _mm_slli_si128(p3, 4)));
   }
 }
+#else  // no AVX2 kernels, nor non-temporal stores, on other machines
+constexpr auto resolve_depth_row_avx2 = resolve_depth_row_generic;
+constexpr auto resolve_depth_row_stream = resolve_depth_row_generic;
+constexpr auto write_rgb_avx2 = write_rgb_generic;
+constexpr auto write_rgb_stream = write_rgb_generic;
+#endif
 
 // The visible surface point of each pixel of a row (`n` pixels from column x0 of row y, `visible`
 // their entries in the tile's visibility buffer): the perspective-correct barycentric weights of
@@ -413,7 +429,9 @@ void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& r
         write_radiance_row(rgb[0], rgb[1], rgb[2], visible, n, radiance + 3 * o);
     }
   }
+#if SR_X86
   if (stream) _mm_sfence();  // order the non-temporal stores before the tile is done
+#endif
 }
 
 }  // namespace sr

@@ -6,10 +6,10 @@
 
 namespace sr {
 
-// Frames of at least this many output bytes are written with non-temporal stores: measured here
-// (benchmarks/RESULTS.md), they spare a 16 MB depth frame the read of every line it overwrites
-// (ico7 at 2048x2048 depth-only: -13% at 2 threads), while a 4 MB frame, which stays in cache
-// from one render to the next, gets slower (+15%).
+// Frames of at least this many output bytes are written with non-temporal stores: they spare a
+// large frame the read of every line it overwrites, while a small frame, which stays in cache
+// from one render to the next, gets slower with them (benchmarks/RESULTS.md, "Measurements
+// behind the code").
 constexpr std::size_t kStreamFrameBytes = std::size_t(12) << 20;
 
 struct ResolvedSamples;  // multisample.hpp

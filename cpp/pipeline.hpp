@@ -39,8 +39,8 @@ enum class Cull : uint8_t { None, Back, Front };
 // render(shading=): each draw's own material model ("auto"), or one model for every draw: the
 // reflectance models and the debug views (names: bindings.cpp). The plan turns it into a Brdf
 // per draw (renderer.cpp).
-enum class Shading : uint8_t { Auto, Unlit, Lambert, Phong, BlinnPhong, Pbr, Normal, Uv };
-constexpr int kNumShadings = int(Shading::Uv) + 1;
+enum class Shading : uint8_t { Auto, Unlit, Lambert, Phong, BlinnPhong, Pbr, Normal, Uv, Depth };
+constexpr int kNumShadings = int(Shading::Depth) + 1;
 // When fragments are shaded: as they win the depth test (forward), or once per visible pixel
 // after the tile is rasterized (deferred). The same bits either way; Auto picks per tile by
 // its expected overdraw.
@@ -163,6 +163,7 @@ struct RenderOptions {
   vec3 ambient_light{0.0f};
   Frequency frequency = Frequency::Pixel;
   bool srgb = true;  // the colour output is sRGB-encoded (IEC 61966-2-1), else linear
+  bool lit_kernel = false;  // every draw through the lit kernel (tests, benchmarks: the same bits)
   uint8_t texture_filter = 0xff;  // a TextureFilter for every texture, or 0xff: each its own
   bool normal_camera = false;  // the normal output in camera space: normal_rotation applied
   mat3 normal_rotation{1.0f};  // world -> camera axes (the caller's camera convention)

@@ -291,12 +291,12 @@ SR_INLINE void rasterize_pairs(const TriangleSetup& t, int x0, int x1, int y0, i
 }
 
 // A tile's records are a sparse, ascending selection of its chunks' records: in a large mesh
-// each is a cache miss, which hardware prefetchers do not foresee (ico8 at 1024x1024, depth
-// only: a quarter of the tile pass). So the record this many places ahead is fetched early.
+// each is a cache miss, which hardware prefetchers do not foresee and which takes a large part
+// of the tile pass. So the record this many places ahead is fetched early.
 // Forward shading reads the record's TriangleShading too, where the triangle wins a pixel, and
 // then its vertices' attributes, which are as scattered as the mesh's vertex order: the hook
 // fetches those kPrefetchAttributes places ahead, from the TriangleShading fetched earlier
-// (benchmarks/RESULTS.md, eighth session).
+// (benchmarks/RESULTS.md, "Measurements behind the code").
 constexpr uint32_t kPrefetchRecords = 16, kPrefetchAttributes = 8;
 template <bool kShades>
 SR_INLINE void prefetch_record(const SetupChunk& chunk, uint32_t r) {

@@ -76,8 +76,8 @@ bool all_finite(const vec3& v) {
 }
 
 // Validation reads a whole mesh when it is uploaded, which from Python happens in the first frame
-// that draws it (31 MB for a 1.3M-face mesh): branch-free scans run about twice as fast as loops
-// that test and branch per value (benchmarks/RESULTS.md).
+// that draws it (31 MB for a 1.3M-face mesh): branch-free scans run much faster than loops that
+// test and branch per value (benchmarks/RESULTS.md, "Measurements behind the code").
 // The scans below are branch-free within a block, so they vectorise; a block that holds a bad
 // value is scanned again for the first one, to report it.
 constexpr std::size_t kScanBlock = 4096;
@@ -172,6 +172,7 @@ Brdf shading_brdf(Shading shading, Brdf own) {
     case Shading::Pbr: return Brdf::Pbr;
     case Shading::Normal: return Brdf::Normal;
     case Shading::Uv: return Brdf::Uv;
+    case Shading::Depth: return Brdf::Depth;
     default: return own;
   }
 }
@@ -186,17 +187,18 @@ void shade_draw(const RenderPlan& plan, const RenderOptions& options, bool headl
            : headlight ? Brdf::Headlight
                        : shading_brdf(options.shading, d.material.model);
   const Brdf b = d.brdf;
-  const bool textured = plan.color && d.material.textured() && b != Brdf::Uv && b != Brdf::Headlight;
+  const bool view = b == Brdf::Uv || b == Brdf::Depth;  // debug views read no material
+  const bool textured = plan.color && d.material.textured() && !view && b != Brdf::Headlight;
   d.needs = 0;
-  if (plan.normal || (plan.color && b != Brdf::Unlit && b != Brdf::Uv))
+  if (plan.normal || (plan.color && b != Brdf::Unlit && !view))
     d.needs |= kNeedsNormal;
-  if (is_lit(b) || textured) d.needs |= kNeedsPosition;
+  if (is_lit(b) || textured || b == Brdf::Depth) d.needs |= kNeedsPosition;
   if (b == Brdf::Uv || textured) d.needs |= kNeedsUv;
   if (textured) d.needs |= kTexturedUv;
   if (options.frequency == Frequency::Face && (is_lit(b) || b == Brdf::Normal))
     d.needs |= kNeedsFaceNormal;
   const bool plain = !d.material.textured() || !plan.color;
-  if (b == Brdf::Headlight || b == Brdf::Uv ||
+  if (b == Brdf::Headlight || view ||
       (plain && (b == Brdf::Unlit || (b == Brdf::Normal && options.frequency == Frequency::Pixel))))
     d.needs |= kInline;
 }
@@ -399,10 +401,9 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
     defers_light |= plan.color && options.frequency == Frequency::Pixel && is_lit(sd.brdf);
     const KernelKind mine = !(sd.needs & kInline)      ? KernelKind::Lit
                             : sd.brdf == Brdf::Headlight ? KernelKind::Headlight
-                            : sd.brdf == Brdf::Unlit     ? KernelKind::Unlit
                             : sd.brdf == Brdf::Normal    ? KernelKind::NormalColor
                                                          : KernelKind::Lit;
-    kind = d == 0 || mine == kind ? mine : KernelKind::Lit;
+    kind = options.lit_kernel ? KernelKind::Lit : d == 0 || mine == kind ? mine : KernelKind::Lit;
     const bool smooth = (sd.needs & kNeedsNormal) && !mesh.normals.empty();
     world_normals_[d].resize(smooth ? mesh.normals.size() : 0);
     for (std::size_t b = 0; b < world_normals_[d].size(); b += kVertexBlock)
@@ -427,6 +428,13 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   const dvec3 to_camera = glm::normalize(dvec3(glm::inverse(camera.view) * dvec4(0, 0, 1, 0)));
   shade.in.to_light_world = vec3(to_camera);
   shade.in.ambient = float(options.ambient);
+  // The depth view: grey = (far - depth) / (far - near), depth = -(view row 2 . p + view[3][2]).
+  {
+    const double span = camera.far - camera.near;
+    const dmat4& v = camera.view;  // (glm: v[column][row])
+    shade.in.depth_grey = vec4(float(v[0][2] / span), float(v[1][2] / span),
+                               float(v[2][2] / span), float((camera.far + v[3][2]) / span));
+  }
   shade.in.frequency = options.frequency;
   shade.in.texture_filter = options.texture_filter;
   const bool lights = !options.lights.empty();

@@ -2,13 +2,13 @@
 // grown without being initialised or copied.
 //
 // A renderer's first frame allocates these and later frames reuse them. std::vector::resize
-// value-initialises: it zeroed ico8's 21 MB of projected vertices and 8 MB of world normals on
-// the calling thread (~10 ms, page faults included) only for the parallel passes to overwrite
-// every element. Here the pass that writes an element is the first to touch it.
+// value-initialises: it zeroes every element on the calling thread, page faults included, only
+// for the parallel passes to overwrite it. Here the pass that writes an element is the first to
+// touch it.
 //
 // Plain operator new, not a fresh mapping with huge pages: that was tried and made the first
-// frame slower in benchmarks/bench_vs_pyrender.py (ico8 first / steady ~1.8 -> ~2.9), where the
-// heap holds memory freed by earlier work that malloc reuses without any page fault at all.
+// frame slower, since the heap holds memory freed by earlier work that malloc reuses without any
+// page fault at all (both: benchmarks/RESULTS.md, "Measurements behind the code").
 #pragma once
 
 #include <cstddef>
@@ -70,9 +70,9 @@ class ScratchArray {
 
 // An append-only run of T's grown by realloc(), which extends a block in place when it can and
 // moves a large one by remapping its pages (glibc): std::vector's growth copied every setup
-// record once more in a first frame (ico8: ~38 MB, ~1 ms of it). Keeps its capacity across
-// clear(), as a std::vector does. Elements start on a cache line (a 64-byte setup record then
-// spans one line, not two).
+// record once more in a first frame (benchmarks/RESULTS.md, "Measurements behind the code").
+// Keeps its capacity across clear(), as a std::vector does. Elements start on a cache line (a
+// 64-byte setup record then spans one line, not two).
 template <typename T>
 class GrowingArray {
   static_assert(std::is_trivially_copyable_v<T> && std::is_trivially_destructible_v<T> &&

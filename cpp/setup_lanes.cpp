@@ -216,8 +216,8 @@ SR_INLINE void setup_eight(const SetupParams& params, std::size_t f, SetupChunk&
 // Faces reach their vertices through indices, and the order of a mesh's vertices is its
 // author's: in a large mesh each gather from the projected vertices may be a cache miss that no
 // hardware prefetcher foresees. So the vertices of the faces this many places ahead are fetched
-// early (measured in benchmarks/RESULTS.md, eighth session: up to 1.7x faster setup
-// for a shuffled 1.3M-face mesh; no change for a mesh that fits in cache).
+// early: that speeds up the setup of a large mesh whose vertices are out of order and changes
+// nothing for a mesh that fits in cache (benchmarks/RESULTS.md, "Measurements behind the code").
 constexpr std::size_t kPrefetchFaces = 64;
 
 SR_INLINE void setup_range(const SetupParams& params, std::size_t begin, std::size_t end,

@@ -42,6 +42,7 @@ struct ShadeInputs {
   Frequency frequency = Frequency::Pixel;
   uint8_t texture_filter = kNoFilterOverride;  // a TextureFilter for every texture, or each its own
   bool defers_light = false;  // some draw's pixels are lit by the tile's light pass
+  vec4 depth_grey{0.0f};      // the depth view: grey = dot(xyz, world position) + w, clamped
 };
 
 // std::clamp(v, 0, 1) * 255 + 0.5 truncated.
@@ -61,17 +62,17 @@ SR_INLINE simd::i8 to_unorm8(simd::f8 v) {
 
 // The shading kernels' one axis besides the instruction set and the path (shade_kernels.hpp):
 // the lit kernel shades every draw, each triangle by its draw's model; a plain kernel shades one
-// model known at compile time (the headlight's Lambert, the base colour, the normal as a colour),
-// and a render whose draws all take that model runs it instead: the default render of a mesh
-// without a material, shading="unlit" and shading="normal" (benchmarks/RESULTS.md, "What each
-// kernel axis is worth"). Everything else is a per-draw or per-triangle branch.
-enum class KernelKind : uint8_t { Lit, Headlight, Unlit, NormalColor };
+// model known at compile time (the headlight's Lambert, the normal as a colour), and a render
+// whose draws all take that model runs it instead: the default render of a mesh without a
+// material, and shading="normal". Each pays for itself (3% and 11% fewer instructions per
+// frame; an unlit kernel saved 2.2% and was removed): benchmarks/RESULTS.md, "What each kernel
+// axis is worth". Everything else is a per-draw or per-triangle branch.
+enum class KernelKind : uint8_t { Lit, Headlight, NormalColor };
 
 // A plain kernel's model, or (the lit kernel) the draw's own.
 template <KernelKind K>
 constexpr Brdf kernel_brdf(Brdf draws) {
   return K == KernelKind::Headlight ? Brdf::Headlight
-         : K == KernelKind::Unlit   ? Brdf::Unlit
          : K == KernelKind::NormalColor ? Brdf::Normal
                                         : draws;
 }
@@ -84,7 +85,7 @@ enum DrawNeeds : uint8_t {
   kNeedsUv = 4,          // the uvs (textures, or the uv model)
   kTexturedUv = 8,       // uvs for sampling: shifted by whole periods, with derivatives
   kNeedsFaceNormal = 16, // the face normal (the face frequency)
-  kInline = 32           // classified inline (classify below): the headlight, uv colours,
+  kInline = 32           // classified inline (classify below): the headlight, the uv and depth views,
                          // untextured unlit and (pixel frequency) normal draws
 };
 
@@ -152,7 +153,7 @@ struct Fragment {
 // Per-triangle values of the per-pixel formulas, splatted to eight lanes (built once per visible
 // triangle, shade_kernels.hpp).
 struct ShadeConstants {
-  enum Op : uint8_t { kPassthrough, kHeadlight, kNormalColor, kUvColor, kOutOfLine };
+  enum Op : uint8_t { kPassthrough, kHeadlight, kNormalColor, kUvColor, kDepthColor, kOutOfLine };
   simd::f8 persp[3];
   Op op;             // kVaryingColor's formula (the light pass's pixels: see code)
   bool raw_normal;   // the light pass normalises the interpolated normal (untextured lit)
@@ -164,6 +165,8 @@ struct ShadeConstants {
   // ambient and diffuse weights.
   simd::f8 light[3];
   simd::f8 ambient, diffuse;
+  // The depth view (kDepthColor): grey = clamp(dot(grey[0..2], position) + grey[3], 0, 1).
+  simd::f8 grey[4];
   // Lit and textured draws (lit_kernels.hpp reads them out of line):
   simd::f8 side;
   const LitInputs* in;
@@ -185,9 +188,9 @@ void make_lit_constants(const ShadeInputs& in, const LitKernels* kernels, const 
 
 // Picks the triangle's colour kind and what its pixels read, from its draw's model (brdf), needs,
 // material and index and the render's frequency. uniform_color: the three base colours are
-// equal. The headlight, the uv colours, and untextured unlit and normal draws at the pixel
+// equal. The headlight, the uv and depth views, and untextured unlit and normal draws at the pixel
 // frequency are classified inline; the kernels without the lit path (kLit false) see no other
-// draws, nor uv colours. Only what later reads is written.
+// draws, nor the views. Only what later reads is written.
 template <KernelKind K>
 SR_INLINE void classify(const ShadeInputs& in, Brdf draw_brdf, uint8_t needs, const Material& m,
                         uint32_t draw, bool back_facing, bool uniform_color, ShadeTriangle& s) {
@@ -238,6 +241,16 @@ SR_INLINE void classify(const ShadeInputs& in, Brdf draw_brdf, uint8_t needs, co
     } else {
       s.color_kind = ShadeTriangle::kVaryingColor;
     }
+  } else if (kLit && brdf == Brdf::Depth) {  // (far - depth) / (far - near) as a grey, clamped
+    s.reads = ShadeTriangle::kReadPosition;
+    float grey[3];
+    for (int k = 0; k < 3; ++k) grey[k] = glm::dot(vec3(in.depth_grey), s.position[k]) + in.depth_grey.w;
+    if (grey[0] == grey[1] && grey[0] == grey[2]) {
+      s.color_kind = ShadeTriangle::kConstantColor;
+      s.rgb = vec3(std::clamp(grey[0], 0.0f, 1.0f));
+    } else {
+      s.color_kind = ShadeTriangle::kVaryingColor;
+    }
   } else if (brdf == Brdf::Unlit) {  // the base colour
     s.reads = ShadeTriangle::kReadColor;
     if (uniform_color) {
@@ -285,6 +298,10 @@ SR_INLINE void make_constants(const ShadeInputs& in, const LitKernels* kernels, 
     case Brdf::Uv:
       c.op = ShadeConstants::kUvColor;
       return;
+    case Brdf::Depth:
+      c.op = ShadeConstants::kDepthColor;
+      for (int k = 0; k < 4; ++k) c.grey[k] = simd::splat(in.depth_grey[k]);
+      return;
     default:
       break;
   }
@@ -308,7 +325,6 @@ SR_INLINE void shade_inline(const ShadeConstants& c, const Fragment& f, simd::f8
   using simd::f8;
   constexpr bool kLit = K == KernelKind::Lit;
   const ShadeConstants::Op op = K == KernelKind::Headlight     ? ShadeConstants::kHeadlight
-                                : K == KernelKind::Unlit       ? ShadeConstants::kPassthrough
                                 : K == KernelKind::NormalColor ? ShadeConstants::kNormalColor
                                                                : c.op;
   switch (op) {
@@ -329,6 +345,12 @@ SR_INLINE void shade_inline(const ShadeConstants& c, const Fragment& f, simd::f8
       g = simd::clamp01(f.attr[1]);
       b = f8{};
       return;
+    case ShadeConstants::kDepthColor: {  // (far - depth) / (far - near), clamped to [0, 1]
+      if (!kLit) return;
+      r = g = b = simd::clamp01(f.position[0] * c.grey[0] + f.position[1] * c.grey[1] +
+                                f.position[2] * c.grey[2] + c.grey[3]);
+      return;
+    }
     default:  // kPassthrough: the interpolated colour
       return;
   }

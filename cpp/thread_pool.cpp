@@ -2,7 +2,11 @@
 #include "thread_pool.hpp"
 
 #include <chrono>
+#include "simd.hpp"  // SR_X86
+
+#if SR_X86
 #include <emmintrin.h>
+#endif
 #include <pthread.h>
 #include <stdexcept>
 #include <string>
@@ -13,15 +17,25 @@ namespace sr {
 namespace {
 
 // How long a thread spins for the next loop (workers) or for the loop's end (the caller) before
-// it sleeps on a condition variable. A render runs several loops back to back; waking a sleeping
-// thread costs tens of microseconds here, which 0.1-2 ms frames felt (ThreadPool in RESULTS.md).
+// it sleeps on a condition variable. A render runs several loops back to back, and waking a
+// sleeping thread costs enough for short frames to feel it (benchmarks/RESULTS.md, "Measurements
+// behind the code").
 constexpr auto kSpin = std::chrono::microseconds(50);
+
+// A spin-wait hint to the CPU.
+inline void cpu_relax() {
+#if SR_X86
+  _mm_pause();
+#elif defined(__aarch64__)
+  __asm__ __volatile__("yield");
+#endif
+}
 
 template <typename Ready>
 void spin_until(Ready ready) {
   const auto start = std::chrono::steady_clock::now();
   for (unsigned i = 1; !ready(); ++i) {
-    _mm_pause();
+    cpu_relax();
     if (i % 64 == 0 && std::chrono::steady_clock::now() - start > kSpin) return;
   }
 }

@@ -73,6 +73,13 @@ static_assert(sizeof(ProjectedVertex) == kLanes * sizeof(int32_t) &&
 // (IEEE operations in the same order, no contraction), so the same bits. A vertex that project()
 // would not write plainly (outside a plane, not finite, w <= 0, outside the guard band's limit)
 // is redone by project() itself afterwards.
+// Lanes 0-3 (h = 0) or 4-7 of v, in double. An SR_INLINE function, not a lambda: a lambda that is
+// not inlined (as at -O0) is compiled for the generic target, and its AVX2 caller's eight-lane
+// argument arrives wrong (the sanitizer build at -O0 found this one).
+SR_INLINE d4 half_of(f8 v, int h) {
+  return __builtin_convertvector(h == 0 ? low_half(v) : high_half(v), d4);
+}
+
 SR_INLINE void project_eight(const vec3* positions, const DrawTransform& xf, std::size_t i,
                              const ClipPlanes& planes, const Viewport& viewport, bool orthographic,
                              ProjectedVertex* out) {
@@ -104,10 +111,8 @@ SR_INLINE void project_eight(const vec3* positions, const DrawTransform& xf, std
   i4 fixed[2][2];  // [x / y][half]
   f4 residual[2][2], inv_w_f[2];
   for (int h = 0; h < 2; ++h) {
-    const auto part = [h](f8 v) {
-      return __builtin_convertvector(h == 0 ? low_half(v) : high_half(v), d4);
-    };
-    const d4 x = part(clip[0]), y = part(clip[1]), w = part(clip[3]), d = part(depth_view);
+    const d4 x = half_of(clip[0], h), y = half_of(clip[1], h), w = half_of(clip[3], h),
+             d = half_of(depth_view, h);
     // ClipPlanes::outcode() == 0, project()'s w > 0 and depth > 0, and its window-limit test.
     l4 inside = (d - planes.near >= 0.0) & (planes.far - d >= 0.0) &
                 (x - planes.ndc_x_min * w >= 0.0) & (planes.ndc_x_max * w - x >= 0.0) &

@@ -774,13 +774,31 @@ def _scenes() -> dict[str, tuple[int, int, Build, dict]]:
 SCENES = _scenes()
 
 
-def render(name: str, simd: bool = True, threads: int = 2, meshes_: dict | None = None) -> sr.Frame:
+class _LitKernel:
+    """A core renderer whose renders all take the lit kernel (the core's lit_kernel option)."""
+
+    def __init__(self, core) -> None:
+        self._core = core
+
+    def render(self, draws, options):
+        return self._core.render(draws, dict(options, lit_kernel=True))
+
+    def __getattr__(self, name):
+        return getattr(self._core, name)
+
+
+def render(name: str, simd: bool = True, threads: int = 2, meshes_: dict | None = None,
+           lit_kernel: bool = False) -> sr.Frame:
+    """A scene's frame; lit_kernel: shaded by the lit kernel where a plain one would serve."""
     w, h, build, options = SCENES[name]
     options = dict(options)
     outputs = options.pop("outputs", NO_COVERAGE)
     options.setdefault("srgb", True)  # pinned: the recorded default
     scene, camera = build(meshes_ or meshes())
-    return sr.Renderer(w, h, threads=threads, simd=simd).render(scene, camera, outputs=outputs, **options)
+    renderer = sr.Renderer(w, h, threads=threads, simd=simd)
+    if lit_kernel:
+        renderer._core = _LitKernel(renderer._core)
+    return renderer.render(scene, camera, outputs=outputs, **options)
 
 
 def digest(arr: np.ndarray) -> str:
@@ -791,8 +809,10 @@ def digest(arr: np.ndarray) -> str:
     return h.hexdigest()
 
 
-def render_hashes(name: str, simd: bool, threads: int, meshes_: dict | None = None) -> dict[str, str]:
-    return {k: digest(v) for k, v in render(name, simd, threads, meshes_).as_dict().items()}
+def render_hashes(name: str, simd: bool, threads: int, meshes_: dict | None = None,
+                  lit_kernel: bool = False) -> dict[str, str]:
+    return {k: digest(v)
+            for k, v in render(name, simd, threads, meshes_, lit_kernel).as_dict().items()}
 
 
 def _nontrivial(name: str, frame: sr.Frame) -> str | None:

@@ -74,3 +74,14 @@ def test_feature_outputs_are_bit_identical_to_the_recorded_commit(name, simd, th
     assert sorted(got) == sorted(FEATURES_WANT[name])
     differ = [k for k in got if got[k] != FEATURES_WANT[name][k]]
     assert not differ, f"{name}: outputs {differ} differ from the recorded bits"
+
+
+@pytest.mark.parametrize("simd", [True, False], ids=["simd", "generic"])
+@pytest.mark.parametrize("name", sorted(golden_features.SCENES))
+def test_the_lit_kernel_gives_the_plain_kernels_bits(name, simd):
+    # The plain kernels (the headlight's Lambert, unlit, the normal as a colour) are a
+    # specialisation of the lit kernel, which shades the same draws with the same formulas: forced
+    # through it (the core's lit_kernel option), every scene keeps its recorded bits.
+    got = golden_features.render_hashes(name, simd, 2, FEATURE_MESHES, lit_kernel=True)
+    differ = [k for k in got if got[k] != FEATURES_WANT[name][k]]
+    assert not differ, f"{name}: outputs {differ} differ through the lit kernel"

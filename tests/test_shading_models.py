@@ -136,3 +136,51 @@ def test_uv_model_without_uvs_is_black():
                                        background=(1, 1, 1))
     assert frame.mask.sum() > 500
     assert (frame.color[frame.mask] == 0).all() and (frame.color[~frame.mask] == 255).all()
+
+
+# --------------------------------------------------------------------------------- depth view
+
+@pytest.mark.parametrize("simd", [True, False])
+@pytest.mark.parametrize("path", ["forward", "deferred"])
+def test_depth_view_is_the_depth_output_as_grey(simd, path):
+    # shading="depth": (far - depth) / (far - near) clamped to [0, 1], linearly encoded with
+    # srgb=False, from the interpolated world position: the exact plane's depth at each pixel.
+    positions = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], float)
+    scene = sr.Scene()
+    scene.add(sr.Mesh(positions, [[0, 1, 2], [0, 2, 3]]))
+    near, far = 0.05, 4.0
+    cam = sr.PerspectiveCamera(fov_y=60.0, near=near, far=far)
+    cam.look_at((0.3, -1.6, 0.9), (0.0, 0.2, 0.0), up=(0, 0, 1))
+    got = sr.Renderer(160, 120, simd=simd).render(
+        scene, cam, outputs=("color", "depth", "mask"), shading="depth", cull="none",
+        shading_path=path, srgb=False)
+    m = got.mask
+    assert m.sum() > 5000
+    want = np.clip((far - got.depth.astype(np.float64)) / (far - near), 0, 1)
+    grey = got.color[m].astype(np.float64) / 255
+    assert (got.color[m][:, 0] == got.color[m][:, 1]).all() and (got.color[m][:, 0] == got.color[m][:, 2]).all()
+    assert np.abs(grey[:, 0] - want[m]).max() <= 0.51 / 255 + 1e-5  # 8-bit rounding, float32
+    # The plane recedes: the view spans many grey levels (the test can tell a constant).
+    assert np.ptp(grey[:, 0]) > 0.3
+    assert (got.color[~m] == 0).all()  # the background
+
+
+def test_depth_view_ignores_materials_and_lights():
+    # A textured pbr material under a point light shows only its depth: a plane facing the camera
+    # at depth 2 with near 1, far 3 is one grey, (3 - 2) / (3 - 1) = 0.5 -> 128.
+    tex = sr.Texture(np.full((4, 4, 3), 200, np.uint8))
+    mat = sr.Material(model="pbr", base_color_texture=tex, metallic=1.0)
+    scene = sr.Scene()
+    quad = sr.Mesh(np.array([[-3, -3, 0], [3, -3, 0], [3, 3, 0], [-3, 3, 0]], float),
+                   [[0, 1, 2], [0, 2, 3]], uvs=np.zeros((4, 2)), material=mat)
+    pose = np.eye(4)
+    pose[2, 3] = -2.0
+    scene.add(quad, pose=pose)
+    scene.add(sr.PointLight(intensity=50.0), pose=np.eye(4))
+    cam = sr.PerspectiveCamera(fov_y=60.0, near=1.0, far=3.0)
+    cam.look_at((0.0, 0.0, 0.0), (0.0, 0.0, -1.0))
+    f = sr.Renderer(32, 32).render(scene, cam, outputs=("color", "mask"), shading="depth", srgb=False)
+    assert f.mask.all()
+    assert (f.color == 128).all()
+    lit = sr.Renderer(32, 32).render(scene, cam, outputs=("color",), srgb=False)
+    assert (lit.color != 128).any()  # (the material itself would not give that grey)

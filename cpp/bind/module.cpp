@@ -15,7 +15,7 @@ const Name<Cull> kCullNames[3] = {{"none", Cull::None}, {"back", Cull::Back}, {"
 const Name<Shading> kShadingNames[kNumShadings] = {
     {"auto", Shading::Auto},   {"unlit", Shading::Unlit}, {"lambert", Shading::Lambert},
     {"phong", Shading::Phong}, {"blinn_phong", Shading::BlinnPhong}, {"pbr", Shading::Pbr},
-    {"normal", Shading::Normal}, {"uv", Shading::Uv}};
+    {"normal", Shading::Normal}, {"uv", Shading::Uv}, {"depth", Shading::Depth}};
 const Name<Brdf> kModelNames[kNumMaterialModels] = {{"unlit", Brdf::Unlit},           {"lambert", Brdf::Lambert},
                                    {"phong", Brdf::Phong},           {"blinn_phong", Brdf::BlinnPhong},
                                    {"pbr", Brdf::Pbr},               {"normal", Brdf::Normal}};

@@ -27,7 +27,7 @@ enum OptionKey {
   k_view, k_proj, k_orthographic, k_near, k_far, k_outputs, k_cull, k_shading, k_shading_path,
   k_background, k_ambient, k_out, k_lights, k_ambient_light, k_frequency, k_srgb,
   k_texture_filter, k_normal_rotation, k_raster, k_msaa, k_ssaa, k_primitives, k_line_algorithm,
-  kNumOptions
+  k_lit_kernel, kNumOptions
 };
 struct OptionDoc {
   const char* key;
@@ -64,6 +64,9 @@ constexpr OptionDoc kOptions[kNumOptions] = {
     {"ssaa", "int", false, "a k x k grid of samples per pixel, k in [1, 8] (default 1)"},
     {"primitives", "list[Primitive]", false, "lines and points drawn over the triangles"},
     {"line_algorithm", "str", false, "LINE_ALGORITHMS (default 'bresenham')"},
+    {"lit_kernel", "bool", false,
+     "tests and benchmarks: shade with the lit kernel even where a plain one serves (the same "
+     "bits; default False)"},
 };
 
 // The options' keys, interned once (a lookup by a C string would build and hash a new Python
@@ -216,6 +219,7 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::dict& sp
   }
   if (given(k_frequency)) options.frequency = parse_name(name(k_frequency), kFrequencyNames, "frequency");
   if (given(k_srgb)) options.srgb = get(k_srgb).cast<bool>();
+  if (given(k_lit_kernel)) options.lit_kernel = get(k_lit_kernel).cast<bool>();
   if (given(k_texture_filter))
     options.texture_filter = uint8_t(parse_name(name(k_texture_filter), kFilterNames, "texture_filter"));
   // Anti-aliasing (1: off); counts are checked by Renderer::render.

@@ -65,6 +65,7 @@ class RenderOptions(TypedDict, total=False):
     ssaa: int  # a k x k grid of samples per pixel, k in [1, 8] (default 1)
     primitives: list[Primitive]  # lines and points drawn over the triangles
     line_algorithm: str  # LINE_ALGORITHMS (default 'bresenham')
+    lit_kernel: bool  # tests and benchmarks: shade with the lit kernel even where a plain one serves (the same bits; default False)
 
 class Draw:
     """One mesh instance: its mesh, pose, id, colour and material."""

@@ -3,7 +3,7 @@
     softrast render MESH -o out.png [--size 640x480] [--depth out.exr] [--mask out.png]
                     [--normal out.exr] [--eye x,y,z] [--target x,y,z] [--up x,y,z] [--fov 45]
                     [--near N] [--far F] [--cull back|none|front]
-                    [--shading auto|unlit|lambert|phong|blinn_phong|pbr|normal|uv]
+                    [--shading auto|unlit|lambert|phong|blinn_phong|pbr|normal|uv|depth]
                     [--frequency pixel|vertex|face] [--linear] [--threads N]
 
     softrast batch MESH [MESH ...] --out DIR [--views 24] [--orbit ELEVATION | --sphere |

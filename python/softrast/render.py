@@ -440,8 +440,10 @@ class Renderer:
                   material); or one model for everything: "unlit" (the base colour), "lambert",
                   "phong", "blinn_phong", "pbr" (glTF metallic-roughness as pyrender computes
                   it), "normal" (the world-space unit normal of the visible side as a colour,
-                  (n + 1) / 2) or "uv" (the mesh's texture coordinates as a colour, (u, v, 0)
-                  clamped to [0, 1], perspective-correct; black without uvs). The formulas are in
+                  (n + 1) / 2), "uv" (the mesh's texture coordinates as a colour, (u, v, 0)
+                  clamped to [0, 1], perspective-correct; black without uvs) or "depth" (the
+                  depth output as a grey, (far - depth) / (far - near) clamped to [0, 1]: white
+                  at the near plane, black at the far plane). The formulas are in
                   ``softrast.material``; the lights are the scene's (``softrast.light``), or the
                   headlight in a scene without lights: a directional light along the camera's
                   viewing axis of intensity 1 - ambient plus an ambient light of ``ambient``, so
