@@ -401,6 +401,7 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
     defers_light |= plan.color && options.frequency == Frequency::Pixel && is_lit(sd.brdf);
     const KernelKind mine = !(sd.needs & kInline)      ? KernelKind::Lit
                             : sd.brdf == Brdf::Headlight ? KernelKind::Headlight
+                            : sd.brdf == Brdf::Unlit     ? KernelKind::Unlit
                             : sd.brdf == Brdf::Normal    ? KernelKind::NormalColor
                                                          : KernelKind::Lit;
     kind = options.lit_kernel ? KernelKind::Lit : d == 0 || mine == kind ? mine : KernelKind::Lit;

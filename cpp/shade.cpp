@@ -24,6 +24,7 @@ TileKernels select_tile_kernels(const RenderPlan& plan, const Viewport& viewport
           constexpr Isa I = decltype(avx2)::value ? kBestIsa : Isa::Generic;
           switch (kind) {
             case KernelKind::Headlight: return deferred_kernel<I, KernelKind::Headlight>();
+            case KernelKind::Unlit: return deferred_kernel<I, KernelKind::Unlit>();
             case KernelKind::NormalColor: return deferred_kernel<I, KernelKind::NormalColor>();
             default: return deferred_kernel<I, KernelKind::Lit>();
           }
@@ -35,6 +36,7 @@ TileKernels select_tile_kernels(const RenderPlan& plan, const Viewport& viewport
             constexpr Isa I = decltype(avx2)::value ? kBestIsa : Isa::Generic;
             switch (kind) {
               case KernelKind::Headlight: return forward_kernel<I, KernelKind::Headlight>();
+              case KernelKind::Unlit: return forward_kernel<I, KernelKind::Unlit>();
               case KernelKind::NormalColor: return forward_kernel<I, KernelKind::NormalColor>();
               default: return forward_kernel<I, KernelKind::Lit>();
             }

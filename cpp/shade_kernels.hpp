@@ -381,6 +381,7 @@ TileKernels::Forward forward_kernel();
 #define SR_DECLARE_KINDS(I)                           \
   SR_DECLARE_KERNELS(I, KernelKind::Lit)              \
   SR_DECLARE_KERNELS(I, KernelKind::Headlight)        \
+  SR_DECLARE_KERNELS(I, KernelKind::Unlit)            \
   SR_DECLARE_KERNELS(I, KernelKind::NormalColor)
 SR_DECLARE_KINDS(Isa::Generic)
 #if SR_X86

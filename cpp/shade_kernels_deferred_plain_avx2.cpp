@@ -6,6 +6,7 @@ namespace sr {
 namespace shading {
 
 SR_DEFINE_KERNEL(deferred, Isa::Avx2, KernelKind::Headlight, ShadeVisible, TileKernels::Deferred)
+SR_DEFINE_KERNEL(deferred, Isa::Avx2, KernelKind::Unlit, ShadeVisible, TileKernels::Deferred)
 SR_DEFINE_KERNEL(deferred, Isa::Avx2, KernelKind::NormalColor, ShadeVisible, TileKernels::Deferred)
 
 }  // namespace shading

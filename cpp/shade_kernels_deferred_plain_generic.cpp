@@ -5,6 +5,7 @@ namespace sr {
 namespace shading {
 
 SR_DEFINE_KERNEL(deferred, Isa::Generic, KernelKind::Headlight, ShadeVisible, TileKernels::Deferred)
+SR_DEFINE_KERNEL(deferred, Isa::Generic, KernelKind::Unlit, ShadeVisible, TileKernels::Deferred)
 SR_DEFINE_KERNEL(deferred, Isa::Generic, KernelKind::NormalColor, ShadeVisible, TileKernels::Deferred)
 
 }  // namespace shading

@@ -6,6 +6,7 @@ namespace sr {
 namespace shading {
 
 SR_DEFINE_KERNEL(forward, Isa::Avx2, KernelKind::Headlight, ForwardTile, TileKernels::Forward)
+SR_DEFINE_KERNEL(forward, Isa::Avx2, KernelKind::Unlit, ForwardTile, TileKernels::Forward)
 SR_DEFINE_KERNEL(forward, Isa::Avx2, KernelKind::NormalColor, ForwardTile, TileKernels::Forward)
 
 }  // namespace shading

@@ -5,6 +5,7 @@ namespace sr {
 namespace shading {
 
 SR_DEFINE_KERNEL(forward, Isa::Generic, KernelKind::Headlight, ForwardTile, TileKernels::Forward)
+SR_DEFINE_KERNEL(forward, Isa::Generic, KernelKind::Unlit, ForwardTile, TileKernels::Forward)
 SR_DEFINE_KERNEL(forward, Isa::Generic, KernelKind::NormalColor, ForwardTile, TileKernels::Forward)
 
 }  // namespace shading

@@ -62,17 +62,19 @@ SR_INLINE simd::i8 to_unorm8(simd::f8 v) {
 
 // The shading kernels' one axis besides the instruction set and the path (shade_kernels.hpp):
 // the lit kernel shades every draw, each triangle by its draw's model; a plain kernel shades one
-// model known at compile time (the headlight's Lambert, the normal as a colour), and a render
-// whose draws all take that model runs it instead: the default render of a mesh without a
-// material, and shading="normal". Each pays for itself (3% and 11% fewer instructions per
-// frame; an unlit kernel saved 2.2% and was removed): benchmarks/RESULTS.md, "What each kernel
-// axis is worth". Everything else is a per-draw or per-triangle branch.
-enum class KernelKind : uint8_t { Lit, Headlight, NormalColor };
+// model known at compile time (the headlight's Lambert, the base colour, the normal as a colour),
+// and a render whose draws all take that model runs it instead: the default render of a mesh
+// without a material, shading="unlit" and shading="normal". Each pays for itself (3.0%, 2.2%
+// and 11% fewer instructions per frame; without the unlit one, unlit frames took 5% more than
+// before this design): benchmarks/RESULTS.md, "What each kernel axis is worth". Everything else
+// is a per-draw or per-triangle branch.
+enum class KernelKind : uint8_t { Lit, Headlight, Unlit, NormalColor };
 
 // A plain kernel's model, or (the lit kernel) the draw's own.
 template <KernelKind K>
 constexpr Brdf kernel_brdf(Brdf draws) {
   return K == KernelKind::Headlight ? Brdf::Headlight
+         : K == KernelKind::Unlit   ? Brdf::Unlit
          : K == KernelKind::NormalColor ? Brdf::Normal
                                         : draws;
 }
@@ -325,6 +327,7 @@ SR_INLINE void shade_inline(const ShadeConstants& c, const Fragment& f, simd::f8
   using simd::f8;
   constexpr bool kLit = K == KernelKind::Lit;
   const ShadeConstants::Op op = K == KernelKind::Headlight     ? ShadeConstants::kHeadlight
+                                : K == KernelKind::Unlit       ? ShadeConstants::kPassthrough
                                 : K == KernelKind::NormalColor ? ShadeConstants::kNormalColor
                                                                : c.op;
   switch (op) {
