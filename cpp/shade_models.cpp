@@ -100,13 +100,7 @@ void classify_material(const ShadeInputs& in, bool uniform_color, ShadeTriangle&
     return;
   }
   if (brdf == Brdf::Unlit) {
-    if (uniform_color) {
-      s.color_kind = ShadeTriangle::kConstantColor;
-      s.rgb = s.color[0];
-    } else {
-      s.color_kind = ShadeTriangle::kVaryingColor;
-      s.passthrough = true;
-    }
+    classify_unlit(uniform_color, s);
     return;
   }
   if (brdf == Brdf::Normal) {  // (n + 1) / 2 at the render's frequency

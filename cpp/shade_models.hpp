@@ -188,6 +188,17 @@ void classify_lit(const ShadeInputs& in, bool uniform_color, ShadeTriangle& s);
 void make_lit_constants(const ShadeInputs& in, const LitKernels* kernels, const ShadeTriangle& s,
                         ShadeConstants& c);
 
+// An unlit triangle's colour: one constant, or the interpolated colour passed through.
+SR_INLINE void classify_unlit(bool uniform_color, ShadeTriangle& s) {
+  if (uniform_color) {
+    s.color_kind = ShadeTriangle::kConstantColor;
+    s.rgb = s.color[0];
+  } else {
+    s.color_kind = ShadeTriangle::kVaryingColor;
+    s.passthrough = true;
+  }
+}
+
 // Picks the triangle's colour kind and what its pixels read, from its draw's model (brdf), needs,
 // material and index and the render's frequency. uniform_color: the three base colours are
 // equal. The headlight, the uv and depth views, and untextured unlit and normal draws at the pixel
@@ -255,13 +266,7 @@ SR_INLINE void classify(const ShadeInputs& in, Brdf draw_brdf, uint8_t needs, co
     }
   } else if (brdf == Brdf::Unlit) {  // the base colour
     s.reads = ShadeTriangle::kReadColor;
-    if (uniform_color) {
-      s.color_kind = ShadeTriangle::kConstantColor;
-      s.rgb = s.color[0];
-    } else {
-      s.color_kind = ShadeTriangle::kVaryingColor;
-      s.passthrough = true;
-    }
+    classify_unlit(uniform_color, s);
   } else {  // (n + 1) / 2 per pixel
     s.reads = ShadeTriangle::kReadNormal;
     if (s.one_normal) {
