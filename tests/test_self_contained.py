@@ -5,15 +5,17 @@ Three checks over every text file in those folders (binary files and Markdown pr
 benchmarks/RESULTS.md, a record of past runs on the team's machine that nothing reads, are
 skipped):
 
-* a text scan for references out of the tree: a relative path into the folder "shared" beside
-  the repository (two dots, a slash, "shared"; or os.path.join of the two) and absolute paths into
+* a text scan for references out of the tree: a relative path into the team's sibling folder
+  beside the repository (SIBLING below: two dots, a slash, its name; or os.path.join of the two),
+  and absolute paths into
   this machine's workspace (the folders "work" and "root" at the filesystem root, and the baseline
-  venv "vbase" in "tmp"). Words such as "shared_ptr" or "shared by" do not match. This file spells
-  those paths in pieces, so that it passes its own scan with no exemption.
+  venv "vbase" in "tmp"). Longer words that begin with the sibling's name do not match. This file
+  spells those paths and that name in pieces, so that it passes its own scan with no exemption.
 * in Python files, every path built from ``__file__`` (``Path(__file__).resolve().parents[n]``,
   ``.parent``, ``/``, ``os.path.join`` / ``dirname`` / ``abspath``, through module and function
   variables) is evaluated, and must stay inside the repository; a statement that navigates to a
-  parent and names a path component ``shared`` is flagged even where it cannot be evaluated.
+  parent and names the sibling folder as a path component is flagged even where it cannot be
+  evaluated.
 * every evaluated path under ``assets/``, and every literal ``assets/...`` file path, exists.
 """
 from __future__ import annotations
@@ -33,13 +35,15 @@ SKIP_SUFFIXES = {".md", ".pyc", ".so", ".npz", ".npy", ".png", ".exr", ".jpg"}
 # Outside references, each with what it means. The paths are spelt in pieces (UP, WORK, ...) so
 # that this file does not match itself. The look-behinds keep the workspace paths from matching
 # inside a longer path or a URL, the look-aheads keep longer names ("workers", "rootfs") out;
-# "shared" must be a whole path component ("shared_ptr", "shared by" never match).
+# the sibling's name must be a whole path component (longer words that begin with it never match).
 UP, WORK, ROOTDIR, VBASE = "." + ".", "/" + "work", "/" + "root", "/" + "tmp/vbase"
+SIBLING = "sha" + "red"  # the team's folder beside the repository, which a user's clone lacks
 NOT_AFTER, NOT_BEFORE = r"(?<![\w.:/~$-])", r"(?![\w.-])"
 OUTSIDE = [
-    (re.compile(re.escape(UP) + r"[/\\]+shared" + NOT_BEFORE), "a relative path into the 'shared' beside it"),
-    (re.compile(r"""(['"])""" + re.escape(UP) + r"""\1\s*,\s*(['"])shared\2"""),
-     "a path joined from the parent and 'shared'"),
+    (re.compile(re.escape(UP) + r"[/\\]+" + SIBLING + NOT_BEFORE),
+     "a relative path into the team's folder beside the repository"),
+    (re.compile(r"""(['"])""" + re.escape(UP) + r"""\1\s*,\s*(['"])""" + SIBLING + r"\2"),
+     "a path joined from the parent and the team's folder"),
     (re.compile(NOT_AFTER + WORK + NOT_BEFORE), "an absolute path into this machine's workspace"),
     (re.compile(NOT_AFTER + VBASE + NOT_BEFORE), "an absolute path into the baseline venv"),
     (re.compile(NOT_AFTER + ROOTDIR + NOT_BEFORE), "an absolute path into root's home"),
@@ -86,8 +90,8 @@ class Anchored(str):
     """A path string derived from __file__ (so from where the file is in the repository)."""
 
 
-def is_component_shared(value: str) -> bool:
-    return "shared" in re.split(r"[/\\]+", value)
+def is_component_sibling(value: str) -> bool:
+    return SIBLING in re.split(r"[/\\]+", value)
 
 
 class PathEvaluator:
@@ -129,7 +133,7 @@ class PathEvaluator:
             self.body(node.body)
             self.scopes.pop()
             return
-        self.check_shared_statement(node)
+        self.check_sibling_statement(node)
         own = [c for c in ast.iter_child_nodes(node) if not isinstance(c, ast.stmt)]
         if isinstance(node, (ast.Assign, ast.AnnAssign)) and node.value is not None:
             value = self.expr(node.value)
@@ -151,8 +155,8 @@ class PathEvaluator:
             for t in target.elts:
                 self.bind(t, None)
 
-    def check_shared_statement(self, node: ast.stmt) -> None:
-        """A statement (without its nested statements) that goes to a parent and names 'shared'."""
+    def check_sibling_statement(self, node: ast.stmt) -> None:
+        """A statement (without its nested statements) that goes to a parent and names SIBLING."""
         nodes, stack = [], [c for c in ast.iter_child_nodes(node) if not isinstance(c, ast.stmt)]
         while stack:
             n = stack.pop()
@@ -162,8 +166,8 @@ class PathEvaluator:
         up = any(isinstance(n, ast.Attribute) and n.attr in ("parent", "parents", "pardir", "dirname")
                  or isinstance(n, ast.Name) and n.id in ("dirname", "pardir") for n in nodes)
         up = up or any(s == ".." or s.startswith(("../", "..\\")) for s in strings)
-        if up and any(is_component_shared(s) for s in strings):
-            self.flagged.append((node.lineno, "a path from a parent directory into 'shared'"))
+        if up and any(is_component_sibling(s) for s in strings):
+            self.flagged.append((node.lineno, "a path from a parent directory into the team's folder"))
 
     # expressions
     def expr(self, node):
@@ -306,11 +310,12 @@ PROBE = ROOT / "tests" / "_probe_self_contained.py"  # evaluated as if it were a
 
 
 def spell(text: str) -> str:
-    return text.replace("@UP@", UP).replace("@WORK@", WORK).replace("@VBASE@", VBASE).replace("@ROOT@", ROOTDIR)
+    return (text.replace("@UP@", UP).replace("@WORK@", WORK).replace("@VBASE@", VBASE)
+            .replace("@ROOT@", ROOTDIR).replace("@SIB@", SIBLING))
 
 
 def probe_hits(text: str) -> list[str]:
-    """What the scan flags in a probe: text matches, shared statements, paths outside."""
+    """What the scan flags in a probe: text matches, parent-and-sibling statements, paths outside."""
     hits = [what for line in text.splitlines() for pattern, what in OUTSIDE if pattern.search(line)]
     try:
         tree = ast.parse(text)
@@ -321,18 +326,18 @@ def probe_hits(text: str) -> list[str]:
 
 
 @pytest.mark.parametrize("text", [
-    'SHARED = ROOT.parent / "shared" / "assets"',  # ROOT unknown here: the shared-statement rule
-    'box = pathlib.Path(__file__).resolve().parents[2] / "shared" / "assets" / "x.gltf"',
+    'SIB = ROOT.parent / "@SIB@" / "assets"',  # ROOT unknown here: the parent-statement rule
+    'box = pathlib.Path(__file__).resolve().parents[2] / "@SIB@" / "assets" / "x.gltf"',
     'A = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),\n'
-    '                 "shared", "assets")',
-    'p = Path("@UP@/shared/assets/spot.obj")',
-    'p = os.path.join("@UP@", "shared", "assets")',
+    '                 "@SIB@", "assets")',
+    'p = Path("@UP@/@SIB@/assets/spot.obj")',
+    'p = os.path.join("@UP@", "@SIB@", "assets")',
     'v = "@WORK@/venv-base/bin/python"',
     'cd @WORK@/main && make',
     'PY = "@VBASE@/bin/python"',
     "cfg = '@ROOT@/.config/x'",
     'here = Path(__file__).resolve().parent\nup = here.parent.parent / "data"',  # any folder outside
-    'def f(root):\n    return os.path.dirname(root) + "/shared"\n',
+    'def f(root):\n    return os.path.dirname(root) + "/@SIB@"\n',
 ])
 def test_the_scan_flags(text):
     assert probe_hits(spell(text)), spell(text)
