@@ -65,8 +65,7 @@ inline void triangle_attributes(const MeshData& mesh, const TriangleSetup& t,
 // (repeat, period 1, or mirror, period 2), so its uvs may be shifted by an even integer.
 inline uint8_t uv_periodic_axes(const Material& m) {
   uint8_t axes = 3;
-  for (const Texture* t : {m.base_color_texture, m.emissive_texture, m.normal_texture,
-                           m.metallic_roughness_texture, m.occlusion_texture, m.bump_texture}) {
+  for (const Texture* t : m.textures()) {
     if (!t) continue;
     if (t->wrap_u == Wrap::Clamp) axes &= uint8_t(~1u);
     if (t->wrap_v == Wrap::Clamp) axes &= uint8_t(~2u);

@@ -20,6 +20,7 @@ namespace sr {
 // Per-pixel material values from textures (metallic-roughness, occlusion), eight lanes.
 struct MaterialLanes {
   simd::f8 metallic, roughness, occlusion;
+  simd::f8 specular[3];  // scales ks (phong, blinn_phong): a specular texture's rgb, else 1
 };
 
 namespace simd {
@@ -113,7 +114,7 @@ struct LitInputs {
 // Compiled per reflectance model B (Lambert, Phong, BlinnPhong or Pbr) and per whether it has a
 // specular term, so that only that model's values are live in the light loop (one loop for all
 // models kept some 27 vectors live, and spilled). kPositions: a light or term reads p.
-// kLanes: per-pixel metallic, roughness and ambient occlusion from `lanes` (textures; compiled
+// kLanes: per-pixel metallic, roughness, ambient occlusion and ks scale from `lanes` (textures; compiled
 // out of line only, material_maps.cpp), else the material's scalars.
 template <Brdf B, bool kSpecular, bool kPositions, bool kLanes = false>
 SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, const simd::f8 (&n)[3],
@@ -236,7 +237,10 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, const simd::
         }
       }
       const f8 spec = front ? power * att : f8{};
-      for (int c = 0; c < 3; ++c) out[c] += (spec * light.radiance[c]) * m.ks[c];
+      if constexpr (kLanes)
+        for (int c = 0; c < 3; ++c) out[c] += (spec * light.radiance[c]) * (m.ks[c] * lanes->specular[c]);
+      else
+        for (int c = 0; c < 3; ++c) out[c] += (spec * light.radiance[c]) * m.ks[c];
     }
   }
 }

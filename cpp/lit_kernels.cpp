@@ -86,11 +86,13 @@ SR_INLINE void add_emissive(const ShadeConstants& c, const Fragment& f, f8& r, f
 }
 
 // Radiance with per-pixel metallic, roughness (glTF: the factors times the texture's blue and
-// green) and ambient occlusion (ambient times 1 + strength (red - 1)).
+// green), ambient occlusion (ambient times 1 + strength (red - 1)) and specular scale (ks times
+// the specular texture's rgb).
 SR_INLINE void material_maps(const ShadeConstants& c, const Fragment& f, const f8 (&n)[3],
                              const f8 (&base)[3], f8 (&out)[3]) {
   const Material& m = *c.material;
-  MaterialLanes lanes{simd::splat(m.metallic), simd::splat(m.roughness), simd::splat(1.0f)};
+  MaterialLanes lanes{simd::splat(m.metallic), simd::splat(m.roughness), simd::splat(1.0f),
+                      {simd::splat(1.0f), simd::splat(1.0f), simd::splat(1.0f)}};
   if (m.metallic_roughness_texture) {
     f8 tex[4];
     sample(*m.metallic_roughness_texture, c.mr_filter, f, tex);
@@ -101,6 +103,11 @@ SR_INLINE void material_maps(const ShadeConstants& c, const Fragment& f, const f
     f8 tex[4];
     sample(*m.occlusion_texture, c.occlusion_filter, f, tex);
     lanes.occlusion = 1.0f + (tex[0] - 1.0f) * m.occlusion_strength;
+  }
+  if (m.specular_texture) {
+    f8 tex[4];
+    sample(*m.specular_texture, c.specular_filter, f, tex);
+    for (int k = 0; k < 3; ++k) lanes.specular[k] = tex[k];
   }
   lit_radiance_lanes(*c.in, m, c.brdf, n, f.position, base, lanes, out);
 }

@@ -5,6 +5,7 @@
 
 #include "math.hpp"
 
+#include <array>
 #include <cstdint>
 
 namespace sr {
@@ -54,6 +55,7 @@ struct Material {
   const Texture* metallic_roughness_texture = nullptr;  // glTF: green * roughness, blue * metallic
   const Texture* occlusion_texture = nullptr;   // red: ambient *= 1 + strength (red - 1)
   const Texture* bump_texture = nullptr;        // a height map (first channel), bump_scale
+  const Texture* specular_texture = nullptr;    // rgb scales ks (phong, blinn_phong; MTL map_Ks)
   vec3 emissive_factor{0.0f};
   float normal_scale = 1.0f;
   float occlusion_strength = 1.0f;
@@ -61,12 +63,20 @@ struct Material {
   bool normal_y_down = false;  // DirectX-style normal map (green = -v)
   bool alpha_mask = false;     // glTF alphaMode MASK: fragments with alpha < alpha_cutoff are
   float alpha_cutoff = 0.5f;   // discarded (alpha_mask.hpp); else the draw is opaque
+  // Every texture slot, null where absent (the one list of them).
+  std::array<const Texture*, 7> textures() const {
+    return {base_color_texture, emissive_texture, normal_texture, metallic_roughness_texture,
+            occlusion_texture, bump_texture, specular_texture};
+  }
   bool textured() const {
-    return base_color_texture || emissive_texture || normal_texture || metallic_roughness_texture ||
-           occlusion_texture || bump_texture;
+    for (const Texture* t : textures())
+      if (t) return true;
+    return false;
   }
   // Per-pixel material values (MaterialLanes) replace the scalar ones.
-  bool material_maps() const { return metallic_roughness_texture || occlusion_texture; }
+  bool material_maps() const {
+    return metallic_roughness_texture || occlusion_texture || specular_texture;
+  }
   // Lambert of the base colour, two-sided, opaque: a scene of plain Lambert draws without lights
   // gets the headlight's kernel (renderer.cpp, the plan).
   bool plain() const {

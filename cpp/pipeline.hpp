@@ -138,6 +138,10 @@ struct Draw {
   int32_t instance_id = 0;
   vec4 color{0.8f, 0.8f, 0.8f, 1.0f};  // material colour, linear RGBA
   Material material;     // how it is shaded (materials.hpp): the default one without a material
+  // A double-sided material's draw (glTF doubleSided): never culled unless
+  // RenderOptions::cull_double_sided. The default material (no material given) is lit two-sided
+  // but culled like any other.
+  bool never_culled = false;
 };
 
 struct CameraParams {
@@ -151,6 +155,7 @@ struct CameraParams {
 struct RenderOptions {
   uint32_t outputs = kOutColor | kOutDepth;
   Cull cull = Cull::Back;
+  bool cull_double_sided = false;  // cull also the draws of double-sided materials (never_culled)
   Shading shading = Shading::Auto;
   ShadingPath shading_path = ShadingPath::Auto;
   RasterAlgorithm raster = RasterAlgorithm::Edge;

@@ -369,7 +369,9 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   pool_.parallel_for(chunk_ranges.size(), [&](std::size_t item, int) {
     const Block& blk = chunk_ranges[item];
     SetupParams params{draws[blk.draw].mesh.get(), &transforms[blk.draw],
-                       vertices_[blk.draw].data(), blk.draw, camera.orthographic, options.cull,
+                       vertices_[blk.draw].data(), blk.draw, camera.orthographic,
+                       draws[blk.draw].never_culled && !options.cull_double_sided ? Cull::None
+                                                                                  : options.cull,
                        &planes, viewport, plan.estimate_overdraw,
                        plan.shade || plan.surface || alpha[blk.draw], alpha[blk.draw], isa_};
     setup_chunk(params, blk.begin, blk.end, chunks_[item]);

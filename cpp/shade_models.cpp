@@ -195,6 +195,7 @@ void make_lit_constants(const ShadeInputs& in, const LitKernels* kernels, const 
     c.mr_filter = pick(m.metallic_roughness_texture);
     c.occlusion_filter = pick(m.occlusion_texture);
     c.bump_filter = pick(m.bump_texture);
+    c.specular_filter = pick(m.specular_texture);
   }
 }
 

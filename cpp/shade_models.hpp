@@ -177,7 +177,7 @@ struct ShadeConstants {
   Brdf brdf;
   bool passthrough, positions, normal_map;
   TextureFilter base_filter, emissive_filter, normal_filter, mr_filter, occlusion_filter,
-      bump_filter;
+      bump_filter, specular_filter;
   vec3 tangent;
   float handedness;
 };

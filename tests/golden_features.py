@@ -326,6 +326,9 @@ def _spot_cam() -> sr.Camera:
 
 # Materials used by several scenes (immutable: sharing one between renders is fine; textures are
 # made per build so that every render builds its own mip chains).
+# The default base colour before a texture made it white (issue 33): the golden scenes keep 0.8.
+GREY = (0.8, 0.8, 0.8, 1.0)
+
 SHINY = sr.Material(base_color=(0.85, 0.55, 0.3, 1.0), ks=(0.6, 0.6, 0.55), shininess=16.0,
                     metallic=0.35, roughness=0.4)
 
@@ -401,7 +404,9 @@ def _scenes() -> dict[str, tuple[int, int, Build, dict]]:
 
     # 97 x 70: four tiles (64 x 64), two of them narrow
     add("auto_mixed_materials_lights", 97, 70)(mixed)
-    add("auto_mixed_materials_coverage_linear", 97, 70, outputs=OUTPUTS, srgb=False)(mixed)
+    # (coverage counts the back faces a double-sided material no longer culls: issue 33)
+    add("auto_mixed_materials_coverage_linear", 97, 70, outputs=OUTPUTS, srgb=False,
+        cull_double_sided=True)(mixed)
     add("auto_mixed_materials_headlight", 97, 70, ambient=0.3)(lambda m: mixed(m, lights=False))
 
     # -- every lit model forced, at every frequency, under every kind of light ------------------
@@ -440,7 +445,7 @@ def _scenes() -> dict[str, tuple[int, int, Build, dict]]:
         sc.add(m["spot"])
         sc.add(m["sphere"], pose=_translate(-0.9, 0.6, -0.4, 0.25))
         sc.add(m["wrap_quad"], pose=_translate(-0.3, 0.0, 1.4, 0.8) @ _rot("y", -0.94, -0.34),
-               material=sr.Material(base_color_texture=sr.Texture(checker(16))))
+               material=sr.Material(base_color=GREY, base_color_texture=sr.Texture(checker(16))))
         return sc, _spot_cam()
 
     # -- sidedness: back faces of single- and double-sided materials ---------------------------
@@ -493,7 +498,7 @@ def _scenes() -> dict[str, tuple[int, int, Build, dict]]:
         sc = sr.Scene()
         tex = sr.Texture(checker(32, 4), filter=filt, max_anisotropy=aniso)
         sc.add(m["checker_floor"], pose=_rot("x", 0.0, -1.0) @ _scale(6.0, 6.0, 1.0),
-               material=sr.Material(base_color_texture=tex, ks=(0.0, 0.0, 0.0), model="lambert"))
+               material=sr.Material(base_color=GREY, base_color_texture=tex, ks=(0.0, 0.0, 0.0), model="lambert"))
         sc.add(sr.DirectionalLight(intensity=0.5), pose=_aim((0.5, 2.0, 1.0), (0.0, 0.0, 0.0)))
         sc.add(sr.PointLight(intensity=0.6, color=(1.0, 0.8, 0.6)), pose=_translate(0.8, 0.5, 1.5))
         sc.ambient_light = (0.2, 0.2, 0.2)
@@ -511,9 +516,10 @@ def _scenes() -> dict[str, tuple[int, int, Build, dict]]:
         sc = sr.Scene()
         texs = [sr.Texture(checker(8, 2), wrap="repeat", filter="nearest"),
                 sr.Texture(gradient_rgba_u16(), wrap="clamp", filter="bilinear"),
-                sr.Texture(stripes_f32(), wrap="mirror", filter="nearest", uv_origin="top_left"),
+                sr.Texture(stripes_f32(), wrap="mirror", filter="nearest", uv_origin="top_left",
+                           srgb=True),  # (float images are linear by default since issue 39)
                 sr.Texture(grey_u8(), wrap=("mirror", "clamp"), filter="bilinear", srgb=False),
-                sr.Texture(grey_alpha_f32(), wrap=("clamp", "repeat"), filter="trilinear")]
+                sr.Texture(grey_alpha_f32(), wrap=("clamp", "repeat"), filter="trilinear", srgb=True)]
         for k, tex in enumerate(texs):
             sc.add(m["wrap_quad"], pose=_translate(2.1 * k - 4.2, 0.0, 0.0),
                    material=sr.Material(base_color=(1.0, 1.0, 1.0, 1.0), base_color_texture=tex))
@@ -601,7 +607,8 @@ def _scenes() -> dict[str, tuple[int, int, Build, dict]]:
                material=sr.Material(alpha_mode="mask", model="unlit", double_sided=True), instance_id=3)
         sc.add(m["plane"], pose=cam.pose @ _translate(-0.4, -0.4, -2.0, 0.3) @ _rot("y", 0.8, 0.6),
                material=sr.Material(alpha_mode="mask", alpha_cutoff=0.55, double_sided=True,
-                                    base_color_texture=sr.Texture(grey_alpha_f32(), filter="nearest")),
+                                    base_color=GREY, base_color_texture=sr.Texture(
+                                        grey_alpha_f32(), filter="nearest", srgb=True)),
                instance_id=4)  # a two-channel (grey, alpha) float texture
         return _lights(sc), cam
 
@@ -704,7 +711,7 @@ def _scenes() -> dict[str, tuple[int, int, Build, dict]]:
         sc.add(m["coarse_ball"], pose=_rot("y", 0.9, 0.4), material=SHINY, instance_id=1)
         sc.add(m["coarse_ball"], pose=_translate(1.2, 0.5, -1.0, 0.6), instance_id=2)
         sc.add(m["plane"], pose=_translate(-1.3, -0.2, -0.5) @ _rot("y", 0.8, 0.6),
-               material=sr.Material(base_color_texture=sr.Texture(checker(16, 4)), double_sided=True),
+               material=sr.Material(base_color=GREY, base_color_texture=sr.Texture(checker(16, 4)), double_sided=True),
                instance_id=3)
         return _lights(sc, target=(0.0, 0.0, 0.0)), _persp((0.2, 0.8, 3.6), (0.0, 0.0, -0.3), fov=50)
 
@@ -718,7 +725,7 @@ def _scenes() -> dict[str, tuple[int, int, Build, dict]]:
         sc, _ = textured_spot(m, "pbr")
         floor_pose = _translate(0.0, -0.74, 0.0) @ _rot("x", 0.0, -1.0) @ _scale(2.0, 2.0, 1.0)
         sc.add(m["checker_floor"], pose=floor_pose,
-               material=sr.Material(base_color_texture=sr.Texture(checker(32, 4)), model="lambert"),
+               material=sr.Material(base_color=GREY, base_color_texture=sr.Texture(checker(32, 4)), model="lambert"),
                instance_id=9)
         cam = sr.IntrinsicsCamera(fx=38.0, fy=38.0, cx=35.5, cy=26.5, width=72, height=54,
                                   convention="opencv", dist=(-0.42, 0.08, 0.002, -0.003, 0.0))
@@ -756,10 +763,10 @@ def _scenes() -> dict[str, tuple[int, int, Build, dict]]:
         sc = sr.Scene()
         tex = sr.Texture(checker(32, 4), filter="anisotropic", max_anisotropy=8)
         sc.add(m["checker_floor"], pose=_rot("x", 0.0, -1.0) @ _scale(3.0, 3.0, 1.0),
-               material=sr.Material(base_color_texture=tex, normal_texture=sr.Texture(normal_map()),
+               material=sr.Material(base_color=GREY, base_color_texture=tex, normal_texture=sr.Texture(normal_map()),
                                     shininess=12.0))
         sc.add(m["ball"], pose=_translate(0.45, 0.3, 0.35, 0.35),
-               material=sr.Material(base_color_texture=tex, model="pbr", roughness=0.35))
+               material=sr.Material(base_color=GREY, base_color_texture=tex, model="pbr", roughness=0.35))
         sc.add(sr.PointLight(intensity=3.0, color=(1.0, 0.95, 0.85)), pose=_translate(0.5, 1.2, 1.0))
         sc.add(sr.SpotLight(intensity=4.0, outer_cone=0.7), pose=_aim((-1.0, 1.5, 0.5), (0.0, 0.0, 0.0)))
         sc.ambient_light = (0.1, 0.1, 0.1)

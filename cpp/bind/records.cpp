@@ -105,6 +105,7 @@ void bind_material(py::module_& m) {
           +[](const MaterialRecord& r) { return r.material.occlusion_strength; },
           +[](MaterialRecord& r, float v) { r.material.occlusion_strength = v; })
       SR_TEXTURE_FIELD(bump_texture, "a height map (its first channel)")
+      SR_TEXTURE_FIELD(specular_texture, "rgb scales ks (phong, blinn_phong)")
       .field<float>("bump_scale", "float", "the bump texture's height scale",
           +[](const MaterialRecord& r) { return r.material.bump_scale; },
           +[](MaterialRecord& r, float v) { r.material.bump_scale = v; })
@@ -222,7 +223,10 @@ Draw DrawRecord::draw() const {
   d.model = pose;
   d.instance_id = instance_id;
   d.color = color;
-  if (material) d.material = material->resolved();
+  if (material) {
+    d.material = material->resolved();
+    d.never_culled = d.material.double_sided;
+  }
   return d;
 }
 

@@ -15,7 +15,7 @@ namespace bind {
 struct MaterialRecord {
   enum Slot {
     k_base_color_texture, k_emissive_texture, k_normal_texture, k_metallic_roughness_texture,
-    k_occlusion_texture, k_bump_texture, kSlots
+    k_occlusion_texture, k_bump_texture, k_specular_texture, kSlots
   };
   Material material;
   vec3 emissive{0.0f};  // as given (resolved() moves it to the emissive texture's factor)

@@ -27,7 +27,7 @@ enum OptionKey {
   k_view, k_proj, k_orthographic, k_near, k_far, k_outputs, k_cull, k_shading, k_shading_path,
   k_background, k_ambient, k_out, k_lights, k_ambient_light, k_frequency, k_srgb,
   k_texture_filter, k_normal_rotation, k_raster, k_msaa, k_ssaa, k_primitives, k_line_algorithm,
-  k_lit_kernel, kNumOptions
+  k_lit_kernel, k_cull_double_sided, kNumOptions
 };
 struct OptionDoc {
   const char* key;
@@ -67,6 +67,8 @@ constexpr OptionDoc kOptions[kNumOptions] = {
     {"lit_kernel", "bool", false,
      "tests and benchmarks: shade with the lit kernel even where a plain one serves (the same "
      "bits; default False)"},
+    {"cull_double_sided", "bool", false,
+     "cull the draws of double-sided materials too (default False: they are never culled)"},
 };
 
 // The options' keys, interned once (a lookup by a C string would build and hash a new Python
@@ -199,6 +201,7 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::dict& sp
   RenderOptions options;
   options.outputs = parse_outputs(get(k_outputs).cast<std::vector<std::string>>());
   if (given(k_cull)) options.cull = parse_name(name(k_cull), kCullNames, "cull");
+  if (given(k_cull_double_sided)) options.cull_double_sided = get(k_cull_double_sided).cast<bool>();
   if (given(k_shading)) options.shading = parse_name(name(k_shading), kShadingNames, "shading");
   if (given(k_shading_path))
     options.shading_path = parse_name(name(k_shading_path), kShadingPathNames, "shading_path");
@@ -246,9 +249,7 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::dict& sp
   // Mip chains, built once per texture, for the textures whose filter needs them.
   std::vector<Texture*> need_mips;
   for (const Draw& d : draws)
-    for (const Texture* t : {d.material.base_color_texture, d.material.emissive_texture,
-                             d.material.normal_texture, d.material.metallic_roughness_texture,
-                             d.material.occlusion_texture, d.material.bump_texture})
+    for (const Texture* t : d.material.textures())
       if (t && !t->has_mips()) {
         const TextureFilter f = options.texture_filter == kNoFilterOverride
                                     ? t->filter : TextureFilter(options.texture_filter);

@@ -66,6 +66,7 @@ class RenderOptions(TypedDict, total=False):
     primitives: list[Primitive]  # lines and points drawn over the triangles
     line_algorithm: str  # LINE_ALGORITHMS (default 'bresenham')
     lit_kernel: bool  # tests and benchmarks: shade with the lit kernel even where a plain one serves (the same bits; default False)
+    cull_double_sided: bool  # cull the draws of double-sided materials too (default False: they are never culled)
 
 class Draw:
     """One mesh instance: its mesh, pose, id, colour and material."""
@@ -124,6 +125,7 @@ class Material:
                  occlusion_texture: Texture | None = ...,
                  occlusion_strength: float = ...,
                  bump_texture: Texture | None = ...,
+                 specular_texture: Texture | None = ...,
                  bump_scale: float = ...,
                  alpha_mask: bool = ...,
                  alpha_cutoff: float = ...,
@@ -148,6 +150,7 @@ class Material:
     occlusion_texture: Texture | None  # red: ambient *= 1 + strength (red - 1)
     occlusion_strength: float  # in [0, 1]
     bump_texture: Texture | None  # a height map (its first channel)
+    specular_texture: Texture | None  # rgb scales ks (phong, blinn_phong)
     bump_scale: float  # the bump texture's height scale
     alpha_mask: bool  # glTF alphaMode MASK: fragments below alpha_cutoff are discarded
     alpha_cutoff: float  # alpha_mask's threshold

@@ -30,9 +30,10 @@ colour texture (OpenGL's GL_MODULATE), and normal maps are not read.
 ``occlusion_texture`` (red: the ambient term times 1 + ``occlusion_strength`` (red - 1), as glTF
 defines it: only indirect light is occluded) and ``bump_texture`` (a height map, first channel:
 the course notes' bump mapping, dU = ``bump_scale`` (h(u + 1/w) - h(u)), dV likewise along v,
-tangent-space normal (-dU, -dV, 1); used where there is no ``normal_texture``) are read at the
-pixel frequency. Data slots (normal, metallic-roughness, occlusion, bump) read linear values
-unless their texture says ``srgb=True``.
+tangent-space normal (-dU, -dV, 1); used where there is no ``normal_texture``) and
+``specular_texture`` (its rgb times ``ks``: phong and blinn_phong, MTL's ``map_Ks``) are read at
+the pixel frequency. Data slots (normal, metallic-roughness, occlusion, bump, specular) read
+linear values unless their texture says ``srgb=True``.
 """
 from __future__ import annotations
 
@@ -54,8 +55,11 @@ ALPHA_MODES = ("opaque", "mask")
 
 
 def _color(value: Any, name: str, n: int) -> tuple[float, ...]:
-    """``n`` finite numbers in [0, 1] (RGB; RGBA when n == 4, where 3 get alpha 1)."""
+    """``n`` finite numbers in [0, 1] (RGB; RGBA when n == 4, where 3 get alpha 1). For RGB, one
+    number is grey: ``ka=0.1`` is (0.1, 0.1, 0.1), as course code writes it."""
     arr = real_array(value, name)
+    if arr.shape == () and n == 3:
+        arr = np.repeat(arr.reshape(1), 3)
     if arr.shape not in ((n,),) + (((3,),) if n == 4 else ()):
         what = "3 or 4 numbers (RGB or RGBA)" if n == 4 else f"{n} numbers (RGB)"
         raise ValueError(f"{name} must be {what} in [0, 1], got shape {arr.shape}")
@@ -78,19 +82,24 @@ class Material:
 
     Parameters
     ----------
-    base_color : RGBA (or RGB) in [0, 1], linear. The colour of ``unlit``, the albedo of ``pbr``
-        and the default ``kd``. A mesh's per-vertex colours replace it where present.
-    ka, kd, ks : RGB in [0, 1] or None: ambient, diffuse and specular reflectance of the
-        lambert / phong / blinn_phong models. ``kd=None`` => the base colour; ``ka=None`` =>
+    base_color : RGBA (or RGB) in [0, 1], linear, or None (default): 0.8 grey, or white (1, 1,
+        1, 1) where a ``base_color_texture`` is given, as glTF's ``baseColorFactor`` and
+        pyrender default to, so the texture shows as it is. The colour of ``unlit``, the albedo
+        of ``pbr`` and the default ``kd``; it multiplies the ``base_color_texture``. A mesh's
+        per-vertex colours replace it where present.
+    ka, kd, ks : RGB in [0, 1] (one number is grey: ``ks=0.5``) or None: ambient, diffuse and
+        specular reflectance of the lambert / phong / blinn_phong models. ``kd=None`` => the base colour; ``ka=None`` =>
         ``kd``; ``ks`` defaults to 0.5 grey (a mesh without any material has ks = 0).
     shininess : the specular exponent p >= 0 (``Ns`` in MTL files). Default 32.
     metallic, roughness : glTF metallic-roughness factors in [0, 1] (``pbr``). Defaults 0 and
         0.5 (glTF files default to 1 and 1 when they give none; the loaders apply that).
-    emissive : RGB in [0, 1], added to the radiance of every lit model.
-    double_sided : light back faces with the flipped normal (as glTF's doubleSided). False: a
-        back face (visible only with ``cull="none"`` or ``"front"``) is lit with its own normal,
-        which faces away from the camera, so it gets only the ambient and emissive terms, as
-        OpenGL renders a single-sided material. Meshes without a material are double-sided.
+    emissive : RGB in [0, 1] (or one number, grey), added to the radiance of every lit model.
+    double_sided : as glTF's doubleSided: never culled (whatever ``render(cull=)`` says, unless
+        ``render(cull_double_sided=True)``), and back faces are lit with the flipped normal.
+        False: a back face (visible only with ``cull="none"`` or ``"front"``) is lit with its
+        own normal, which faces away from the camera, so it gets only the ambient and emissive
+        terms, as OpenGL renders a single-sided material. Meshes without a material are lit
+        two-sided but culled by ``render(cull=)``.
     model : the shading model ``render(shading="auto")`` uses for this material, one of
         ``softrast.material.MODELS``, or None: "blinn_phong" (the loaders set "pbr" for glTF
         materials and "blinn_phong" for MTL ones).
@@ -102,6 +111,9 @@ class Material:
         ``normal_map_convention``: "opengl" (default, green = +v) or "directx" (green = -v).
     metallic_roughness_texture, occlusion_texture, bump_texture : Texture or None (see the
         module docstring); ``occlusion_strength`` in [0, 1], ``bump_scale`` finite.
+    specular_texture : Texture or None: its rgb scales ``ks`` per pixel in the phong and
+        blinn_phong models (MTL's ``map_Ks``); linear unless the texture says ``srgb=True``.
+        Read at the pixel frequency; ``pbr`` does not read it.
     alpha_mode : "opaque" (default: alpha is ignored) or "mask" (glTF's alphaMode MASK): a
         fragment is drawn only where its alpha >= ``alpha_cutoff`` (finite; default 0.5, as
         glTF's), else it is discarded before the depth test, so what lies behind shows through,
@@ -116,20 +128,22 @@ class Material:
                  "double_sided", "model", "name", "base_color_texture", "emissive_texture",
                  "normal_texture", "normal_scale", "normal_map_convention",
                  "metallic_roughness_texture", "occlusion_texture", "occlusion_strength",
-                 "bump_texture", "bump_scale", "alpha_mode", "alpha_cutoff", "_core")
+                 "bump_texture", "bump_scale", "alpha_mode", "alpha_cutoff", "specular_texture",
+                 "_core")
     _FIELDS = ("base_color", "ka", "kd", "ks", "shininess", "metallic", "roughness", "emissive",
                "double_sided", "model", "name", "base_color_texture", "emissive_texture",
                "normal_texture", "normal_scale", "normal_map_convention",
                "metallic_roughness_texture", "occlusion_texture", "occlusion_strength",
-               "bump_texture", "bump_scale", "alpha_mode", "alpha_cutoff")
+               "bump_texture", "bump_scale", "alpha_mode", "alpha_cutoff", "specular_texture")
     _TEXTURE_SLOTS = ("base_color_texture", "emissive_texture", "normal_texture",
-                      "metallic_roughness_texture", "occlusion_texture", "bump_texture")
+                      "metallic_roughness_texture", "occlusion_texture", "bump_texture",
+                      "specular_texture")
 
-    def __init__(self, base_color: Sequence[float] = (0.8, 0.8, 0.8, 1.0),
-                 ka: Sequence[float] | None = None, kd: Sequence[float] | None = None,
-                 ks: Sequence[float] | None = (0.5, 0.5, 0.5), shininess: float = 32.0,
+    def __init__(self, base_color: Sequence[float] | None = None,
+                 ka: Sequence[float] | float | None = None, kd: Sequence[float] | float | None = None,
+                 ks: Sequence[float] | float | None = (0.5, 0.5, 0.5), shininess: float = 32.0,
                  metallic: float = 0.0, roughness: float = 0.5,
-                 emissive: Sequence[float] = (0.0, 0.0, 0.0), double_sided: bool = False,
+                 emissive: Sequence[float] | float = (0.0, 0.0, 0.0), double_sided: bool = False,
                  model: str | None = None, name: str | None = None,
                  base_color_texture: Texture | None = None,
                  emissive_texture: Texture | None = None, normal_texture: Texture | None = None,
@@ -137,8 +151,11 @@ class Material:
                  metallic_roughness_texture: Texture | None = None,
                  occlusion_texture: Texture | None = None, occlusion_strength: float = 1.0,
                  bump_texture: Texture | None = None, bump_scale: float = 1.0,
-                 alpha_mode: str = "opaque", alpha_cutoff: float = 0.5) -> None:
+                 alpha_mode: str = "opaque", alpha_cutoff: float = 0.5,
+                 specular_texture: Texture | None = None) -> None:
         s = object.__setattr__
+        if base_color is None:
+            base_color = (0.8, 0.8, 0.8, 1.0) if base_color_texture is None else (1.0, 1.0, 1.0, 1.0)
         s(self, "base_color", _color(base_color, "base_color", 4))
         s(self, "ka", None if ka is None else _color(ka, "ka", 3))
         s(self, "kd", None if kd is None else _color(kd, "kd", 3))
@@ -165,9 +182,12 @@ class Material:
         for slot, tex in (("base_color_texture", base_color_texture),
                           ("emissive_texture", emissive_texture), ("normal_texture", normal_texture),
                           ("metallic_roughness_texture", metallic_roughness_texture),
-                          ("occlusion_texture", occlusion_texture), ("bump_texture", bump_texture)):
+                          ("occlusion_texture", occlusion_texture), ("bump_texture", bump_texture),
+                          ("specular_texture", specular_texture)):
             if tex is not None and not isinstance(tex, Texture):
                 raise TypeError(f"{slot} must be a softrast.Texture or None, got {type(tex).__name__}")
+            if tex is not None and slot in ("base_color_texture", "emissive_texture"):
+                tex._check_color_range(slot)
             s(self, slot, tex)
         scale = real(normal_scale, "normal_scale")
         if not math.isfinite(scale):
@@ -206,7 +226,8 @@ class Material:
             metallic_roughness_texture=core(metallic_roughness_texture, False),
             occlusion_texture=core(occlusion_texture, False),
             occlusion_strength=self.occlusion_strength, bump_texture=core(bump_texture, False),
-            bump_scale=bump, alpha_mask=alpha_mode == "mask", alpha_cutoff=cutoff))
+            bump_scale=bump, alpha_mask=alpha_mode == "mask", alpha_cutoff=cutoff,
+            specular_texture=core(specular_texture, False)))
 
     def __setattr__(self, key: str, value: Any) -> None:
         raise AttributeError("Material is immutable: make a new one (softrast.Material(...) or "

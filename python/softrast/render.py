@@ -428,6 +428,7 @@ class Renderer:
         wireframe: bool = False,
         line_color: Sequence[float] = (0.0, 0.0, 0.0),
         line_width: float = 1.0,
+        cull_double_sided: bool = False,
     ) -> Frame:
         """Render ``scene`` seen by ``camera``; only ``outputs`` are allocated and written.
 
@@ -435,6 +436,10 @@ class Renderer:
                   dtypes, units and background values).
         cull : "back" (default), "front" or "none". Front faces are counter-clockwise in the
                image as OpenGL defines it; a mirroring pose flips the winding, and the test.
+               Instances whose material is double-sided (``Material(double_sided=True)``,
+               glTF's ``doubleSided``) are never culled, as glTF and pyrender say, unless
+               ``cull_double_sided=True``; meshes without a material are culled.
+        cull_double_sided : apply ``cull`` to double-sided materials too (default False).
         shading : "auto" (default) — each instance's material's own model (its ``model``;
                   "blinn_phong" for a material without one, "lambert" for a mesh without a
                   material); or one model for everything: "unlit" (the base colour), "lambert",
@@ -524,6 +529,8 @@ class Renderer:
                 raise ValueError(f"camera {name} {size} differs from the renderer's {ours}")
         names = _output_names(outputs)
         choice(cull, "cull", _CULL)
+        if not isinstance(cull_double_sided, (bool, np.bool_)):
+            raise TypeError(f"cull_double_sided must be True or False, got {cull_double_sided!r:.80}")
         choice(shading, "shading", _SHADING)
         choice(shading_path, "shading_path", _SHADING_PATHS)
         choice(raster, "raster", _RASTER)
@@ -557,7 +564,8 @@ class Renderer:
             from .distortion import render_distorted
 
             return render_distorted(self, scene, camera, names, {
-                "cull": cull, "shading": shading, "background": background, "ambient": ambient,
+                "cull": cull, "cull_double_sided": bool(cull_double_sided), "shading": shading,
+                "background": background, "ambient": ambient,
                 "shading_path": shading_path, "frequency": frequency, "srgb": srgb,
                 "texture_filter": texture_filter, "normal_space": normal_space, "raster": raster},
                 out)
@@ -574,7 +582,8 @@ class Renderer:
         # Every option is checked above, once; the core reads them by name (_core.RENDER_OPTIONS).
         buffers = self._core.render(draws, {
             "view": view, "proj": proj, "orthographic": camera.orthographic, "near": camera.near,
-            "far": camera.far, "outputs": names, "cull": cull, "shading": shading,
+            "far": camera.far, "outputs": names, "cull": cull,
+            "cull_double_sided": bool(cull_double_sided), "shading": shading,
             "shading_path": shading_path, "background": bg, "ambient": ambient_f, "out": out_arrays,
             "lights": _lights(scene, view), "ambient_light": scene.ambient_light,
             "frequency": frequency, "srgb": bool(srgb), "texture_filter": texture_filter,

@@ -15,12 +15,16 @@ Conventions (``tests/texture_reference.py`` implements every rule below independ
   u in [j/w, (j+1)/w], v in [1 - (r+1)/h, 1 - r/h]; its centre is at ((j + 0.5)/w,
   1 - (r + 0.5)/h). ``uv_origin="top_left"`` (DirectX, and raw glTF uvs): row 0 at v = 0.
 * **Decoding.** uint8 and uint16 texels are scaled to [0, 1]; float32 texels are taken as they
-  are. Colour textures are sRGB-encoded (IEC 61966-2-1) and decoded to linear; data textures
+  are, 1 being full intensity (a material warns of values above 1 in a colour slot, since a
+  float image holding 0..255 draws white, and refuses negative ones there). 8- and 16-bit
+  colour textures are sRGB-encoded (IEC 61966-2-1) and decoded to linear; data textures
   (normal, height, metallic-roughness, occlusion) are linear. ``srgb=None`` (default) lets the
-  slot decide: ``base_color_texture`` and ``emissive_texture`` decode sRGB, every other slot
-  reads linear values (and ``Texture.sample`` decodes uint8/uint16 as sRGB, float32 as linear).
-  Alpha is never sRGB-encoded. 1 channel is grey (L, L, L, 1); 2 are grey and alpha;
-  3 are RGB (alpha 1); 4 are RGBA.
+  slot decide for 8- and 16-bit images: ``base_color_texture`` and ``emissive_texture`` decode
+  sRGB, every other slot reads linear values. Float images are linear wherever they are used
+  (the EXR / HDR convention) unless the texture says ``srgb=True``; ``Texture.sample`` reads
+  them the same way. Decoding a float image whose values overflow float32 once decoded raises
+  a ValueError. Alpha is never sRGB-encoded. 1 channel is grey (L, L, L, 1); 2 are grey and
+  alpha; 3 are RGB (alpha 1); 4 are RGBA.
 * **Wrap** (per axis): ``"repeat"``, ``"clamp"`` (to the edge texel) or ``"mirror"`` (OpenGL's
   mirrored repeat). uvs are reduced to one period exactly before scaling, so uvs of 1e6 keep
   their fraction.
@@ -45,6 +49,7 @@ float32 one read as linear): do not modify it after the first render, whose mip 
 from __future__ import annotations
 
 import os
+import warnings
 from typing import Any, Sequence
 
 import numpy as np
@@ -110,8 +115,8 @@ class Texture:
     Parameters
     ----------
     image : (h, w, c) or (h, w) array, uint8, uint16 or float32 (float64 is converted), c in 1..4.
-    srgb : True (sRGB-encoded colour), False (linear data) or None (the material slot decides:
-        see the module docstring).
+    srgb : True (sRGB-encoded colour), False (linear data) or None (8- and 16-bit images: the
+        material slot decides; float images: linear. See the module docstring).
     filter : "nearest", "bilinear", "trilinear" (default) or "anisotropic";
         ``render(texture_filter=)`` overrides it for one render.
     wrap : "repeat" (default), "clamp" or "mirror", or a pair (wrap_u, wrap_v).
@@ -181,9 +186,9 @@ class Texture:
     def _decodes_srgb(self, slot_srgb: bool | None = None) -> bool:
         if self.srgb is not None:
             return self.srgb
-        if slot_srgb is not None:
-            return slot_srgb
-        return self.image.dtype != np.float32 and self.image.dtype != np.float64
+        if self.image.dtype.kind == "f":
+            return False  # float images are linear (EXR, HDR), in every slot
+        return True if slot_srgb is None else slot_srgb
 
     def _core(self, slot_srgb: bool | None = None) -> Any:
         """The core's texture, decoding sRGB or not (made once for each)."""
@@ -202,12 +207,38 @@ class Texture:
                     values = np.asarray(values, dtype=np.float64).copy()
                     color = values.shape[2] if values.shape[2] in (1, 3) else values.shape[2] - 1
                     values[:, :, :color] = srgb_decode(values[:, :, :color])
+                    top = float(values.max())
+                    if not top <= float(np.finfo(np.float32).max):
+                        raise ValueError(
+                            f"Texture{' ' + repr(self.name) if self.name else ''}: sRGB-decoding "
+                            f"its float image (values up to {float(arr.max()):g}) overflows "
+                            f"float32; float images are linear unless srgb=True")
                 core = _core.Texture(np.ascontiguousarray(values, dtype=np.float32))
             core.configure(FILTERS.index(self.filter), WRAPS.index(self.wrap[0]),
                            WRAPS.index(self.wrap[1]), self.uv_origin == "top_left",
                            self.max_anisotropy)
             self._cores[srgb] = core
         return core
+
+    def _check_color_range(self, slot: str) -> None:
+        """Refuses negative values in a colour slot's float image, and warns of values above 1
+        (often 0..255 as floats)."""
+        arr = self.image
+        if arr.dtype.kind != "f":
+            return
+        color = arr[:, :, :arr.shape[2] if arr.shape[2] in (1, 3) else arr.shape[2] - 1]
+        low = float(arr.min())
+        if low < 0.0:  # radiance would go negative; data slots (normal maps) keep signed values
+            raise ValueError(f"{slot}: its float image has a negative value ({low:g}); colour "
+                             f"and alpha texels must be >= 0")
+        top = float(color.max())
+        if top > 1.0:
+            hint = (" It looks like 8-bit values stored as floats: pass a uint8 array, or "
+                    "divide by 255." if top <= 255.0 and float(color.min()) >= 0.0
+                    and np.array_equal(color, np.round(color)) else "")
+            warnings.warn(f"{slot}: its float image ({arr.dtype}) has values up to {top:g}; float "
+                          f"texels are used as they are, 1 being full intensity, so colours above "
+                          f"1 saturate.{hint}", UserWarning, stacklevel=3)
 
     @property
     def levels(self) -> list[tuple[int, int]]:
