@@ -18,6 +18,10 @@ with softrast, and writes both. Checked here:
 * orthographic: pyrender's depth is wrong for orthographic cameras (its linearization assumes a
   perspective projection), so softrast's depth is checked against rays cast through each pixel
   centre (trimesh's ray-triangle intersection, float64) instead; masks against pyrender.
+* issue 33: alphaMode "BLEND" (every material of pyrender.Mesh.from_trimesh) converts without a
+  warning where every alpha is 1 (pyrender draws it opaque too), and warns naming the mesh, node
+  and material where one is below 1 (pyrender blends); bg_color comes back as the result's
+  ``background``, and softrast renders it as pyrender's bytes (white 255; others within 1).
 The test FAILS (never skips) without pyrender and OSMesa: see test_pbr_vs_pyrender.py.
 """
 from __future__ import annotations
@@ -26,6 +30,7 @@ import json
 import math
 import os
 import pathlib
+import pickle
 import subprocess
 import sys
 
@@ -217,3 +222,252 @@ def test_from_pyrender_keeps_textures(tmp_path) -> None:
     ref = sr.Renderer(96, 72).render(scene, cam, outputs=("radiance",), shading="unlit").radiance
     assert (ref > 0).any(-1).sum() > 1000
     np.testing.assert_allclose(got, ref, rtol=0, atol=1e-6)
+
+
+# -- issue 33: alphaMode "BLEND" at alpha 1, and bg_color -------------------------------------
+
+BLEND_CHILD = r"""
+import json, sys, warnings
+sys.path.insert(0, sys.argv[1])
+sys.path.insert(0, sys.argv[2])
+from pyrender_env import import_pyrender
+import numpy as np
+from PIL import Image
+pyrender, trimesh = import_pyrender("blend child")
+import softrast as sr
+
+W, H = 96, 72
+rng = np.random.default_rng(7)
+
+
+def textured(alpha=None):
+    m = trimesh.creation.box(extents=(1.0, 0.8, 0.9))
+    image = rng.integers(40, 250, (8, 8, 3 if alpha is None else 4)).astype(np.uint8)
+    if alpha is not None:
+        image[:, :, 3] = 255
+        image[:4, :, 3] = alpha
+    m.visual = trimesh.visual.TextureVisuals(uv=rng.random((len(m.vertices), 2)), image=Image.fromarray(image))
+    return m
+
+
+def colored(alpha):
+    m = trimesh.creation.box(extents=(1.0, 0.8, 0.9))
+    m.visual.vertex_colors = np.array([[200, 90, 40, alpha]] * len(m.vertices), np.uint8)
+    return m
+
+
+def factor(alpha):
+    m = trimesh.creation.icosphere(subdivisions=2, radius=0.6)
+    mat = pyrender.MetallicRoughnessMaterial(alphaMode="BLEND", baseColorFactor=[0.8, 0.5, 0.3, alpha],
+                                             metallicFactor=0.1, roughnessFactor=0.7)
+    return pyrender.Mesh.from_trimesh(m, material=mat)
+
+
+# name: (pyrender mesh, mesh name, node name, material name); from_trimesh marks them all BLEND
+cases = {
+    "texture_rgb": (pyrender.Mesh.from_trimesh(textured()), None, None, None),
+    "texture_rgba_opaque": (pyrender.Mesh.from_trimesh(textured(255)), "crate", None, None),
+    "vertex_colors_opaque": (pyrender.Mesh.from_trimesh(colored(255)), None, "brick", None),
+    "plain": (pyrender.Mesh.from_trimesh(trimesh.creation.box()), None, None, None),
+    "factor_opaque": (factor(1.0), "ball", "ball node", "clay"),
+    "factor_translucent": (factor(0.5), "glass", "glass node", "frosted"),
+    "texture_translucent": (pyrender.Mesh.from_trimesh(textured(100)), "leaf", "leaf node", "leaf material"),
+    "vertex_colors_translucent": (pyrender.Mesh.from_trimesh(colored(128)), "tinted", "tint node", "tint"),
+}
+renderer = pyrender.OffscreenRenderer(W, H)
+out = {}
+for name, (mesh, mesh_name, node_name, mat_name) in cases.items():
+    mesh.name = mesh_name
+    for prim in mesh.primitives:
+        prim.material.name = mat_name
+    scene = pyrender.Scene(ambient_light=[0.1, 0.1, 0.1], bg_color=[0.2, 0.3, 0.4, 1.0])
+    scene.add(mesh, pose=trimesh.transformations.rotation_matrix(0.5, (0.3, 1.0, 0.2)), name=node_name)
+    pose = np.eye(4)
+    pose[:3, 3] = (0.0, 0.0, 3.0)
+    scene.add(pyrender.PerspectiveCamera(yfov=0.7), pose=pose)
+    scene.add(pyrender.DirectionalLight(intensity=3.0), pose=pose)
+    modes = {prim.material.alphaMode for prim in mesh.primitives}
+    blended = renderer.render(scene)[0]
+    for prim in mesh.primitives:
+        prim.material.alphaMode = "OPAQUE"
+    opaque = renderer.render(scene)[0]
+    for prim in mesh.primitives:
+        prim.material.alphaMode = "BLEND"
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        sr.from_pyrender(scene, W, H)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            sr.from_pyrender(scene, W, H)
+        error = None
+    except Exception as exc:
+        error = f"{type(exc).__name__}: {exc}"
+    out[name] = {"modes": sorted(modes), "pyrender_opaque": bool(np.array_equal(blended, opaque)),
+                 "differ": int((blended != opaque).any(-1).sum()),
+                 "warnings": [str(c.message) for c in caught], "error": error}
+renderer.delete()
+print(json.dumps(out))
+"""
+
+
+def run_child(tmp_path: pathlib.Path, code: str, *args: str) -> str:
+    child = tmp_path / "child.py"
+    child.write_text(code)
+    parent = str(pathlib.Path(sr.__file__).resolve().parent.parent)
+    tests = str(pathlib.Path(__file__).resolve().parent)
+    return run_pyrender_child(child, [parent, tests, *args], timeout=300).stdout
+
+
+def test_blend_at_alpha_one_is_opaque_without_a_warning(tmp_path) -> None:
+    """pyrender.Mesh.from_trimesh marks every material it makes alphaMode "BLEND" (textured,
+    vertex-coloured, plain). Where every alpha is 1 pyrender draws it opaque (its BLEND render
+    equals the same scene's OPAQUE render byte for byte) and from_pyrender converts it without a
+    warning (under simplefilter("error")); where an alpha is below 1 (baseColorFactor, the base
+    colour texture, the vertex colours) pyrender blends, and from_pyrender warns once, naming
+    the mesh, its node, its material and what is translucent (issue 33, defect 7)."""
+    info = json.loads(run_child(tmp_path, BLEND_CHILD).strip().splitlines()[-1])
+    for name, case in info.items():
+        assert case["modes"] == ["BLEND"], name
+        if name.endswith("translucent"):
+            assert not case["pyrender_opaque"] and case["differ"] > 50, name  # pyrender blends
+            assert len(case["warnings"]) == 1, (name, case["warnings"])
+            assert case["error"] is not None, name
+        else:
+            assert case["pyrender_opaque"], name
+            assert case["warnings"] == [] and case["error"] is None, (name, case)
+    expected = {
+        "factor_translucent": ("pyrender mesh 'glass' (node 'glass node'), material 'frosted'",
+                               "baseColorFactor alpha 0.5"),
+        "texture_translucent": ("pyrender mesh 'leaf' (node 'leaf node'), material 'leaf material'",
+                                "baseColorTexture alpha down to 0.3922"),
+        "vertex_colors_translucent": ("pyrender mesh 'tinted' (node 'tint node'), material 'tint'",
+                                      "color_0 alpha down to 0.502"),
+    }
+    for name, (label, why) in expected.items():
+        message = info[name]["warnings"][0]
+        assert message.startswith(label + " (softrast instance 0): alphaMode 'BLEND'"), message
+        assert why in message and "rendered opaque" in message, message
+
+
+def test_blend_warning_names_unnamed_meshes_by_instance() -> None:
+    """Without pyrender (duck-typed stand-ins): an unnamed mesh, node and material are said to be
+    unnamed, the primitive and the softrast instance ids are given; alpha 1 warns nothing."""
+
+    def pyrender_class(name):
+        cls = type(name, (), {})
+        cls.__module__ = "pyrender"
+        return cls
+
+    def material(alpha):
+        mat = pyrender_class("MetallicRoughnessMaterial")()
+        mat.alphaMode, mat.alphaCutoff, mat.name = "BLEND", 0.5, None
+        mat.baseColorFactor, mat.doubleSided = (1.0, 1.0, 1.0, alpha), False
+        return mat
+
+    def primitive(alpha, poses=None):
+        prim = pyrender_class("Primitive")()
+        prim.positions, prim.indices, prim.mode = np.eye(3), None, 4
+        prim.material, prim.poses = material(alpha), poses
+        return prim
+
+    mesh = pyrender_class("Mesh")()
+    mesh.name, mesh.primitives = None, [primitive(1.0), primitive(0.25, np.stack([np.eye(4)] * 2))]
+    node = pyrender_class("Node")()
+    node.name, node.mesh = None, mesh
+    scene = pyrender_class("Scene")()
+    scene.mesh_nodes, scene.light_nodes, scene.main_camera_node = [node], [], None
+    scene.get_pose = lambda n: np.eye(4)
+    scene.ambient_light, scene.bg_color = None, np.array([0.5, 0.25, 1.5, 0.5])
+    with pytest.warns(UserWarning) as caught:
+        conv = sr.from_pyrender(scene, 8, 8)
+    assert [str(w.message) for w in caught] == [
+        "an unnamed pyrender mesh (an unnamed node), primitive 1, an unnamed material (softrast "
+        "instances 1-2): alphaMode 'BLEND' with alpha below 1 (baseColorFactor alpha 0.25) is not "
+        "drawn yet: rendered opaque"]
+    assert len(conv.scene) == 3 and conv.camera is None
+    assert conv.background == (0.5, 0.25, 1.0) and conv.background_alpha == 0.5  # clipped as GL does
+
+
+def test_conversion_is_still_the_pair() -> None:
+    """from_pyrender's result unpacks, compares and pickles as the (scene, camera) tuple it always
+    was, and carries the background (a scene without bg_color: pyrender's default, white)."""
+    scene = type("Scene", (), {})()
+    scene.mesh_nodes, scene.light_nodes, scene.main_camera_node = [], [], None
+    conv = sr.from_pyrender(scene, 8, 8)
+    sr_scene, camera = conv
+    assert isinstance(conv, tuple) and len(conv) == 2 and conv == (sr_scene, None)
+    assert conv.scene is sr_scene and conv.camera is None and conv[0] is sr_scene
+    assert conv.background == (1.0, 1.0, 1.0) and conv.background_alpha == 1.0
+    back = pickle.loads(pickle.dumps(conv))
+    assert isinstance(back, sr.interop.PyrenderConversion) and len(back) == 2
+    assert (back.background, back.background_alpha, back.camera) == ((1.0, 1.0, 1.0), 1.0, None)
+    scene.bg_color = [0.1, 0.2, 0.3]  # RGB: alpha 1
+    assert sr.from_pyrender(scene, 8, 8).background_alpha == 1.0
+
+
+BACKGROUND_CHILD = r"""
+import sys
+sys.path.insert(0, sys.argv[1])
+sys.path.insert(0, sys.argv[2])
+from pyrender_env import import_pyrender
+import numpy as np
+pyrender, trimesh = import_pyrender("background child")
+from OpenGL import GL
+import softrast as sr
+
+W, H = 96, 72
+out = {}
+backgrounds = {"default": None, "grey": [0.5, 0.5, 0.5], "rgba": [0.3, 0.55, 0.8, 0.4], "dark": [0.02, 0.1, 0.2, 1.0]}
+renderer = pyrender.OffscreenRenderer(W, H)
+for name, bg in backgrounds.items():
+    scene = pyrender.Scene(ambient_light=[0.1, 0.1, 0.1]) if bg is None else pyrender.Scene(
+        ambient_light=[0.1, 0.1, 0.1], bg_color=bg)
+    scene.add(pyrender.Mesh.from_trimesh(trimesh.creation.box(extents=(1.0, 0.8, 0.9))),
+              pose=trimesh.transformations.rotation_matrix(0.5, (0.3, 1.0, 0.2)))
+    pose = np.eye(4)
+    pose[:3, 3] = (0.0, 0.0, 3.0)
+    scene.add(pyrender.PerspectiveCamera(yfov=0.7), pose=pose)
+    scene.add(pyrender.DirectionalLight(intensity=3.0), pose=pose)
+    color, depth = renderer.render(scene)
+    # OSMesa has no framebuffer objects, so pyrender reads its colour as RGB even with
+    # RenderFlags.RGBA: read the RGBA pixels it cleared and drew from its context directly.
+    renderer._platform.make_current()
+    GL.glReadBuffer(GL.GL_FRONT)
+    rgba = np.frombuffer(GL.glReadPixels(0, 0, W, H, GL.GL_RGBA, GL.GL_UNSIGNED_BYTE), np.uint8)
+    renderer._platform.make_uncurrent()
+    rgba = rgba.reshape(H, W, 4)[::-1]
+    assert (rgba[:, :, :3] == color).all()
+    color = rgba
+    conv = sr.from_pyrender(scene, W, H)
+    sr_scene, sr_camera = conv  # still the pair it always was
+    frame = sr.Renderer(W, H).render(sr_scene, sr_camera, background=conv.background,
+                                     outputs=("color", "mask", "alpha"))
+    np.savez(sys.argv[3] + f"/{name}.npz", pr_color=color, pr_depth=depth, sr_color=frame.color,
+             sr_mask=frame.mask, sr_alpha=frame.alpha, background=conv.background,
+             background_alpha=conv.background_alpha)
+renderer.delete()
+"""
+
+
+def test_background_is_pyrender_bg_color(tmp_path) -> None:
+    """from_pyrender carries bg_color: rendered with ``background=conversion.background`` the
+    background pixels are pyrender's bytes (its default white 255, a grey within 1), its alpha is
+    ``background_alpha`` where pyrender's RGBA render has it (issue 33, defect 8)."""
+    run_child(tmp_path, BACKGROUND_CHILD, str(tmp_path))
+    for name in ("default", "grey", "rgba", "dark"):
+        data = np.load(tmp_path / f"{name}.npz")
+        pr_color, sr_color = data["pr_color"].astype(int), data["sr_color"].astype(int)
+        covered = (data["pr_depth"] > 0) | data["sr_mask"]
+        background = ~ndimage.binary_dilation(covered, np.ones((3, 3), bool))
+        assert background.sum() > 0.5 * background.size and covered.sum() > 500, name
+        diff = np.abs(sr_color[background] - pr_color[background][:, :3])
+        print(f"{name}: background {tuple(data['background'])}: pyrender "
+              f"{pr_color[background][0].tolist()}, softrast {sr_color[background][0].tolist()}")
+        assert diff.max() <= 1, name
+        alpha = data["sr_alpha"] + (1.0 - data["sr_alpha"]) * float(data["background_alpha"])
+        assert np.abs(alpha[background] * 255.0 - pr_color[background][:, 3]).max() <= 1.0, name
+        assert (np.abs(alpha[~covered] * 255.0 - pr_color[~covered][:, 3]) <= 1.0).all(), name
+    default = np.load(tmp_path / "default.npz")
+    assert (default["sr_color"][~(default["sr_mask"] | (default["pr_depth"] > 0))] == 255).all()
+    assert tuple(default["background"]) == (1.0, 1.0, 1.0) and float(default["background_alpha"]) == 1.0

@@ -23,9 +23,13 @@ What is converted, and how (pyrender 0.1.45's attribute names):
   ``sr.Texture`` objects in the matching slots (one per pyrender texture), with the sampler's
   wraps (GL enums) and filter (nearest / bilinear without mipmaps, else trilinear); uvs keep
   pyrender's convention, image row 0 at v = 1 (``uv_origin="bottom_left"``). ``alphaMode``
-  "MASK" and ``alphaCutoff`` -> ``alpha_mode="mask"``, ``alpha_cutoff`` (as a glTF file's; "BLEND"
-  is rendered opaque, with a UserWarning). Any other
-  material type gets softrast's default look, with a UserWarning.
+  "MASK" and ``alphaCutoff`` -> ``alpha_mode="mask"``, ``alpha_cutoff`` (as a glTF file's).
+  "BLEND" is rendered opaque (softrast does not blend yet): silently where every alpha is 1 --
+  the ``baseColorFactor`` alpha, the base colour texture's alpha channel if it has one, the
+  ``color_0`` alpha if any -- as ``pyrender.Mesh.from_trimesh`` makes every material "BLEND"
+  and pyrender then draws it opaque; otherwise with one UserWarning per primitive naming the
+  pyrender mesh, its node, its material (or "unnamed"), the softrast instance ids and which alpha
+  is below 1. Any other material type gets softrast's default look, with a UserWarning.
 * Lights: ``DirectionalLight`` / ``PointLight`` / ``SpotLight`` -> ``sr.DirectionalLight`` /
   ``sr.PointLight`` / ``sr.SpotLight`` with the same ``color`` and ``intensity`` (spot cones:
   ``innerConeAngle`` / ``outerConeAngle``, radians in both), posed by the node's world pose
@@ -44,6 +48,19 @@ What is converted, and how (pyrender 0.1.45's attribute names):
   distance of the scene's bounding-box corners along the viewing axis (at least 2 * znear).
   A ``metallicRoughnessTexture`` that pyrender keeps as its two channels (G, B) becomes an RGB
   texture (0, G, B), so metallic stays blue and roughness green.
+* The background: ``bg_color`` (pyrender's default white) comes back as the result's
+  ``background`` (its RGB clipped to [0, 1]) for ``render(background=)``: softrast, like pyrender,
+  writes that colour to the image as it is (not sRGB-encoded), so the background pixels are
+  pyrender's bytes (white stays 255). softrast's own default background is black, so pass it::
+
+      conv = sr.from_pyrender(pr_scene, width, height)
+      frame = sr.Renderer(width, height).render(conv.scene, conv.camera, background=conv.background)
+
+  ``from_pyrender`` returns a ``PyrenderConversion``: the tuple ``(scene, camera)`` as before
+  (``scene, camera = sr.from_pyrender(...)`` still works) with ``scene``, ``camera``,
+  ``background`` and ``background_alpha`` attributes. ``bg_color``'s alpha (RGBA) is not
+  rendered: softrast's ``alpha`` output is coverage (0 on the background) where pyrender's
+  RGBA render holds ``bg_color``'s alpha; ``alpha + (1 - alpha) * background_alpha`` gives it.
 
 to_pyrender
 -----------
@@ -134,7 +151,7 @@ from .mesh import Mesh
 from .primitives import Lines, Points
 from .scene import Scene
 
-__all__ = ["from_pyrender", "to_pyrender"]
+__all__ = ["PyrenderConversion", "from_pyrender", "to_pyrender"]
 
 _TRIANGLES = 4  # GL_TRIANGLES, pyrender's default primitive mode
 _POINTS, _LINES = 0, 1  # GL_POINTS, GL_LINES
@@ -201,7 +218,9 @@ def _material(mat: Any, cache: dict[int, Any] | None = None) -> Material | None:
     textures = {slot: _texture(getattr(mat, key), label, key, cache)
                 for key, slot in _TEXTURES.items() if getattr(mat, key, None) is not None}
     dropped: list[str] = []
-    alpha = _gltf_alpha(getattr(mat, "alphaMode", None), getattr(mat, "alphaCutoff", None), dropped)
+    # "BLEND" is drawn opaque; from_pyrender warns (naming the mesh) only where an alpha is < 1.
+    mode = getattr(mat, "alphaMode", None)
+    alpha = _gltf_alpha(None if mode == "BLEND" else mode, getattr(mat, "alphaCutoff", None), dropped)
     for what in dropped:
         warnings.warn(f"{label}: {what}", UserWarning, stacklevel=3)
     return Material(**textures, **alpha, base_color=_unit(getattr(mat, "baseColorFactor", None), 4, (1.0, 1.0, 1.0, 1.0)),
@@ -258,6 +277,50 @@ def _mesh(prim: Any, cache: dict[int, Any]) -> Mesh:
     return Mesh(positions, faces, **kwargs)
 
 
+def _alpha_min(values: Any) -> float:
+    """The smallest alpha of ``values`` (the last axis' last channel) scaled to [0, 1]."""
+    a = np.asarray(values)
+    full = float(np.iinfo(a.dtype).max) if np.issubdtype(a.dtype, np.integer) else 1.0
+    return float(a.min()) / full if a.size else 1.0
+
+
+def _blend_alpha(prim: Any, cache: dict[int, Any], alpha_cache: dict[int, float]) -> list[str]:
+    """What makes a primitive with alphaMode "BLEND" translucent, as pyrender reads it (the
+    ``baseColorFactor`` alpha, the base colour texture's alpha channel, the ``color_0`` alpha
+    below 1); empty: every alpha is 1 and the primitive is opaque (pyrender draws it so too)."""
+    mat = getattr(prim, "material", None)
+    if getattr(mat, "alphaMode", None) != "BLEND":
+        return []
+    found = []
+    factor = getattr(mat, "baseColorFactor", None)
+    if factor is not None:
+        arr = np.asarray(factor, dtype=np.float64).reshape(-1)
+        if len(arr) >= 4 and arr[3] < 1.0:
+            found.append(f"baseColorFactor alpha {arr[3]:.4g}")
+    tex = getattr(mat, "baseColorTexture", None)
+    if tex is not None and id(tex) in cache and cache[id(tex)] is not None:
+        if id(tex) not in alpha_cache:
+            image = cache[id(tex)].image  # softrast's reading: 2 channels grey + alpha, 4 RGBA
+            alpha_cache[id(tex)] = _alpha_min(image[:, :, -1]) if image.shape[2] in (2, 4) else 1.0
+        if alpha_cache[id(tex)] < 1.0:
+            found.append(f"baseColorTexture alpha down to {alpha_cache[id(tex)]:.4g}")
+    colors = getattr(prim, "color_0", None)
+    if colors is not None:
+        colors = np.asarray(colors)
+        least = _alpha_min(colors[:, 3]) if colors.ndim == 2 and colors.shape[1] == 4 else 1.0
+        if least < 1.0:
+            found.append(f"color_0 alpha down to {least:.4g}")
+    return found
+
+
+def _mesh_label(node: Any, mesh: Any, index: int, count: int) -> str:
+    """How a warning names a pyrender primitive: its Mesh's name, its node's, its index."""
+    mesh_name, node_name = getattr(mesh, "name", None), getattr(node, "name", None)
+    label = f"pyrender mesh {mesh_name!r}" if isinstance(mesh_name, str) else "an unnamed pyrender mesh"
+    label += f" (node {node_name!r})" if isinstance(node_name, str) else " (an unnamed node)"
+    return label + (f", primitive {index}" if count > 1 else "")
+
+
 def _light(light: Any) -> Light:
     kind = _kind(light)
     color = tuple(float(c) for c in np.asarray(light.color, dtype=np.float64).reshape(3))
@@ -305,30 +368,104 @@ def _camera(cam: Any, width: int, height: int, scene: Scene, pose: np.ndarray) -
     return out
 
 
-def from_pyrender(pyrender_scene: Any, width: int, height: int) -> tuple[Scene, Camera | None]:
+class PyrenderConversion(tuple):
+    """What ``from_pyrender`` returns: the pair ``(scene, camera)`` -- a tuple, so ``scene,
+    camera = sr.from_pyrender(...)`` works as it always has -- that also carries the pyrender
+    scene's background colour, which softrast takes as a render argument.
+
+    scene : the ``softrast.Scene`` (also ``conversion[0]``).
+    camera : the main camera converted, or None (also ``conversion[1]``).
+    background : ``bg_color``'s RGB clipped to [0, 1] (as OpenGL clears pyrender's 8-bit
+        framebuffer), for ``render(..., background=conversion.background)``. Both libraries write
+        it to the colour image as it is (not sRGB-encoded, whatever ``srgb=``), so the background
+        pixels are pyrender's bytes (its default white: 255).
+    background_alpha : ``bg_color``'s alpha (1 if it has none), which softrast does not render:
+        its ``alpha`` output is coverage, 0 on the background, where pyrender's RGBA render
+        (``RenderFlags.RGBA``) has this value: ``alpha + (1 - alpha) * background_alpha`` is
+        pyrender's.
+    """
+
+    background: tuple[float, float, float]
+    background_alpha: float
+
+    def __new__(cls, scene: Scene, camera: Camera | None,
+                background: Any = (0.0, 0.0, 0.0), background_alpha: float = 1.0) -> PyrenderConversion:
+        self = super().__new__(cls, (scene, camera))
+        r, g, b = (float(v) for v in background)
+        self.background, self.background_alpha = (r, g, b), float(background_alpha)
+        return self
+
+    @property
+    def scene(self) -> Scene:
+        return self[0]  # type: ignore[no-any-return]
+
+    @property
+    def camera(self) -> Camera | None:
+        return self[1]  # type: ignore[no-any-return]
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (type(self), (self.scene, self.camera, self.background, self.background_alpha))
+
+    def __repr__(self) -> str:
+        return (f"PyrenderConversion(scene={self.scene!r}, camera={self.camera!r}, "
+                f"background={self.background}, background_alpha={self.background_alpha})")
+
+
+def _background(pyrender_scene: Any) -> tuple[tuple[float, float, float], float]:
+    """pyrender's ``bg_color`` as (RGB, alpha) in [0, 1]; pyrender's default (white, 1) without one."""
+    bg = getattr(pyrender_scene, "bg_color", None)
+    rgba = np.ones(4) if bg is None else np.asarray(bg, dtype=np.float64).reshape(-1)
+    if not 3 <= len(rgba) <= 4:
+        raise ValueError(f"bg_color must be 3 or 4 numbers (RGB[A]), got {rgba.tolist()}")
+    rgba = np.clip(np.nan_to_num(np.append(rgba, 1.0)[:4], nan=0.0), 0.0, 1.0)
+    return (float(rgba[0]), float(rgba[1]), float(rgba[2])), float(rgba[3])
+
+
+def from_pyrender(pyrender_scene: Any, width: int, height: int) -> PyrenderConversion:
     """Convert a ``pyrender.Scene`` to ``(softrast.Scene, camera)`` (see this module's docstring).
 
     width, height : the image size (pyrender cameras carry none; ``OffscreenRenderer`` takes it).
-    The camera is the scene's main camera converted, or None if the scene has no camera.
+    Returns a ``PyrenderConversion``: the tuple ``(scene, camera)``, where the camera is the
+    scene's main camera converted, or None if the scene has no camera, with the scene's
+    ``bg_color`` as ``.background`` (RGB) and ``.background_alpha``. softrast renders a black
+    background unless told otherwise: render as pyrender does with
+    ``renderer.render(conv.scene, conv.camera, background=conv.background)``.
     Instance ids are 0, 1, 2, ... in the order of ``pyrender_scene.mesh_nodes`` (sorted by node
     name, then primitive, then instancing pose, for a stable order: pyrender keeps them in a set).
+    A primitive whose material has alphaMode "BLEND" is drawn opaque: silently where every
+    alpha is 1 (``pyrender.Mesh.from_trimesh`` marks its materials "BLEND", and pyrender draws
+    them opaque then), else with a UserWarning naming the mesh, its node and its material.
     """
     ambient = getattr(pyrender_scene, "ambient_light", None)
     scene = Scene(ambient_light=None if ambient is None else
                   tuple(float(v) for v in np.asarray(ambient, dtype=np.float64).reshape(3)))
+    background, background_alpha = _background(pyrender_scene)
     nodes = sorted(pyrender_scene.mesh_nodes, key=lambda n: (str(n.name), id(n)))
     textures: dict[int, Any] = {}  # one sr.Texture per pyrender texture
+    alphas: dict[int, float] = {}  # the least alpha of each base colour texture
     for node in nodes:
         mesh = node.mesh
         if not getattr(mesh, "is_visible", True):
             continue
         world = np.asarray(pyrender_scene.get_pose(node), dtype=np.float64)
-        for prim in mesh.primitives:
+        primitives = list(mesh.primitives)
+        for index, prim in enumerate(primitives):
             mode = getattr(prim, "mode", _TRIANGLES)
             converted = _primitive(prim) if mode in (_POINTS, _LINES) else _mesh(prim, textures)
             poses = getattr(prim, "poses", None)
-            for local in ([np.eye(4)] if poses is None else np.asarray(poses, dtype=np.float64)):
-                scene.add(converted, pose=world @ local)
+            ids = [scene.add(converted, pose=world @ local)
+                   for local in ([np.eye(4)] if poses is None else np.asarray(poses, dtype=np.float64))]
+            translucent = ([] if mode in (_POINTS, _LINES) or getattr(converted, "material", None) is None
+                           else _blend_alpha(prim, textures, alphas))
+            if translucent:
+                name = getattr(prim.material, "name", None)
+                what = f"material {name!r}" if isinstance(name, str) else "an unnamed material"
+                where = (f"softrast instance {ids[0]}" if len(ids) == 1
+                         else f"softrast instances {ids[0]}-{ids[-1]}")
+                warnings.warn(f"{_mesh_label(node, mesh, index, len(primitives))}, {what} "
+                              f"({where}): alphaMode 'BLEND' with alpha below 1 "
+                              f"({', '.join(translucent)}) is not drawn yet: rendered opaque",
+                              UserWarning, stacklevel=2)
     for node in sorted(pyrender_scene.light_nodes, key=lambda n: (str(n.name), id(n))):
         scene.add(_light(node.light), pose=np.asarray(pyrender_scene.get_pose(node), dtype=np.float64))
     cam_node = getattr(pyrender_scene, "main_camera_node", None)
@@ -336,7 +473,7 @@ def from_pyrender(pyrender_scene: Any, width: int, height: int) -> tuple[Scene, 
     if cam_node is not None:
         camera = _camera(cam_node.camera, width, height, scene,
                          np.asarray(pyrender_scene.get_pose(cam_node), dtype=np.float64))
-    return scene, camera
+    return PyrenderConversion(scene, camera, background, background_alpha)
 
 
 # -- to_pyrender -------------------------------------------------------------------------------
