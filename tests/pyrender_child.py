@@ -7,8 +7,13 @@ SPEC.json (written by the test):
     lights: [{kind: "directional" | "point", color, intensity, pose}],
     meshes: [{arrays: NPZ path with positions / faces / normals, base (RGBA), metallic,
               roughness, pose}]     (explicit primitives: exactly these normals), and/or
-    gltf: a .glb path loaded with trimesh (process=False, as softrast.load_scene does) and
-          turned into nodes by pyrender.Scene.from_trimesh_scene.
+    gltf: a mesh file (.glb, or .obj with its MTL) loaded with trimesh (process=False, as
+          softrast.load_scene does) and turned into nodes by pyrender.Scene.from_trimesh_scene
+          (a file trimesh loads as one Trimesh is wrapped in a trimesh.Scene first);
+    materials (with gltf, optional): {material name: {base (RGBA), metallic, roughness}}: each
+          part gets a MetallicRoughnessMaterial with these factors and its trimesh material's
+          image as the base colour texture (pyrender.Mesh.from_trimesh(material=...), so uvs,
+          normals and texture are pyrender's own), instead of pyrender's own conversion.
 Writes OUT_DIR/color.npy ((H, W, 3) uint8, pyrender's bytes) and OUT_DIR/depth.npy ((H, W)
 float32, 0 where nothing was drawn). Exit status 3 with a message if pyrender cannot be imported.
 Imports neither softrast nor the test suite (but its pyrender_env, the OSMesa set-up).
@@ -30,8 +35,23 @@ def main(spec_path: str, out_dir: str) -> None:
     scene = pyrender.Scene(ambient_light=np.asarray(spec["ambient"], float), bg_color=[0.0, 0.0, 0.0, 1.0])
     if spec.get("gltf"):
         loaded = trimesh.load(spec["gltf"], process=False)
-        scene = pyrender.Scene.from_trimesh_scene(loaded, bg_color=[0.0, 0.0, 0.0, 1.0],
-                                                  ambient_light=np.asarray(spec["ambient"], float))
+        if isinstance(loaded, trimesh.Trimesh):  # an OBJ with one part
+            loaded = trimesh.Scene(loaded)
+        if spec.get("materials") is None:
+            scene = pyrender.Scene.from_trimesh_scene(loaded, bg_color=[0.0, 0.0, 0.0, 1.0],
+                                                      ambient_light=np.asarray(spec["ambient"], float))
+        else:
+            for node in loaded.graph.nodes_geometry:
+                transform, name = loaded.graph[node]
+                geom = loaded.geometry[name]
+                own = geom.visual.material
+                factors = spec["materials"][own.name]
+                material = pyrender.MetallicRoughnessMaterial(
+                    baseColorFactor=list(factors["base"]), metallicFactor=float(factors["metallic"]),
+                    roughnessFactor=float(factors["roughness"]),
+                    baseColorTexture=getattr(own, "image", None))
+                scene.add(pyrender.Mesh.from_trimesh(geom, material=material),
+                          pose=np.asarray(transform, float))
     for m in spec.get("meshes", []):
         arrays = np.load(m["arrays"])
         material = pyrender.MetallicRoughnessMaterial(

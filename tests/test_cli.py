@@ -15,6 +15,7 @@ from softrast.cli import frame_camera, main
 from softrast.io import imread
 
 SPOT_PATH = pathlib.Path(__file__).resolve().parents[1] / "assets" / "meshes" / "spot.obj"
+FUZE_PATH = pathlib.Path(__file__).resolve().parents[1] / "assets" / "meshes" / "fuze" / "fuze.obj"
 
 
 @pytest.mark.parametrize("argv, match", [
@@ -233,3 +234,18 @@ def test_texture_errors(tmp_path, capsys):
     assert main(["render", str(SPOT_PATH), "--texture", str(tmp_path / "missing.png"),
                  "-o", str(tmp_path / "c.png")]) == 2
     assert "--texture" in capsys.readouterr().err
+
+
+def test_render_mtl_with_ns_0_is_not_washed_out(tmp_path):
+    # Issue 33: fuze.obj's MTL (Ks 1 1 1, Ns 0) rendered as a white blob under shading "auto"
+    # (Blinn-Phong with exponent 0 adds ks everywhere). MTL materials render as pbr now: the lit
+    # bottle is no brighter than its texture, unlit.
+    lit, unlit = tmp_path / "lit.png", tmp_path / "unlit.png"
+    assert main(["render", str(FUZE_PATH), "-o", str(lit), "--size", "160x120", "--up-axis", "z"]) == 0
+    assert main(["render", str(FUZE_PATH), "-o", str(unlit), "--size", "160x120", "--up-axis", "z",
+                 "--shading", "unlit"]) == 0
+    lit_rgb, unlit_rgb = imread(lit).astype(int), imread(unlit).astype(int)
+    covered = (unlit_rgb > 0).any(-1)
+    assert covered.sum() > 1000
+    assert (lit_rgb[covered] >= 250).all(-1).mean() < 0.01
+    assert lit_rgb[covered].mean() <= unlit_rgb[covered].mean()

@@ -150,10 +150,16 @@ Ks 1 1 1
 Ns 250
 d 0.375
 """
+def mtl_roughness(ns):  # the MTL rule (softrast.loaders): trimesh's and pyrender's mapping
+    return (2.0 / (ns + 2.0)) ** 0.25
+
+
 RED = sr.Material(base_color=(0.7, 0.2, 0.1, 1.0), ka=(0.1, 0.05, 0.025), kd=(0.7, 0.2, 0.1),
-                  ks=(0.3, 0.35, 0.4), shininess=96.078431, model="blinn_phong", name="red_plastic")
+                  ks=(0.3, 0.35, 0.4), shininess=96.078431, metallic=0.0,
+                  roughness=mtl_roughness(96.078431), model="pbr", name="red_plastic")
 BLUE = sr.Material(base_color=(0.15, 0.25, 0.9, 0.375), kd=(0.15, 0.25, 0.9), ks=(1.0, 1.0, 1.0),
-                   shininess=250.0, model="blinn_phong", name="blue_glass")
+                   shininess=250.0, metallic=0.0, roughness=mtl_roughness(250.0), model="pbr",
+                   name="blue_glass")
 
 
 def _write_obj(tmp_path, obj=OBJ_TWO, mtl=MTL_TWO):
@@ -213,8 +219,8 @@ def test_obj_mtl_texture_is_drawn_multiplying_kd(tmp_path, no_warnings):
     mesh = sr.load_mesh(tmp_path / "spot.obj")
     texture = mesh.material.base_color_texture
     assert texture is not None and texture.image.shape == (1024, 1024, 3) and texture.name == "spot_texture.png"
-    assert mesh.material == sr.Material(base_color=(0.9, 0.5, 0.25, 1.0), kd=None, ks=None, model="blinn_phong",
-                                        name="cow", base_color_texture=texture)
+    assert mesh.material == sr.Material(base_color=(0.9, 0.5, 0.25, 1.0), kd=None, ks=None, metallic=0.0,
+                                        roughness=1.0, model="pbr", name="cow", base_color_texture=texture)
     plain = sr.load_mesh(SPOT)
     assert mesh.num_faces == plain.num_faces and mesh.num_vertices == plain.num_vertices
     np.testing.assert_array_equal(mesh.faces, plain.faces)
@@ -232,7 +238,27 @@ def test_obj_missing_mtllib_and_bad_mtl_lines_warn(tmp_path):
         mesh = sr.load_mesh(tmp_path / "two.obj")
     texts = " | ".join(str(w.message) for w in record)
     assert "Kd 'red green blue' is not a colour" in texts and "Ks [2.0, 0.5, 0.5] clipped" in texts
-    assert mesh.material == sr.Material(ks=(1.0, 0.5, 0.5), shininess=10.0, model="blinn_phong", name="m")
+    assert mesh.material == sr.Material(ks=(1.0, 0.5, 0.5), shininess=10.0, metallic=0.0,
+                                        roughness=mtl_roughness(10.0), model="pbr", name="m")
+
+
+def test_mtl_roughness_rule_and_negative_ns(tmp_path):
+    # issue 33: MTL -> pbr, metallic 0, roughness (2 / (Ns + 2)) ** 0.25, 1 without Ks; a negative
+    # Ns is read as 0 with a warning naming the file and the material
+    obj = "mtllib two.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m\nf 1 2 3\n"
+    expected = {"Ks 1 1 1\nNs 0": (1.0, 0.0), "Ks 0.2 0.2 0.2\nNs 10": (mtl_roughness(10.0), 10.0),
+                "Ks 1 1 1\nNs 200": (mtl_roughness(200.0), 200.0), "Ks 1 1 1": (mtl_roughness(32.0), 32.0),
+                "Ks 0 0 0\nNs 200": (1.0, 200.0), "Ns 200": (1.0, 200.0)}
+    for lines, (roughness, ns) in expected.items():
+        _write_obj(tmp_path, obj=obj, mtl=f"newmtl m\nKd 0.5 0.5 0.5\n{lines}\n")
+        m = sr.load_mesh(tmp_path / "two.obj").material
+        assert (m.model, m.metallic, m.shininess) == ("pbr", 0.0, ns), lines
+        assert m.roughness == pytest.approx(roughness, rel=1e-15), lines
+    assert mtl_roughness(10.0) == pytest.approx(0.6389, abs=1e-4)
+    _write_obj(tmp_path, obj=obj, mtl="newmtl m\nKs 1 1 1\nNs -5\n")
+    with pytest.warns(UserWarning, match=r"two\.obj: material 'm': Ns -5 is negative: read as 0"):
+        m = sr.load_mesh(tmp_path / "two.obj").material
+    assert (m.shininess, m.roughness) == (0.0, 1.0)
 
 
 # -- glTF ---------------------------------------------------------------------------------------
@@ -370,7 +396,8 @@ def test_from_trimesh_materials_use_trimesh_values(no_warnings):
         glossiness=12.0))
     mesh = sr.Mesh.from_trimesh(tm)
     assert mesh.material == sr.Material(base_color=(1.0, 0.0, 0.4, 1.0), ka=(0.2, 0.2, 0.2), kd=(1.0, 0.0, 0.4),
-                                        ks=(0.0, 0.0, 1.0), shininess=12.0, model="blinn_phong", name="m")
+                                        ks=(0.0, 0.0, 1.0), shininess=12.0, metallic=0.0,
+                                        roughness=mtl_roughness(12.0), model="pbr", name="m")
     tm.visual = trimesh.visual.TextureVisuals(material=trimesh.visual.material.PBRMaterial(
         name="p", baseColorFactor=[255, 255, 0, 255]))
     assert sr.Mesh.from_trimesh(tm).material == sr.Material(base_color=(1, 1, 0, 1), metallic=1.0,

@@ -14,9 +14,33 @@ read files with trimesh and keep, with these conventions:
   spec) and kept as is, multiplied by the material's ``baseColorFactor`` as glTF prescribes.
   MTL colours (Ka, Kd, Ks) and glTF factors are linear.
 * OBJ + MTL: ``Ka Kd Ks Ns d`` (and ``Ke``) -> ``Material(ka=Ka, kd=Kd, base_color=(Kd, d),
-  ks=Ks, shininess=Ns, emissive=Ke, model="blinn_phong", name=newmtl)``, read from the MTL file
-  itself (trimesh keeps them only as 8-bit values). Absent: Kd -> base colour 0.8 grey, Ka ->
-  kd, Ks -> no specular (0), Ns -> 32, d -> 1.
+  ks=Ks, shininess=Ns, emissive=Ke, metallic=0, roughness=R, model="pbr", name=newmtl)``, read
+  from the MTL file itself (trimesh keeps them only as 8-bit values). Absent: Kd -> base colour
+  0.8 grey, Ka -> kd, Ks -> no specular (0), Ns -> 32, d -> 1. A negative Ns is read as 0,
+  with a warning naming the file and material.
+* How MTL materials are lit (``render(shading="auto")``): as the rough dielectric that
+  pyrender (through ``pyrender.Mesh.from_trimesh``) and Blender's OBJ importer draw, not as
+  Blinn-Phong: model "pbr", base colour Kd (times ``map_Kd``), metallic 0, and
+  ``R = (2 / (Ns + 2)) ** 0.25``, the specular exponent's mapping of trimesh's
+  ``SimpleMaterial.to_pbr`` and pyrender's ``Mesh.from_trimesh`` (Ns 0 -> 1, 1 -> 0.90, 10 ->
+  0.64, 200 -> 0.32, 1000 -> 0.21); a material without a highlight (Ks absent or black) gets
+  R = 1, the roughest. So ``Ns 0`` (what Meshlab writes, e.g. with ``Ks 1 1 1``) is a matte
+  surface, where Blinn-Phong's (n.h)^0 = 1 added Ks everywhere and washed the surface out to
+  white. The dielectric's specular reflectance is glTF's 4% whatever Ks (pbr has no specular
+  level), and Ka is not used (the ambient light times the base colour, as glTF). Differences
+  from the tools: pyrender 0.1.45 leaves metallicFactor at 1 (every MTL material a metal: no
+  diffuse term, Kd as the specular colour), ignores Ns (it looks up ``"Ns"`` where trimesh
+  stores ``"ns"``: roughness 0.90 always) and uses 0.4 grey for an absent Kd; Blender's
+  importer (obj_import_mtl.cc) maps roughness = 1 - sqrt(min(Ns, 1000) / 1000) (also 1 for Ns
+  0), metallic 0 but for the ray-traced reflection ``illum`` modes (3 and others: the mean of
+  Ka), the specular level from the mean of Ks, and reads the PBR extension's ``Pr`` / ``Pm``;
+  softrast reads neither ``illum`` nor ``Pr`` / ``Pm``. Like every ``pbr`` material, the
+  diffuse term is base / pi per unit of light intensity (glTF's and pyrender's units), where
+  ``lambert`` and Blinn-Phong give kd: under the same lights an MTL surface is about a third
+  as bright as it was drawn before this rule (issue 33). An explicit
+  ``shading="blinn_phong"`` (or "phong", "lambert") still uses ka, kd, ks and shininess = Ns
+  as written. ``Mesh.from_trimesh`` applies the same rule to a trimesh ``SimpleMaterial`` (its
+  8-bit Ks and its glossiness as Ns).
 * glTF / GLB: ``pbrMetallicRoughness.baseColorFactor`` (default 1), ``metallicFactor`` (default 1),
   ``roughnessFactor`` (default 1), ``emissiveFactor`` (default 0), ``doubleSided`` (default
   false) -> ``Material(base_color=, metallic=, roughness=, emissive=, double_sided=,
@@ -458,6 +482,19 @@ def _mtl_map(words: list[str], where: str, info: _FileInfo) -> _MtlMap | None:
     return _MtlMap(words[0], " ".join(words[i:]), options)
 
 
+_MTL_NS_DEFAULT = 32.0  # Ns when an MTL material gives none (softrast.Material's shininess default)
+
+
+def _mtl_roughness(ks: Sequence[float] | None, ns: float) -> float:
+    """The ``pbr`` roughness of an MTL material (or a trimesh SimpleMaterial): trimesh's and
+    pyrender's mapping of the specular exponent, ``(2 / (Ns + 2)) ** 0.25`` (Ns 0 -> 1, 10 ->
+    0.64, 200 -> 0.32), or 1, the roughest, for a material without a highlight (``Ks`` absent or
+    black)."""
+    if ks is None or max(ks) <= 0.0:
+        return 1.0
+    return (2.0 / (max(ns, 0.0) + 2.0)) ** 0.25
+
+
 def _parse_mtl(text: str, mtl_name: str, info: _FileInfo, folder: str = "") -> dict[str, _MtlEntry]:
     """newmtl name -> its entry (Material without textures, what is dropped, its maps) from MTL
     text; ``folder`` is where the MTL's map file names are relative to."""
@@ -475,13 +512,12 @@ def _parse_mtl(text: str, mtl_name: str, info: _FileInfo, folder: str = "") -> d
         if d < 1.0:
             dropped.append(f"transparency (d {d:g}, kept as base_color alpha) is not drawn yet")
         maps = current["maps"]
+        ks, ns = current.get("ks"), current.get("ns", _MTL_NS_DEFAULT)
         kwargs: dict[str, Any] = {
             "base_color": (*kd, d) if kd is not None else (0.8, 0.8, 0.8, d),
-            "ka": current.get("ka"), "kd": kd, "ks": current.get("ks"),
-            "model": "blinn_phong", "name": name,
+            "ka": current.get("ka"), "kd": kd, "ks": ks, "shininess": ns,
+            "metallic": 0.0, "roughness": _mtl_roughness(ks, ns), "model": "pbr", "name": name,
         }
-        if "ns" in current:
-            kwargs["shininess"] = current["ns"]
         if "ke" in current:
             kwargs["emissive"] = current["ke"]
         try:
@@ -514,6 +550,9 @@ def _parse_mtl(text: str, mtl_name: str, info: _FileInfo, folder: str = "") -> d
                 info.warn((where, key), f"{where}: {words[0]} {words[1]!r} is not a number; dropped")
                 continue
             if key == "ns":
+                if v < 0.0:
+                    info.warn((where, "ns<0"), f"{where}: {words[0]} {words[1]} is negative: read as 0 "
+                                               "(no highlight)")
                 current["ns"] = max(v, 0.0)
             else:
                 current["d"] = min(max(v, 0.0), 1.0)
@@ -898,9 +937,12 @@ def _trimesh_material(mat: Any, info: _FileInfo) -> tuple[Material | None, list[
             if texture is None:
                 dropped.append(f"its texture image {why}: not drawn")
         # a texture multiplies the diffuse colour: kd is the base colour then
+        # the MTL rule (see the module docstring): pbr, metallic 0, roughness from Ks and Ns
+        ns = max(float(mat.glossiness), 0.0)
         m = Material(base_color=(*rgb[1], alpha), ka=rgb[0], kd=None if texture is not None else rgb[1],
-                     ks=rgb[2], shininess=max(float(mat.glossiness), 0.0), model="blinn_phong",
-                     name=name if isinstance(name, str) else None, base_color_texture=texture)
+                     ks=rgb[2], shininess=ns, metallic=0.0, roughness=_mtl_roughness(rgb[2], ns),
+                     model="pbr", name=name if isinstance(name, str) else None,
+                     base_color_texture=texture)
         return m, dropped, ("simple", id(mat))
     return None, [f"a {type(mat).__name__} is not supported"], ("other", id(mat))
 

@@ -102,7 +102,7 @@ class Material:
         two-sided but culled by ``render(cull=)``.
     model : the shading model ``render(shading="auto")`` uses for this material, one of
         ``softrast.material.MODELS``, or None: "blinn_phong" (the loaders set "pbr" for glTF
-        materials and "blinn_phong" for MTL ones).
+        and MTL materials: ``softrast.loaders`` states how MTL's Ks and Ns become roughness).
     name : a label (the file's material name), not used for rendering.
     base_color_texture, emissive_texture : Texture or None; sRGB-decoded unless the texture
         says ``srgb=False``.

@@ -444,8 +444,9 @@ class Mesh:
         Keeps uvs (``TextureVisuals``), per-vertex colours and per-face colours: a Mesh colours
         vertices, so each face with a colour of its own gets three vertices of its own (faces keep
         their order; smooth normals are the original vertex's). A trimesh material becomes a
-        ``softrast.Material``: a ``SimpleMaterial`` (MTL) -> ka/kd/ks/shininess, model
-        "blinn_phong"; a ``PBRMaterial`` (glTF) -> base colour, metallic, roughness (trimesh's
+        ``softrast.Material``: a ``SimpleMaterial`` (MTL) -> ka/kd/ks/shininess and model "pbr",
+        metallic 0, roughness from ks and shininess (the MTL rule of ``softrast.loaders``); a
+        ``PBRMaterial`` (glTF) -> base colour, metallic, roughness (trimesh's
         None: glTF's defaults 1 and 1), emissive, double_sided, model "pbr". trimesh holds their
         colours as 8 bits; ``softrast.load_mesh`` reads the exact values from the file instead.
         Its images become ``softrast.Texture`` objects (a SimpleMaterial's image: the base colour
