@@ -792,17 +792,28 @@ def test_obj_bump_without_uvs_is_dropped(tmp_path):
 
 def test_obj_maps_not_drawn_or_missing_warn_naming_file_and_material(tmp_path):
     sr.imwrite(tmp_path / "tex.png", IMAGE)
-    mtl = ("newmtl tex\nmap_Kd -s 2 2 1 tex.png\nmap_Ks spec.png\nmap_d alpha.png\nmap_Ke nowhere.png\n")
+    mtl = ("newmtl tex\nmap_Kd -s 2 2 1 tex.png\nmap_Ns spec.png\nmap_d alpha.png\nmap_Ke nowhere.png\n")
     path = _quad(tmp_path, mtl)
     with pytest.warns(UserWarning) as record:
         m = sr.load_mesh(path).material
     (text,) = [str(w.message) for w in record]
     assert text.startswith(f"{path}: material 'tex': ")
-    for part in ("map_Ks 'spec.png' is not drawn yet", "map_d 'alpha.png' is not drawn yet",
+    for part in ("map_Ns 'spec.png' is not drawn yet", "map_d 'alpha.png' is not drawn yet",
                  "map_Ke 'nowhere.png' not found next to the MTL file: not drawn",
                  "map_Kd 'tex.png': option(s) -s 2 2 1 ignored"):
         assert part in text
     assert m.base_color_texture is not None and m.emissive_texture is None and m.emissive == (0.0, 0.0, 0.0)
+
+
+def test_obj_map_ks_is_the_specular_texture_multiplying_ks(tmp_path, no_warnings):
+    sr.imwrite(tmp_path / "spec.png", IMAGE)
+    m = sr.load_mesh(_quad(tmp_path, "newmtl tex\nKs 0.5 0.25 1\nNs 20\nmap_Ks spec.png\n")).material
+    assert m.specular_texture is not None and m.specular_texture.name == "spec.png"
+    assert m.ks == (0.5, 0.25, 1.0)
+    # read linear (a data slot): the texture leaves it to the slot, which reads linear
+    assert np.array_equal(m.specular_texture.image, IMAGE) and m.specular_texture.srgb is None
+    white = sr.load_mesh(_quad(tmp_path, "newmtl tex\nmap_Ks spec.png\n")).material
+    assert white.ks == (1.0, 1.0, 1.0)  # without Ks the map multiplies white, as map_Ke
 
 
 def test_obj_textures_shared_between_materials_and_relative_to_the_mtl(tmp_path, no_warnings):

@@ -95,7 +95,7 @@ silently); the scene's background is black (softrast's default ``background``).
   0.5 (what softrast's ``pbr`` uses for it). What pyrender has no place for warns: a shading
   model other than "pbr" (pyrender shades every material with its metallic-roughness model;
   ``pyrender.RenderFlags.FLAT`` gives softrast's ``unlit``), ``ka`` / ``kd`` / ``ks`` /
-  ``shininess`` of a material that is not "pbr" (when set), ``bump_texture``,
+  ``shininess`` of a material that is not "pbr" (when set), ``bump_texture``, ``specular_texture``,
   ``normal_scale`` != 1, ``occlusion_strength`` != 1. Converted as glTF defines them but shaded
   otherwise by pyrender's lit shader (PBR_NOTES.md): its emission is ``emissiveFactor`` squared,
   its occlusion map darkens the lights too, not only the ambient term.
@@ -588,6 +588,8 @@ def _pr_material(pyrender: Any, mat: Material | None, base: tuple[float, ...], h
                          "material has no such parameters")
     if mat.bump_texture is not None:
         notes.append(f"{label}: bump_texture is not converted: pyrender has no bump maps")
+    if mat.specular_texture is not None:
+        notes.append(f"{label}: specular_texture is not converted: pyrender has no specular maps")
     if mat.normal_texture is not None and mat.normal_scale != 1.0:
         notes.append(f"{label}: normal_scale {mat.normal_scale} is not converted: pyrender reads "
                      "normal maps unscaled")

@@ -75,7 +75,9 @@ Textures (``softrast.Texture``, see ``softrast.texture``):
 * MTL: ``map_Kd`` -> ``base_color_texture`` (the material then has ``kd=None``, so the texture
   multiplies Kd, as MTL prescribes; without Kd, white), ``map_Ke`` -> ``emissive_texture``
   (multiplying Ke; without Ke, white), ``norm`` -> ``normal_texture`` (a tangent-space normal
-  map; ``-bm`` -> ``normal_scale``), ``map_Bump`` / ``bump`` (a height map) -> ``bump_texture``
+  map; ``-bm`` -> ``normal_scale``), ``map_Ks`` -> ``specular_texture`` (read linear; it
+  multiplies Ks, white without Ks; drawn by ``shading="phong"`` / ``"blinn_phong"``, since
+  ``pbr``, the MTL materials' own model, has no specular level), ``map_Bump`` / ``bump`` (a height map) -> ``bump_texture``
   with ``-bm`` (MTL's bump multiplier, default 1) -> ``bump_scale``; its first (red) channel is
   the height, so a colour (not grey) height map gets a warning unless it says ``-imfchan r``
   (MTL's default is luminance). An RGB ``map_Bump`` / ``bump`` image that is plainly a
@@ -98,7 +100,7 @@ Textures (``softrast.Texture``, see ``softrast.texture``):
 Whatever a file carries that softrast cannot draw yet (glTF alpha blending (``alphaMode``
 BLEND: rendered opaque), textures read through ``texCoord`` other than 0,
 ``KHR_texture_transform`` and other texture or material extensions; MTL ``map_Ka``,
-``map_Ks``, ``map_Ns``, ``map_d``, ``disp``, ``decal``, ``refl`` and the PBR maps ``map_Pr``,
+``map_Ns``, ``map_d``, ``disp``, ``decal``, ``refl`` and the PBR maps ``map_Pr``,
 ``map_Pm``, ``map_Ps``, ``map_RMA``, ``map_ORM``, map options other than ``-clamp``, ``-bm``
 (on ``norm`` and bump maps) and ``-imfchan r`` (on bump maps), and transparency ``d`` < 1) is
 dropped with a ``UserWarning`` naming the file, the material and what was dropped: never
@@ -140,7 +142,8 @@ _GL_NEAREST, _GL_LINEAR, _GL_NEAREST_MIPMAP_NEAREST = 9728, 9729, 9984
 # (a height map, or a normal map) are drawn; the others are dropped with a warning.
 _MTL_MAPS = ("map_ka", "map_kd", "map_ks", "map_ns", "map_d", "map_ke", "map_bump", "bump",
              "disp", "decal", "refl", "norm", "map_pr", "map_pm", "map_ps", "map_rma", "map_orm")
-_MTL_SLOTS = {"map_kd": "base_color_texture", "map_ke": "emissive_texture", "norm": "normal_texture"}
+_MTL_SLOTS = {"map_kd": "base_color_texture", "map_ke": "emissive_texture", "norm": "normal_texture",
+              "map_ks": "specular_texture"}
 # MTL map options and how many arguments each takes ((1, 3): one to three numbers)
 _MTL_OPTIONS = {"-blendu": 1, "-blendv": 1, "-bm": 1, "-boost": 1, "-cc": 1, "-clamp": 1,
                 "-imfchan": 1, "-mm": 2, "-o": (1, 3), "-s": (1, 3), "-t": (1, 3), "-texres": 1,
@@ -220,6 +223,7 @@ class _MtlEntry:
     maps: list[_MtlMap]
     folder: str  # the MTL file's folder: map file names are relative to it
     ke_given: bool  # the material states Ke (else map_Ke multiplies white)
+    ks_given: bool = False  # the material states Ks (else map_Ks multiplies white)
     resolved: tuple[Material, list[str]] | None = None
 
 
@@ -521,7 +525,8 @@ def _parse_mtl(text: str, mtl_name: str, info: _FileInfo, folder: str = "") -> d
         if "ke" in current:
             kwargs["emissive"] = current["ke"]
         try:
-            found[name] = _MtlEntry(Material(**kwargs), dropped, maps, folder, "ke" in current)
+            found[name] = _MtlEntry(Material(**kwargs), dropped, maps, folder, "ke" in current,
+                                    "ks" in current)
         except (TypeError, ValueError) as exc:  # cannot happen after the clipping above
             info.warn((where, "bad"), f"{where} in {mtl_name!r} is invalid ({exc}); dropped")
 
@@ -603,7 +608,7 @@ def _mtl_resolve(entry: _MtlEntry, info: _FileInfo) -> tuple[Material, list[str]
         if bump and bump_seen:
             dropped.append(f"{what}: a second bump map is ignored")
             continue
-        scaled = statement not in ("map_kd", "map_ke")  # -bm: norm's normal_scale, bump_scale
+        scaled = statement not in ("map_kd", "map_ke", "map_ks")  # -bm: normal_scale, bump_scale
         red = bump and [a.lower() for a in m.options.get("-imfchan", [])] == ["r"]
         ignored = []
         for option, args in m.options.items():
@@ -670,6 +675,8 @@ def _mtl_resolve(entry: _MtlEntry, info: _FileInfo) -> tuple[Material, list[str]
         textures.update(kd=None, base_color=(*rgb, material.base_color[3]))
     if "emissive_texture" in textures and not entry.ke_given:
         textures["emissive"] = (1.0, 1.0, 1.0)  # map_Ke multiplies Ke, white without it
+    if "specular_texture" in textures and not entry.ks_given:
+        textures["ks"] = (1.0, 1.0, 1.0)  # map_Ks multiplies Ks, white without it
     if textures:
         material = material.replace(**textures)
     entry.resolved = (material, dropped)
