@@ -107,3 +107,34 @@ def test_write_dataset_checks_its_arguments(tmp_path):
     (tmp_path / "bad.json").write_text('{"format": "other"}')
     with pytest.raises(ValueError, match="not a softrast cameras.json"):
         sr.load_cameras(tmp_path / "bad.json")
+
+
+@pytest.mark.parametrize("outputs", [("instance_id", "depth", "color"), ("color", "normal", "depth")])
+def test_cameras_json_after_an_interrupted_run_is_byte_identical(tmp_path, monkeypatch, outputs):
+    """Interrupted after a few views, then resumed: cameras.json (its ``files`` included) and
+    the returned paths are the uninterrupted run's, byte for byte, whatever the order of
+    ``outputs`` (issue 39)."""
+    scene, cams = _scene(), _cams()
+    clean, cut = tmp_path / "clean", tmp_path / "cut"
+    clean.mkdir()
+    cut.mkdir()
+    want = sr.write_dataset(scene, cams, clean, outputs=outputs)
+    save = sr.Frame.save
+    calls = []
+
+    def interrupted_save(self, *args, **kwargs):
+        calls.append(1)
+        if len(calls) > 3:
+            raise KeyboardInterrupt
+        return save(self, *args, **kwargs)
+
+    monkeypatch.setattr(sr.Frame, "save", interrupted_save)
+    with pytest.raises(KeyboardInterrupt):
+        sr.write_dataset(scene, cams, cut, outputs=outputs, writers=1)
+    monkeypatch.setattr(sr.Frame, "save", save)
+    assert not (cut / "cameras.json").exists() and 0 < len(os.listdir(cut)) < 3 * len(cams)
+    got = sr.write_dataset(scene, cams, cut, outputs=outputs)
+    assert (cut / "cameras.json").read_bytes() == (clean / "cameras.json").read_bytes()
+    assert [list(p) for p in got] == [list(p) for p in want]
+    assert [[os.path.basename(f) for f in p.values()] for p in got] == \
+        [[os.path.basename(f) for f in p.values()] for p in want]

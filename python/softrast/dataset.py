@@ -17,7 +17,7 @@ skips the views whose files are all there (``resume``).
                  "xmag": null, "ymag": null,                      # orthographic half-extents
                  "pose_opencv": 4x4,   # camera-to-world, axes x right, y down, z forward
                  "pose_opengl": 4x4,   # camera-to-world, axes x right, y up, z backward
-                 "files": {"color": "000000_color.png", ...}}, ...]}
+                 "files": {"color": "000000_color.png", ...}}, ...]}  # in softrast.OUTPUTS order
 
 K follows OpenCV: the centre of pixel (row i, col j) is at (u, v) = (j, i); a world point X is
 seen at K (R X + t) / z with [R | t] the inverse of ``pose_opencv``.
@@ -32,6 +32,7 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
+from . import _core
 from .camera import Camera, IntrinsicsCamera, OrthographicCamera
 from .render import Frame, Renderer, _default_format
 from .scene import Scene
@@ -39,6 +40,7 @@ from .scene import Scene
 __all__ = ["write_dataset", "load_cameras", "camera_record", "DatasetJob", "render_dataset"]
 
 _GL_FROM_CV = np.diag([1.0, -1.0, -1.0, 1.0])
+_OUTPUT_INDEX = {name: k for k, name in enumerate(_core.OUTPUTS)}
 _FORMAT = "softrast cameras 1"
 _CONVENTIONS = ("K: OpenCV, the centre of pixel (row i, col j) at (u, v) = (j, i). pose_opencv: "
                 "camera-to-world, camera axes x right, y down, z forward; pose_opengl: the same "
@@ -126,7 +128,8 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
                   first: int = 0, cameras_json: bool = True, **options: Any) -> list[dict[str, str]]:
     """Render ``scene`` from every camera and write each frame as ``Frame.save`` does
     (``{stem}_{output}.{ext}``, stems 000000, 000001, ...), plus ``cameras.json``; returns each
-    frame's {output: path}.
+    frame's {output: path}, in ``softrast.OUTPUTS`` order (as ``files`` in cameras.json: a
+    resumed run writes the same cameras.json, byte for byte, as an uninterrupted one).
 
     cameras : posed cameras, each with its image size (all the same size: one renderer).
     renderer : the renderer to use (default: a new one, all cores, for the cameras' size).
@@ -217,17 +220,23 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
     finally:
         if bar is not None:
             bar.close()
-    paths = [done[k] for k in range(len(cams))]
+    paths = [_in_output_order(done[k]) for k in range(len(cams))]
     if cameras_json:
         _write_cameras_json(directory, cams, stems, paths)
     return paths
+
+
+def _in_output_order(files: dict[str, str]) -> dict[str, str]:
+    """``files`` ({output: path}) in one canonical order, softrast.OUTPUTS' (the order of
+    Frame.save), whether a view was written now or found by resume."""
+    return {n: files[n] for n in sorted(files, key=_OUTPUT_INDEX.__getitem__)}
 
 
 def _write_cameras_json(directory: str, cams: Sequence[Camera], stems: Sequence[str],
                         paths: Sequence[dict[str, str]]) -> None:
     doc = {"format": _FORMAT, "conventions": _CONVENTIONS,
            "frames": [dict(camera_record(c), stem=stem,
-                           files={n: os.path.basename(p) for n, p in files.items()})
+                           files={n: os.path.basename(p) for n, p in _in_output_order(files).items()})
                       for c, stem, files in zip(cams, stems, paths)]}
     _atomic_json(os.path.join(directory, "cameras.json"), doc)
 
