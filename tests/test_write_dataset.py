@@ -138,3 +138,45 @@ def test_cameras_json_after_an_interrupted_run_is_byte_identical(tmp_path, monke
     assert [list(p) for p in got] == [list(p) for p in want]
     assert [[os.path.basename(f) for f in p.values()] for p in got] == \
         [[os.path.basename(f) for f in p.values()] for p in want]
+def _flip(data: bytes) -> bytes:
+    out = bytearray(data)  # a run of flipped bits in the middle (pixel data, past the header)
+    for k in range(len(out) // 2, len(out) // 2 + 16):
+        out[k] ^= 0x5A
+    return bytes(out)
+
+
+def test_resume_rewrites_damaged_files(tmp_path):
+    """resume keeps only files that decode to the view's output: a truncated, an empty, a
+    corrupt file, one of another size or pixel type, are rendered again (issue 39)."""
+    scene, cams = _scene(), _cams(8)
+    formats = {"depth": "npy"}
+    outputs = OUTPUTS + ("normal",)
+    clean = tmp_path / "clean"
+    cut = tmp_path / "cut"
+    clean.mkdir()
+    cut.mkdir()
+    paths = sr.write_dataset(scene, cams, clean, outputs=outputs, formats=formats)
+    cut_paths = sr.write_dataset(scene, cams, cut, outputs=outputs, formats=formats)
+    files = lambda d: {p.name: p.read_bytes() for p in sorted(d.iterdir())}  # noqa: E731
+    want = files(clean)
+    assert files(cut) == want
+    name = lambda k, output: os.path.basename(paths[k][output])  # noqa: E731
+    damage = {
+        name(0, "color"): lambda b: b[: len(b) // 2],          # truncated PNG
+        name(1, "depth"): lambda b: b"",                       # empty .npy
+        name(2, "instance_id"): _flip,                         # corrupt PNG (CRC)
+        name(3, "normal"): lambda b: b[: len(b) - 40],         # truncated EXR
+        name(4, "depth"): lambda b: b[:-8],                    # truncated .npy
+        name(5, "normal"): _flip,                              # corrupt EXR (zip)
+    }
+    for n, f in damage.items():
+        (cut / n).write_bytes(f(want[n]))
+    # a valid image of another size, and one of another pixel type
+    sr.imwrite(cut / name(4, "color"), np.zeros((10, 12, 3), np.uint8))
+    sr.imwrite(cut / name(5, "instance_id"), np.zeros((36, 48), np.uint8))
+    kept = {n: os.stat(cut / n).st_mtime_ns for n in want if n.startswith(("000006_", "000007_"))}
+    assert sr.write_dataset(scene, cams, cut, outputs=outputs, formats=formats) == cut_paths
+    assert files(cut) == want
+    assert len(kept) == 8
+    for n, mtime in kept.items():  # the intact views are not written again
+        assert os.stat(cut / n).st_mtime_ns == mtime, n

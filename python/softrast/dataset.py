@@ -4,7 +4,9 @@
 ``write_dataset`` renders with ``Renderer.render_many`` and hands each frame to a small pool of
 writer threads (OpenImageIO releases the GIL while it encodes), so encoding overlaps rendering;
 files are written atomically, so an interrupted run leaves only complete files, and a rerun
-skips the views whose files are all there (``resume``).
+skips the views whose files are all there and intact (``resume``: each decodes, as
+``Frame.load`` reads it, to the output's dtype, channels and image size; a view with a
+truncated, empty or corrupt file is rendered again).
 
 ``cameras.json``::
 
@@ -114,6 +116,16 @@ def _remove_stale_temporaries(directory: str, stems: Sequence[str]) -> None:
                 pass
 
 
+def _intact(path: str, name: str, height: int, width: int) -> bool:
+    """Whether ``path`` decodes to output ``name`` as save writes it, ``height`` x ``width``."""
+    from .render import _read_output
+
+    try:
+        return _read_output(path, name).shape[:2] == (height, width)
+    except (ValueError, OSError, MemoryError):
+        return False
+
+
 def _atomic_json(path: str, doc: Any) -> None:
     tmp = f"{path}.{os.getpid()}.tmp"
     with open(tmp, "w", encoding="utf-8") as f:
@@ -135,9 +147,13 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
     renderer : the renderer to use (default: a new one, all cores, for the cameras' size).
     writers : encoding threads (default: the renderer's thread count); encoding overlaps
         rendering, at most 2 frames per writer wait to be written.
-    resume : skip the views whose files all exist (a rerun after an interruption renders only
-        what is missing; files are written atomically, so none is partial; the hidden temporary
-        files a killed run can leave are removed).
+    resume : skip the views whose files all exist and are intact (a rerun after an interruption
+        renders only what is missing; files are written atomically, so none is partial; the
+        hidden temporary files a killed run can leave are removed). Each file found is decoded
+        (by the writer threads) and must hold the output save writes, at the cameras' size; a
+        view with a truncated, empty or corrupt file (as far as its decoder or the .npy header
+        reveals it: PNG chunks carry checksums, compressed data mostly fails to inflate, but
+        flipped bits in raw .npy data or uncompressed pixels go unseen) is rendered again.
     first : the index of the first camera's view (its stem); for a shard of a larger job.
     cameras_json : write cameras.json (False for a shard: ``render_dataset`` writes it whole).
     options : passed to ``render`` (shading=, cull=, background=, ...).
@@ -177,31 +193,36 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
         return out
 
     def complete(stem: str) -> dict[str, str] | None:
+        # the view's files, if each one is there and decodes to the output save wrote (not
+        # truncated, empty or corrupt, of the cameras' size): else None, to render it again
         paths = expected(stem)
         for name, path in list(paths.items()):
             if not os.path.exists(path):
                 alt = os.path.splitext(path)[0] + ".tif"  # large ids
                 if name in ("triangle_id", "instance_id") and os.path.exists(alt):
-                    paths[name] = alt
-                    continue
+                    paths[name] = path = alt
+                else:
+                    return None
+            if not _intact(path, name, h, w):
                 return None
         return paths
 
     _remove_stale_temporaries(directory, stems)
     done: dict[int, dict[str, str]] = {}
     todo = []
-    for k, stem in enumerate(stems):
-        paths = complete(stem) if resume else None
-        if paths is not None:
-            done[k] = paths
-        else:
-            todo.append(k)
     bar = None
-    if progress:
-        from tqdm.auto import tqdm
-        bar = tqdm(total=len(cams), initial=len(done), unit="view", desc="write_dataset")
     try:
         with concurrent.futures.ThreadPoolExecutor(n_writers, "softrast-writer") as pool:
+            # resume: the writers decode the files already there (OpenImageIO releases the GIL)
+            found = pool.map(complete, stems) if resume else [None] * len(stems)
+            for k, paths in enumerate(found):
+                if paths is not None:
+                    done[k] = paths
+                else:
+                    todo.append(k)
+            if progress:
+                from tqdm.auto import tqdm
+                bar = tqdm(total=len(cams), initial=len(done), unit="view", desc="write_dataset")
             pending: list[tuple[int, concurrent.futures.Future]] = []
 
             def drain(limit: int) -> None:
