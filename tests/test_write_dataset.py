@@ -180,3 +180,33 @@ def test_resume_rewrites_damaged_files(tmp_path):
     assert len(kept) == 8
     for n, mtime in kept.items():  # the intact views are not written again
         assert os.stat(cut / n).st_mtime_ns == mtime, n
+
+
+_HEAD = b'{"format": "softrast cameras 1"'
+_BAD_CAMERAS = {  # name: (content, what the error says)
+    "truncated": (None, "invalid JSON"),
+    "empty": (b"", "invalid JSON"),
+    "binary": (b"\x89PNG\r\n\x1a\n\x00\x00\xff\xfe\x80binary", "UTF-8"),
+    "no_frames": (_HEAD + b"}", "frames"),
+    "frames_number": (_HEAD + b', "frames": 5}', "frames"),
+    "frames_object": (_HEAD + b', "frames": {"a": 1}}', "frames"),
+    "frame_number": (_HEAD + b', "frames": [5]}', "frame 0"),
+    "deep_frames": (_HEAD + b', "frames": ' + b"[" * 100000 + b"]" * 100000 + b"}", "nested"),
+    "deep_unclosed": (b"[" * 100000, "nested|invalid JSON"),
+}
+
+
+@pytest.mark.parametrize("case", list(_BAD_CAMERAS))
+def test_load_cameras_refuses_bad_files_naming_them(tmp_path, case):
+    """Every broken cameras.json is a ValueError naming the file (issue 39)."""
+    content, match = _BAD_CAMERAS[case]
+    if content is None:
+        sr.write_dataset(_scene(), _cams(2), tmp_path, outputs=("depth",))
+        content = (tmp_path / "cameras.json").read_bytes()
+        content = content[: len(content) // 2]
+    path = tmp_path / "cameras.json"
+    path.write_bytes(content)
+    for arg in (path, tmp_path, str(path)):
+        with pytest.raises(ValueError, match=rf"cameras\.json.*({match})") as info:
+            sr.load_cameras(arg)
+        assert str(path) in str(info.value)

@@ -75,16 +75,31 @@ def load_cameras(path: str | os.PathLike[str]) -> list[Camera]:
     """The cameras of a ``cameras.json`` (a file, or the dataset directory holding one), in frame
     order: ``IntrinsicsCamera(convention="opencv")`` from K (the same projection as the camera
     that rendered the frame, to float64 rounding) or ``OrthographicCamera``, posed, with the
-    frame's image size, near and far."""
+    frame's image size, near and far.
+
+    A file that is not a softrast cameras.json (not UTF-8 JSON, no ``frames`` list, a record
+    that is not a camera) raises ValueError naming it."""
     p = os.fspath(path)
     if os.path.isdir(p):
         p = os.path.join(p, "cameras.json")
-    with open(p, encoding="utf-8") as f:
-        doc = json.load(f)
+    with open(p, "rb") as f:
+        data = f.read()
+    try:
+        doc = json.loads(data.decode("utf-8"))
+    except UnicodeDecodeError as e:
+        raise ValueError(f"{p}: not a softrast cameras.json (not UTF-8 text: {e})") from None
+    except json.JSONDecodeError as e:
+        raise ValueError(f"{p}: not a softrast cameras.json (invalid JSON: {e})") from None
+    except RecursionError:
+        raise ValueError(f"{p}: not a softrast cameras.json (JSON nested too deeply)") from None
     if not isinstance(doc, dict) or doc.get("format") != _FORMAT:
         raise ValueError(f"{p}: not a softrast cameras.json (format {_FORMAT!r})")
+    frames = doc.get("frames")
+    if not isinstance(frames, list):
+        raise ValueError(f"{p}: \"frames\" must be a list of camera records, got "
+                         f"{'nothing' if 'frames' not in doc else type(frames).__name__}")
     cams: list[Camera] = []
-    for k, rec in enumerate(doc.get("frames", [])):
+    for k, rec in enumerate(frames):
         try:
             if rec["orthographic"]:
                 cam: Camera = OrthographicCamera(rec["xmag"], rec["ymag"], width=rec["width"],
@@ -96,8 +111,8 @@ def load_cameras(path: str | os.PathLike[str]) -> list[Camera]:
                                        near=rec["near"], far=rec["far"], convention="opencv",
                                        dist=rec.get("dist"))
                 cam.pose = np.asarray(rec["pose_opencv"], dtype=np.float64)
-        except (KeyError, TypeError, ValueError, IndexError) as e:
-            raise ValueError(f"{p}: frame {k} is not a valid camera record: {e}") from e
+        except (KeyError, TypeError, ValueError, IndexError, RecursionError) as e:
+            raise ValueError(f"{p}: frame {k} is not a valid camera record: {e!s:.200}") from None
         cams.append(cam)
     return cams
 
