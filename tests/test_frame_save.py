@@ -143,3 +143,16 @@ def test_load_checks_images_against_the_output_table(tmp_path):
     sr.imwrite(tmp_path / "f_normal.png", np.zeros((30, 40, 3), np.uint8))  # a format save never uses
     with pytest.raises(ValueError, match=r"f_normal\.png"):
         sr.Frame.load(tmp_path, "f")
+
+
+def test_load_refuses_two_files_of_one_output(tmp_path):
+    """A stale .png beside the .tif of the same output (saved again in another format): which
+    one is the frame's is ambiguous, so Frame.load names both rather than pick one (issue 39)."""
+    frame = _frame()
+    frame.save(tmp_path, "f")
+    frame.save(tmp_path, "f", formats={"instance_id": "tif"})
+    with pytest.raises(ValueError, match=r"f_instance_id\.png.*f_instance_id\.tif|"
+                                         r"f_instance_id\.tif.*f_instance_id\.png"):
+        sr.Frame.load(tmp_path, "f")
+    os.remove(tmp_path / "f_instance_id.png")
+    np.testing.assert_array_equal(sr.Frame.load(tmp_path, "f").instance_id, frame.instance_id)

@@ -116,23 +116,27 @@ class Frame:
 
         Each file must hold what ``save`` writes for its output (the dtype and channels of
         ``softrast.OUTPUT_TABLE``, in a format ``save`` offers for it) and all of them one
-        (h, w); else ValueError naming the file."""
+        (h, w); else ValueError naming the file. Two files of one output (say a .png and the
+        .tif of a later save in another format) are ambiguous: ValueError naming both."""
         directory = os.fspath(directory)
         buffers = {}
         first: tuple[str, tuple[int, ...]] | None = None
         for name in _core.OUTPUTS:
-            for ext in ("npy", "png", "exr", "tif", "jpg"):
-                path = os.path.join(directory, f"{stem}_{name}.{ext}")
-                if not os.path.exists(path):
-                    continue
-                arr = _read_output(path, name)
-                if first is None:
-                    first = (path, arr.shape[:2])
-                elif arr.shape[:2] != first[1]:
-                    raise ValueError(f"{path}: {name} is {arr.shape[:2]} (h, w), but {first[0]} "
-                                     f"is {first[1]}: the outputs of one frame have one size")
-                buffers[name] = arr
-                break
+            found = [path for ext in ("npy", "png", "exr", "tif", "jpg")
+                     if os.path.exists(path := os.path.join(directory, f"{stem}_{name}.{ext}"))]
+            if not found:
+                continue
+            if len(found) > 1:  # saved again in another format: which one is this frame's?
+                raise ValueError(f"{' and '.join(found)}: two files of output {name}; remove "
+                                 "the stale one")
+            path = found[0]
+            arr = _read_output(path, name)
+            if first is None:
+                first = (path, arr.shape[:2])
+            elif arr.shape[:2] != first[1]:
+                raise ValueError(f"{path}: {name} is {arr.shape[:2]} (h, w), but {first[0]} "
+                                 f"is {first[1]}: the outputs of one frame have one size")
+            buffers[name] = arr
         if not buffers:
             raise FileNotFoundError(f"no outputs saved as {os.path.join(directory, stem)}_*")
         return cls(buffers)
