@@ -85,3 +85,74 @@ def test_save_checks_its_arguments(tmp_path):
     with pytest.raises(FileNotFoundError, match="no outputs"):
         sr.Frame.load(tmp_path, "nothing")
     assert not [p for p in os.listdir(tmp_path) if p.startswith(".")]  # no temporaries left
+
+
+@pytest.mark.parametrize("name, array, match", [
+    ("depth", np.zeros((30, 40), np.float64), "float32"),             # wrong dtype
+    ("depth", np.zeros((30, 40, 3), np.float32), r"\(30, 40, 3\)"),   # wrong shape
+    ("color", np.zeros((30, 40), np.uint8), r"\(30, 40\)"),            # colour without channels
+    ("color", np.zeros((30, 40, 4), np.uint8), r"\(30, 40, 4\)"),
+    ("instance_id", np.zeros((30, 40), np.int64), "int64"),
+    ("mask", np.zeros((30, 40), np.uint8), "uint8"),
+    ("uv", np.zeros((30, 40, 3), np.float32), r"\(30, 40, 3\)"),
+    ("depth", np.zeros((12, 40), np.float32), r"\(12, 40\)"),          # not the frame's (h, w)
+    ("depth", np.zeros((5,), np.float32), r"\(5,\)"),
+    ("depth", np.array(["a", "b"]), "<U1"),
+])
+def test_load_checks_npy_files_against_the_output_table(tmp_path, name, array, match):
+    """A .npy of the wrong dtype, shape or size is refused, naming the file (issue 39)."""
+    _frame().save(tmp_path, "f")
+    for p in tmp_path.glob(f"f_{name}.*"):  # only the .npy holds this output
+        p.unlink()
+    np.save(tmp_path / f"f_{name}.npy", array)
+    with pytest.raises(ValueError, match=rf"f_{name}\.npy.*{match}"):
+        sr.Frame.load(tmp_path, "f")
+
+
+@pytest.mark.parametrize("content", [b"", b"\x93NUMPY", b"not a npy file at all", "truncated", "pickle"])
+def test_load_refuses_broken_npy_files(tmp_path, content):
+    frame = _frame()
+    frame.save(tmp_path, "f", formats={"depth": "npy"})
+    path = tmp_path / "f_depth.npy"
+    if content == "truncated":
+        content = path.read_bytes()[:-10]
+    elif content == "pickle":
+        np.save(path, np.array([{"a": 1}], dtype=object), allow_pickle=True)
+        content = path.read_bytes()
+    path.write_bytes(content)
+    with pytest.raises(ValueError, match=r"f_depth\.npy"):
+        sr.Frame.load(tmp_path, "f")
+
+
+def test_load_checks_images_against_the_output_table(tmp_path):
+    """An image file of the wrong pixel type, channel count or size is refused, naming it."""
+    frame = _frame()
+    frame.save(tmp_path, "f", formats={"depth": "exr"})
+    sr.imwrite(tmp_path / "f_depth.exr", np.zeros((30, 40, 3), np.float32))
+    with pytest.raises(ValueError, match=r"f_depth\.exr.*\(30, 40, 3\)"):
+        sr.Frame.load(tmp_path, "f")
+    frame.save(tmp_path, "f")
+    sr.imwrite(tmp_path / "f_color.png", np.zeros((30, 40, 3), np.uint16))  # 16-bit colour
+    with pytest.raises(ValueError, match=r"f_color\.png.*uint16"):
+        sr.Frame.load(tmp_path, "f")
+    frame.save(tmp_path, "f")
+    sr.imwrite(tmp_path / "f_mask.png", np.zeros((20, 40), np.uint8))  # another size
+    with pytest.raises(ValueError, match=r"f_mask\.png.*\(20, 40\)"):
+        sr.Frame.load(tmp_path, "f")
+    frame.save(tmp_path, "f")
+    sr.imwrite(tmp_path / "f_normal.png", np.zeros((30, 40, 3), np.uint8))  # a format save never uses
+    with pytest.raises(ValueError, match=r"f_normal\.png"):
+        sr.Frame.load(tmp_path, "f")
+
+
+def test_load_refuses_two_files_of_one_output(tmp_path):
+    """A stale .png beside the .tif of the same output (saved again in another format): which
+    one is the frame's is ambiguous, so Frame.load names both rather than pick one (issue 39)."""
+    frame = _frame()
+    frame.save(tmp_path, "f")
+    frame.save(tmp_path, "f", formats={"instance_id": "tif"})
+    with pytest.raises(ValueError, match=r"f_instance_id\.png.*f_instance_id\.tif|"
+                                         r"f_instance_id\.tif.*f_instance_id\.png"):
+        sr.Frame.load(tmp_path, "f")
+    os.remove(tmp_path / "f_instance_id.png")
+    np.testing.assert_array_equal(sr.Frame.load(tmp_path, "f").instance_id, frame.instance_id)

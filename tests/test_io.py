@@ -192,3 +192,29 @@ def test_bad_compression_is_refused(tmp_path, name, compression, match):
     with pytest.raises(ValueError, match=match):
         imwrite(tmp_path / name, arr, compression=compression)
     assert not list(tmp_path.iterdir())
+
+
+def _damaged(kind, data):
+    if kind == "truncated":
+        return data[: len(data) // 10]
+    flipped = bytearray(data)  # a run of flipped bits in the entropy-coded data, after the headers
+    for k in range(len(data) // 2, len(data) // 2 + 400):
+        flipped[k] ^= 0x5A
+    return bytes(flipped)
+
+
+@pytest.mark.parametrize("kind", ["truncated", "flipped"])
+def test_imread_and_load_texture_report_decoder_errors(tmp_path, rng, kind):
+    """OpenImageIO decodes a damaged JPEG to mostly grey and reports it: that is an error, naming
+    the file and the decoder's message, not an image (issue 39)."""
+    import softrast as sr
+
+    image = (rng.random((64, 80, 3)) * 255).astype(np.uint8)
+    imwrite(tmp_path / "full.jpg", image)
+    path = tmp_path / f"{kind}.jpg"
+    path.write_bytes(_damaged(kind, (tmp_path / "full.jpg").read_bytes()))
+    with pytest.raises(ValueError, match=rf"{kind}\.jpg.*(JPEG|jpeg)"):
+        imread(path)
+    with pytest.raises(ValueError, match=rf"{kind}\.jpg"):
+        sr.load_texture(path)
+    assert imread(tmp_path / "full.jpg").shape == (64, 80, 3)  # the intact file still loads

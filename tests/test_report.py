@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import math
+import os
 import subprocess
 import sys
 
@@ -309,3 +310,56 @@ def test_report_requires_out(capsys):
     assert main(["report", "--quick"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("softrast: error: ") and "--out" in err
+
+
+def _never_measure(*args, **kwargs):
+    raise AssertionError("measured before checking the output folder")
+
+
+def test_out_under_a_file_is_an_error_before_measuring(tmp_path, monkeypatch, capsys):
+    """--out that cannot be created: a one-line error naming the folder, nothing measured."""
+    from softrast import report
+
+    monkeypatch.setattr(report, "measure", _never_measure)
+    (tmp_path / "file.txt").write_text("x")
+    out = tmp_path / "file.txt" / "sub"
+    assert main(["report", "--quick", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("softrast: error: ") and err.count("\n") == 1, err
+    assert str(out) in err and "report folder" in err
+    with pytest.raises(OSError, match="report folder"):
+        report.run(out, quick=True)
+
+
+def test_out_not_writable_is_an_error_before_measuring(tmp_path, monkeypatch, capsys):
+    """A folder where no file can be created (read-only; simulated: tests run as root, for whom
+    chmod does not stop writes): a one-line error naming the folder, before measuring."""
+    import builtins
+
+    from softrast import report
+
+    out = tmp_path / "readonly"
+    out.mkdir()
+    real_open = builtins.open
+
+    def read_only_open(file, mode="r", *args, **kwargs):
+        if os.path.dirname(os.path.abspath(os.fspath(file))) == str(out) and set(mode) & set("wxa+"):
+            raise PermissionError(13, "Permission denied", os.fspath(file))
+        return real_open(file, mode, *args, **kwargs)
+
+    real_os_open = os.open
+
+    def read_only_os_open(file, flags, *args, **kwargs):
+        if os.path.dirname(os.path.abspath(os.fspath(file))) == str(out) and \
+                flags & (os.O_WRONLY | os.O_RDWR | os.O_CREAT):
+            raise PermissionError(13, "Permission denied", os.fspath(file))
+        return real_os_open(file, flags, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "open", read_only_open)
+    monkeypatch.setattr(os, "open", read_only_os_open)
+    monkeypatch.setattr(report, "measure", _never_measure)
+    assert main(["report", "--quick", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("softrast: error: ") and err.count("\n") == 1, err
+    assert str(out) in err and "not writable" in err
+    assert os.listdir(out) == []

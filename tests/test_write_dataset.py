@@ -107,3 +107,106 @@ def test_write_dataset_checks_its_arguments(tmp_path):
     (tmp_path / "bad.json").write_text('{"format": "other"}')
     with pytest.raises(ValueError, match="not a softrast cameras.json"):
         sr.load_cameras(tmp_path / "bad.json")
+
+
+@pytest.mark.parametrize("outputs", [("instance_id", "depth", "color"), ("color", "normal", "depth")])
+def test_cameras_json_after_an_interrupted_run_is_byte_identical(tmp_path, monkeypatch, outputs):
+    """Interrupted after a few views, then resumed: cameras.json (its ``files`` included) and
+    the returned paths are the uninterrupted run's, byte for byte, whatever the order of
+    ``outputs`` (issue 39)."""
+    scene, cams = _scene(), _cams()
+    clean, cut = tmp_path / "clean", tmp_path / "cut"
+    clean.mkdir()
+    cut.mkdir()
+    want = sr.write_dataset(scene, cams, clean, outputs=outputs)
+    save = sr.Frame.save
+    calls = []
+
+    def interrupted_save(self, *args, **kwargs):
+        calls.append(1)
+        if len(calls) > 3:
+            raise KeyboardInterrupt
+        return save(self, *args, **kwargs)
+
+    monkeypatch.setattr(sr.Frame, "save", interrupted_save)
+    with pytest.raises(KeyboardInterrupt):
+        sr.write_dataset(scene, cams, cut, outputs=outputs, writers=1)
+    monkeypatch.setattr(sr.Frame, "save", save)
+    assert not (cut / "cameras.json").exists() and 0 < len(os.listdir(cut)) < 3 * len(cams)
+    got = sr.write_dataset(scene, cams, cut, outputs=outputs)
+    assert (cut / "cameras.json").read_bytes() == (clean / "cameras.json").read_bytes()
+    assert [list(p) for p in got] == [list(p) for p in want]
+    assert [[os.path.basename(f) for f in p.values()] for p in got] == \
+        [[os.path.basename(f) for f in p.values()] for p in want]
+def _flip(data: bytes) -> bytes:
+    out = bytearray(data)  # a run of flipped bits in the middle (pixel data, past the header)
+    for k in range(len(out) // 2, len(out) // 2 + 16):
+        out[k] ^= 0x5A
+    return bytes(out)
+
+
+def test_resume_rewrites_damaged_files(tmp_path):
+    """resume keeps only files that decode to the view's output: a truncated, an empty, a
+    corrupt file, one of another size or pixel type, are rendered again (issue 39)."""
+    scene, cams = _scene(), _cams(8)
+    formats = {"depth": "npy"}
+    outputs = OUTPUTS + ("normal",)
+    clean = tmp_path / "clean"
+    cut = tmp_path / "cut"
+    clean.mkdir()
+    cut.mkdir()
+    paths = sr.write_dataset(scene, cams, clean, outputs=outputs, formats=formats)
+    cut_paths = sr.write_dataset(scene, cams, cut, outputs=outputs, formats=formats)
+    files = lambda d: {p.name: p.read_bytes() for p in sorted(d.iterdir())}  # noqa: E731
+    want = files(clean)
+    assert files(cut) == want
+    name = lambda k, output: os.path.basename(paths[k][output])  # noqa: E731
+    damage = {
+        name(0, "color"): lambda b: b[: len(b) // 2],          # truncated PNG
+        name(1, "depth"): lambda b: b"",                       # empty .npy
+        name(2, "instance_id"): _flip,                         # corrupt PNG (CRC)
+        name(3, "normal"): lambda b: b[: len(b) - 40],         # truncated EXR
+        name(4, "depth"): lambda b: b[:-8],                    # truncated .npy
+        name(5, "normal"): _flip,                              # corrupt EXR (zip)
+    }
+    for n, f in damage.items():
+        (cut / n).write_bytes(f(want[n]))
+    # a valid image of another size, and one of another pixel type
+    sr.imwrite(cut / name(4, "color"), np.zeros((10, 12, 3), np.uint8))
+    sr.imwrite(cut / name(5, "instance_id"), np.zeros((36, 48), np.uint8))
+    kept = {n: os.stat(cut / n).st_mtime_ns for n in want if n.startswith(("000006_", "000007_"))}
+    assert sr.write_dataset(scene, cams, cut, outputs=outputs, formats=formats) == cut_paths
+    assert files(cut) == want
+    assert len(kept) == 8
+    for n, mtime in kept.items():  # the intact views are not written again
+        assert os.stat(cut / n).st_mtime_ns == mtime, n
+
+
+_HEAD = b'{"format": "softrast cameras 1"'
+_BAD_CAMERAS = {  # name: (content, what the error says)
+    "truncated": (None, "invalid JSON"),
+    "empty": (b"", "invalid JSON"),
+    "binary": (b"\x89PNG\r\n\x1a\n\x00\x00\xff\xfe\x80binary", "UTF-8"),
+    "no_frames": (_HEAD + b"}", "frames"),
+    "frames_number": (_HEAD + b', "frames": 5}', "frames"),
+    "frames_object": (_HEAD + b', "frames": {"a": 1}}', "frames"),
+    "frame_number": (_HEAD + b', "frames": [5]}', "frame 0"),
+    "deep_frames": (_HEAD + b', "frames": ' + b"[" * 100000 + b"]" * 100000 + b"}", "nested"),
+    "deep_unclosed": (b"[" * 100000, "nested|invalid JSON"),
+}
+
+
+@pytest.mark.parametrize("case", list(_BAD_CAMERAS))
+def test_load_cameras_refuses_bad_files_naming_them(tmp_path, case):
+    """Every broken cameras.json is a ValueError naming the file (issue 39)."""
+    content, match = _BAD_CAMERAS[case]
+    if content is None:
+        sr.write_dataset(_scene(), _cams(2), tmp_path, outputs=("depth",))
+        content = (tmp_path / "cameras.json").read_bytes()
+        content = content[: len(content) // 2]
+    path = tmp_path / "cameras.json"
+    path.write_bytes(content)
+    for arg in (path, tmp_path, str(path)):
+        with pytest.raises(ValueError, match=rf"cameras\.json.*({match})") as info:
+            sr.load_cameras(arg)
+        assert str(path) in str(info.value)

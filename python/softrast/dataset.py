@@ -4,7 +4,9 @@
 ``write_dataset`` renders with ``Renderer.render_many`` and hands each frame to a small pool of
 writer threads (OpenImageIO releases the GIL while it encodes), so encoding overlaps rendering;
 files are written atomically, so an interrupted run leaves only complete files, and a rerun
-skips the views whose files are all there (``resume``).
+skips the views whose files are all there and intact (``resume``: each decodes, as
+``Frame.load`` reads it, to the output's dtype, channels and image size; a view with a
+truncated, empty or corrupt file is rendered again).
 
 ``cameras.json``::
 
@@ -17,7 +19,7 @@ skips the views whose files are all there (``resume``).
                  "xmag": null, "ymag": null,                      # orthographic half-extents
                  "pose_opencv": 4x4,   # camera-to-world, axes x right, y down, z forward
                  "pose_opengl": 4x4,   # camera-to-world, axes x right, y up, z backward
-                 "files": {"color": "000000_color.png", ...}}, ...]}
+                 "files": {"color": "000000_color.png", ...}}, ...]}  # in softrast.OUTPUTS order
 
 K follows OpenCV: the centre of pixel (row i, col j) is at (u, v) = (j, i); a world point X is
 seen at K (R X + t) / z with [R | t] the inverse of ``pose_opencv``.
@@ -32,6 +34,7 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
+from . import _core
 from .camera import Camera, IntrinsicsCamera, OrthographicCamera
 from .render import Frame, Renderer, _default_format
 from .scene import Scene
@@ -39,6 +42,7 @@ from .scene import Scene
 __all__ = ["write_dataset", "load_cameras", "camera_record", "DatasetJob", "render_dataset"]
 
 _GL_FROM_CV = np.diag([1.0, -1.0, -1.0, 1.0])
+_OUTPUT_INDEX = {name: k for k, name in enumerate(_core.OUTPUTS)}
 _FORMAT = "softrast cameras 1"
 _CONVENTIONS = ("K: OpenCV, the centre of pixel (row i, col j) at (u, v) = (j, i). pose_opencv: "
                 "camera-to-world, camera axes x right, y down, z forward; pose_opengl: the same "
@@ -71,16 +75,31 @@ def load_cameras(path: str | os.PathLike[str]) -> list[Camera]:
     """The cameras of a ``cameras.json`` (a file, or the dataset directory holding one), in frame
     order: ``IntrinsicsCamera(convention="opencv")`` from K (the same projection as the camera
     that rendered the frame, to float64 rounding) or ``OrthographicCamera``, posed, with the
-    frame's image size, near and far."""
+    frame's image size, near and far.
+
+    A file that is not a softrast cameras.json (not UTF-8 JSON, no ``frames`` list, a record
+    that is not a camera) raises ValueError naming it."""
     p = os.fspath(path)
     if os.path.isdir(p):
         p = os.path.join(p, "cameras.json")
-    with open(p, encoding="utf-8") as f:
-        doc = json.load(f)
+    with open(p, "rb") as f:
+        data = f.read()
+    try:
+        doc = json.loads(data.decode("utf-8"))
+    except UnicodeDecodeError as e:
+        raise ValueError(f"{p}: not a softrast cameras.json (not UTF-8 text: {e})") from None
+    except json.JSONDecodeError as e:
+        raise ValueError(f"{p}: not a softrast cameras.json (invalid JSON: {e})") from None
+    except RecursionError:
+        raise ValueError(f"{p}: not a softrast cameras.json (JSON nested too deeply)") from None
     if not isinstance(doc, dict) or doc.get("format") != _FORMAT:
         raise ValueError(f"{p}: not a softrast cameras.json (format {_FORMAT!r})")
+    frames = doc.get("frames")
+    if not isinstance(frames, list):
+        raise ValueError(f"{p}: \"frames\" must be a list of camera records, got "
+                         f"{'nothing' if 'frames' not in doc else type(frames).__name__}")
     cams: list[Camera] = []
-    for k, rec in enumerate(doc.get("frames", [])):
+    for k, rec in enumerate(frames):
         try:
             if rec["orthographic"]:
                 cam: Camera = OrthographicCamera(rec["xmag"], rec["ymag"], width=rec["width"],
@@ -92,8 +111,8 @@ def load_cameras(path: str | os.PathLike[str]) -> list[Camera]:
                                        near=rec["near"], far=rec["far"], convention="opencv",
                                        dist=rec.get("dist"))
                 cam.pose = np.asarray(rec["pose_opencv"], dtype=np.float64)
-        except (KeyError, TypeError, ValueError, IndexError) as e:
-            raise ValueError(f"{p}: frame {k} is not a valid camera record: {e}") from e
+        except (KeyError, TypeError, ValueError, IndexError, RecursionError) as e:
+            raise ValueError(f"{p}: frame {k} is not a valid camera record: {e!s:.200}") from None
         cams.append(cam)
     return cams
 
@@ -112,6 +131,16 @@ def _remove_stale_temporaries(directory: str, stems: Sequence[str]) -> None:
                 pass
 
 
+def _intact(path: str, name: str, height: int, width: int) -> bool:
+    """Whether ``path`` decodes to output ``name`` as save writes it, ``height`` x ``width``."""
+    from .render import _read_output
+
+    try:
+        return _read_output(path, name).shape[:2] == (height, width)
+    except (ValueError, OSError, MemoryError):
+        return False
+
+
 def _atomic_json(path: str, doc: Any) -> None:
     tmp = f"{path}.{os.getpid()}.tmp"
     with open(tmp, "w", encoding="utf-8") as f:
@@ -126,15 +155,20 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
                   first: int = 0, cameras_json: bool = True, **options: Any) -> list[dict[str, str]]:
     """Render ``scene`` from every camera and write each frame as ``Frame.save`` does
     (``{stem}_{output}.{ext}``, stems 000000, 000001, ...), plus ``cameras.json``; returns each
-    frame's {output: path}.
+    frame's {output: path}, in ``softrast.OUTPUTS`` order (as ``files`` in cameras.json: a
+    resumed run writes the same cameras.json, byte for byte, as an uninterrupted one).
 
     cameras : posed cameras, each with its image size (all the same size: one renderer).
     renderer : the renderer to use (default: a new one, all cores, for the cameras' size).
     writers : encoding threads (default: the renderer's thread count); encoding overlaps
         rendering, at most 2 frames per writer wait to be written.
-    resume : skip the views whose files all exist (a rerun after an interruption renders only
-        what is missing; files are written atomically, so none is partial; the hidden temporary
-        files a killed run can leave are removed).
+    resume : skip the views whose files all exist and are intact (a rerun after an interruption
+        renders only what is missing; files are written atomically, so none is partial; the
+        hidden temporary files a killed run can leave are removed). Each file found is decoded
+        (by the writer threads) and must hold the output save writes, at the cameras' size; a
+        view with a truncated, empty or corrupt file (as far as its decoder or the .npy header
+        reveals it: PNG chunks carry checksums, compressed data mostly fails to inflate, but
+        flipped bits in raw .npy data or uncompressed pixels go unseen) is rendered again.
     first : the index of the first camera's view (its stem); for a shard of a larger job.
     cameras_json : write cameras.json (False for a shard: ``render_dataset`` writes it whole).
     options : passed to ``render`` (shading=, cull=, background=, ...).
@@ -174,31 +208,36 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
         return out
 
     def complete(stem: str) -> dict[str, str] | None:
+        # the view's files, if each one is there and decodes to the output save wrote (not
+        # truncated, empty or corrupt, of the cameras' size): else None, to render it again
         paths = expected(stem)
         for name, path in list(paths.items()):
             if not os.path.exists(path):
                 alt = os.path.splitext(path)[0] + ".tif"  # large ids
                 if name in ("triangle_id", "instance_id") and os.path.exists(alt):
-                    paths[name] = alt
-                    continue
+                    paths[name] = path = alt
+                else:
+                    return None
+            if not _intact(path, name, h, w):
                 return None
         return paths
 
     _remove_stale_temporaries(directory, stems)
     done: dict[int, dict[str, str]] = {}
     todo = []
-    for k, stem in enumerate(stems):
-        paths = complete(stem) if resume else None
-        if paths is not None:
-            done[k] = paths
-        else:
-            todo.append(k)
     bar = None
-    if progress:
-        from tqdm.auto import tqdm
-        bar = tqdm(total=len(cams), initial=len(done), unit="view", desc="write_dataset")
     try:
         with concurrent.futures.ThreadPoolExecutor(n_writers, "softrast-writer") as pool:
+            # resume: the writers decode the files already there (OpenImageIO releases the GIL)
+            found = pool.map(complete, stems) if resume else [None] * len(stems)
+            for k, paths in enumerate(found):
+                if paths is not None:
+                    done[k] = paths
+                else:
+                    todo.append(k)
+            if progress:
+                from tqdm.auto import tqdm
+                bar = tqdm(total=len(cams), initial=len(done), unit="view", desc="write_dataset")
             pending: list[tuple[int, concurrent.futures.Future]] = []
 
             def drain(limit: int) -> None:
@@ -217,17 +256,23 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
     finally:
         if bar is not None:
             bar.close()
-    paths = [done[k] for k in range(len(cams))]
+    paths = [_in_output_order(done[k]) for k in range(len(cams))]
     if cameras_json:
         _write_cameras_json(directory, cams, stems, paths)
     return paths
+
+
+def _in_output_order(files: dict[str, str]) -> dict[str, str]:
+    """``files`` ({output: path}) in one canonical order, softrast.OUTPUTS' (the order of
+    Frame.save), whether a view was written now or found by resume."""
+    return {n: files[n] for n in sorted(files, key=_OUTPUT_INDEX.__getitem__)}
 
 
 def _write_cameras_json(directory: str, cams: Sequence[Camera], stems: Sequence[str],
                         paths: Sequence[dict[str, str]]) -> None:
     doc = {"format": _FORMAT, "conventions": _CONVENTIONS,
            "frames": [dict(camera_record(c), stem=stem,
-                           files={n: os.path.basename(p) for n, p in files.items()})
+                           files={n: os.path.basename(p) for n, p in _in_output_order(files).items()})
                       for c, stem, files in zip(cams, stems, paths)]}
     _atomic_json(os.path.join(directory, "cameras.json"), doc)
 

@@ -207,9 +207,10 @@ def imread(path: str | os.PathLike[str]) -> np.ndarray:
     file has one channel; row 0 is the top of the image. Values are as stored (colour is not
     premultiplied by alpha). Multi-part files: the first part.
 
-    Raises FileNotFoundError if ``path`` does not exist, ValueError if it cannot be decoded or if
-    its header declares more pixel bytes than ``softrast.get_memory_budget()`` (checked before
-    any pixel is read).
+    Raises FileNotFoundError if ``path`` does not exist, ValueError (naming the file and giving
+    the decoder's message) if it cannot be decoded, or the decoder reports an error while
+    decoding it (a truncated or damaged file), or if its header declares more pixel bytes than
+    ``softrast.get_memory_budget()`` (checked before any pixel is read).
     """
     import OpenImageIO as oiio
 
@@ -229,11 +230,14 @@ def imread(path: str | os.PathLike[str]) -> np.ndarray:
         if inp.format_name() == "png":
             _check_png_size(path_str)
         pixels: Any = inp.read_image(format="unknown")  # "unknown" => keep the native pixel type
-        err = inp.geterror()
+        # A damaged file (a truncated JPEG, flipped bytes) can still return pixels, mostly grey:
+        # the decoder reports it as an error beside them, so any reported error refuses the image.
+        failed = inp.has_error
+        err = inp.geterror()  # always retrieve, or OpenImageIO prints it at exit
     finally:
         inp.close()
-    if pixels is None or not isinstance(pixels, np.ndarray):
-        raise ValueError(f"could not read image {path_str!r}: {err or 'no pixel data'}")
+    if failed or err or pixels is None or not isinstance(pixels, np.ndarray):
+        raise ValueError(f"could not read image {path_str!r}: {err.strip() or 'no pixel data'}")
     if pixels.ndim == 2:  # defensive: OpenImageIO returns (h, w, c), but be explicit
         return pixels
     return pixels[:, :, 0] if pixels.shape[2] == 1 else pixels

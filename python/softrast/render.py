@@ -112,27 +112,31 @@ class Frame:
     @classmethod
     def load(cls, directory: str | os.PathLike[str], stem: str) -> "Frame":
         """The frame ``save`` wrote as ``directory/{stem}_*``: each output as it was (png16 ids
-        less 1, masks as bool; png16mm depths in scene units, from millimetres)."""
-        from .io import imread
+        less 1, masks as bool; png16mm depths in scene units, from millimetres).
 
+        Each file must hold what ``save`` writes for its output (the dtype and channels of
+        ``softrast.OUTPUT_TABLE``, in a format ``save`` offers for it) and all of them one
+        (h, w); else ValueError naming the file. Two files of one output (say a .png and the
+        .tif of a later save in another format) are ambiguous: ValueError naming both."""
         directory = os.fspath(directory)
         buffers = {}
+        first: tuple[str, tuple[int, ...]] | None = None
         for name in _core.OUTPUTS:
-            for ext in ("npy", "png", "exr", "tif", "jpg"):
-                path = os.path.join(directory, f"{stem}_{name}.{ext}")
-                if not os.path.exists(path):
-                    continue
-                arr = np.load(path, allow_pickle=False) if ext == "npy" else imread(path)
-                if ext == "png" and name in ("triangle_id", "instance_id"):
-                    arr = arr.astype(np.int32) - 1
-                elif ext == "png" and name == "coverage":
-                    arr = arr.astype(np.uint32)
-                elif name == "mask" and arr.dtype != np.bool_:  # png / tif store 0 / 255
-                    arr = arr > 0
-                elif ext == "png" and arr.dtype == np.uint16 and name in ("depth", "ray_depth"):
-                    arr = arr.astype(np.float32) / np.float32(1000.0)
-                buffers[name] = arr
-                break
+            found = [path for ext in ("npy", "png", "exr", "tif", "jpg")
+                     if os.path.exists(path := os.path.join(directory, f"{stem}_{name}.{ext}"))]
+            if not found:
+                continue
+            if len(found) > 1:  # saved again in another format: which one is this frame's?
+                raise ValueError(f"{' and '.join(found)}: two files of output {name}; remove "
+                                 "the stale one")
+            path = found[0]
+            arr = _read_output(path, name)
+            if first is None:
+                first = (path, arr.shape[:2])
+            elif arr.shape[:2] != first[1]:
+                raise ValueError(f"{path}: {name} is {arr.shape[:2]} (h, w), but {first[0]} "
+                                 f"is {first[1]}: the outputs of one frame have one size")
+            buffers[name] = arr
         if not buffers:
             raise FileNotFoundError(f"no outputs saved as {os.path.join(directory, stem)}_*")
         return cls(buffers)
@@ -150,6 +154,90 @@ _SAVE_FORMATS: dict[str, tuple[str, ...]] = {
     "triangle_id": ("png16", "tif", "npy"), "instance_id": ("png16", "tif", "npy"),
     "coverage": ("png16", "tif", "npy"),
 }
+
+
+_OUTPUT_ROWS = {row["name"]: row for row in _core.OUTPUT_TABLE}
+# The file extensions save writes for each output (png16 and png16mm are .png files).
+_SAVE_EXTENSIONS = {name: frozenset("png" if f in ("png16", "png16mm") else f for f in fmts)
+                    for name, fmts in _SAVE_FORMATS.items()}
+
+
+def _stored_dtype(name: str, ext: str) -> np.dtype:
+    """The dtype in which ``save`` stores output ``name`` in a ``.ext`` file."""
+    if ext in ("png", "jpg"):  # 8-bit colour and masks, 16-bit ids, coverage and millimetres
+        return np.dtype(np.uint8) if name in ("color", "mask") else np.dtype(np.uint16)
+    if name == "mask" and ext != "npy":  # tif: 0 / 255
+        return np.dtype(np.uint8)
+    return np.dtype(_OUTPUT_ROWS[name]["dtype"])
+
+
+def _expected_shape(name: str) -> str:
+    return "(h, w)" if _OUTPUT_ROWS[name]["channels"] == 1 else f"(h, w, {_OUTPUT_ROWS[name]['channels']})"
+
+
+def _check_stored(path: str, name: str, ext: str, dtype: np.dtype, shape: tuple[int, ...]) -> None:
+    channels = _OUTPUT_ROWS[name]["channels"]
+    want = _stored_dtype(name, ext)
+    ok_shape = len(shape) == 2 if channels == 1 else (len(shape) == 3 and shape[2] == channels)
+    if dtype != want or not ok_shape or 0 in shape:
+        raise ValueError(f"{path}: holds a {tuple(shape)} {dtype} array, but {name} is stored "
+                         f"in a .{ext} file as {_expected_shape(name)} {want} (softrast.OUTPUT_TABLE)")
+
+
+def _read_npy(path: str, name: str) -> np.ndarray:
+    """A .npy file of output ``name``, its header checked before any data is read."""
+    from numpy.lib import format as npy_format
+
+    try:
+        with open(path, "rb") as f:
+            version = npy_format.read_magic(f)
+            if version == (1, 0):
+                shape, fortran, dtype = npy_format.read_array_header_1_0(f)
+            elif version == (2, 0):
+                shape, fortran, dtype = npy_format.read_array_header_2_0(f)
+            else:
+                raise ValueError(f"unsupported .npy version {version}")
+            _check_stored(path, name, "npy", dtype, shape)
+            need = f.tell() + int(np.prod(shape)) * dtype.itemsize
+            size = os.fstat(f.fileno()).st_size
+            if size != need:
+                raise ValueError(f"{path}: {size} bytes, but its header ({shape} {dtype}) needs "
+                                 f"{need}: truncated or corrupt")
+            check_budget(need, f"{path} ({shape} {dtype})")
+            f.seek(0)
+            arr = npy_format.read_array(f, allow_pickle=False)
+    except ValueError as e:
+        if path in str(e):
+            raise
+        raise ValueError(f"{path}: not a valid .npy file of {name}: {e}") from None
+    except (EOFError, OSError, UnicodeDecodeError, SyntaxError) as e:
+        raise ValueError(f"{path}: not a valid .npy file of {name}: {e}") from None
+    return np.ascontiguousarray(arr)
+
+
+def _read_output(path: str, name: str) -> np.ndarray:
+    """Output ``name`` from a file ``save`` wrote (``path``, its format from the extension),
+    converted back to the output's dtype; ValueError naming the file when it holds anything
+    else (a format save never uses for it, another dtype or channel count, a damaged file)."""
+    from .io import imread
+
+    ext = os.path.splitext(path)[1][1:].lower()
+    if ext not in _SAVE_EXTENSIONS[name]:
+        raise ValueError(f"{path}: save never writes {name} as .{ext} (it writes "
+                         f"{', '.join('.' + e for e in sorted(_SAVE_EXTENSIONS[name]))})")
+    if ext == "npy":
+        return _read_npy(path, name)
+    arr = imread(path)
+    _check_stored(path, name, ext, arr.dtype, arr.shape)
+    if ext == "png" and name in ("triangle_id", "instance_id"):
+        arr = arr.astype(np.int32) - 1
+    elif ext == "png" and name == "coverage":
+        arr = arr.astype(np.uint32)
+    elif name == "mask":  # png / tif store 0 / 255
+        arr = arr > 0
+    elif ext == "png" and name in ("depth", "ray_depth"):
+        arr = arr.astype(np.float32) / np.float32(1000.0)
+    return arr
 
 
 def _default_format(name: str, arr: np.ndarray) -> str:

@@ -42,7 +42,7 @@ import os
 import platform
 import time
 from dataclasses import dataclass
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
 
@@ -1070,20 +1070,43 @@ def measure(settings: Settings = QUICK, log: Callable[[str], Any] | None = None
     return rows, costs
 
 
+def _check_writable(out: str, files: Iterable[str]) -> None:
+    """Creates the report folder ``out`` and a file in it (removed), so that a folder the
+    report cannot be written to is an error before minutes of measuring, naming it."""
+    try:
+        os.makedirs(out, exist_ok=True)
+    except OSError as e:
+        raise type(e)(f"report folder {out!r} cannot be created: {e.strerror or e}") from None
+    probe = os.path.join(out, f".softrast-report-{os.getpid()}.probe")
+    try:
+        with open(probe, "xb"):
+            pass
+        os.remove(probe)
+    except OSError as e:
+        raise type(e)(f"report folder {out!r} is not writable: {e.strerror or e}") from None
+    for path in files:
+        if os.path.isdir(path):
+            raise IsADirectoryError(f"report folder {out!r}: {os.path.basename(path)} is a "
+                                    "folder, where the report writes a file")
+
+
 def run(out_dir: str | os.PathLike[str], quick: bool = False, settings: Settings | None = None,
         log: Callable[[str], Any] | None = None) -> dict[str, str]:
     """Measure (``QUICK`` or ``FULL`` settings, or your own) and write DIR/report.csv,
     DIR/report.md and DIR/error_vs_time.png; returns {"csv", "markdown", "plot"} paths.
 
     Raises ImportError naming the package (and ``pip install softrast[report]``) when matplotlib
-    or scikit-image is missing, before measuring anything."""
+    or scikit-image is missing, and OSError naming ``out_dir`` when it cannot be created or
+    written to, before measuring anything."""
     from . import __version__
 
     _require("matplotlib", "matplotlib")
     _require("skimage.metrics", "scikit-image")
     settings = settings or (QUICK if quick else FULL)
     out = os.fspath(out_dir)
-    os.makedirs(out, exist_ok=True)
+    paths = {"csv": os.path.join(out, "report.csv"), "markdown": os.path.join(out, "report.md"),
+             "plot": os.path.join(out, "error_vs_time.png")}
+    _check_writable(out, paths.values())
     start = time.perf_counter()
     rows, costs = measure(settings, log)
     seconds = time.perf_counter() - start
@@ -1095,8 +1118,6 @@ def run(out_dir: str | os.PathLike[str], quick: bool = False, settings: Settings
               f"{settings.cost_size[0]}x{settings.cost_size[1]}, ico{settings.cost_subdivision}, "
               f"{settings.cost_repeats} renders); measured in {seconds:.1f} s on {os.cpu_count()} "
               f"cores ({Renderer(1, 1).isa} kernels, {platform.machine()}, Python {platform.python_version()})."]
-    paths = {"csv": os.path.join(out, "report.csv"), "markdown": os.path.join(out, "report.md"),
-             "plot": os.path.join(out, "error_vs_time.png")}
     _write_csv(paths["csv"], rows)
     _write_markdown(paths["markdown"], rows, costs, header, settings)
     _plot(paths["plot"], rows, f"softrast: error against render time ({mode} mode, "
