@@ -159,6 +159,12 @@ struct TexturedShade {
   }
 };
 
+struct ShadingNormal {
+  SR_INLINE static void run(const ShadeConstants& c, const Fragment& f, f8 (&n)[3]) {
+    normal_map(c, f, n);
+  }
+};
+
 struct LightTile {
   SR_INLINE static void run(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
                             ShadeScratch& out) {
@@ -210,6 +216,7 @@ struct LightTile {
 using LightTileFn = decltype(LitKernels::light_tile);
 using ShadeFn = decltype(LitKernels::shade);
 using SurfaceFn = decltype(LitKernels::surface);
+using ShadingNormalFn = decltype(LitKernels::shading_normal);
 
 template <typename K, typename Fn>
 using Kernel = dispatch::IsaKernel<K, Fn>;
@@ -220,13 +227,15 @@ const LitKernels& lit_kernels(Isa isa) {
 #if SR_X86
   static const LitKernels avx2{Kernel<LightTile, LightTileFn>::avx2,
                                Kernel<TexturedShade, ShadeFn>::avx2,
-                               Kernel<TexturedSurface, SurfaceFn>::avx2};
+                               Kernel<TexturedSurface, SurfaceFn>::avx2,
+                               Kernel<ShadingNormal, ShadingNormalFn>::avx2};
   if (isa == Isa::Avx2) return avx2;
 #endif
   (void)isa;
   static const LitKernels generic{Kernel<LightTile, LightTileFn>::generic,
                                   Kernel<TexturedShade, ShadeFn>::generic,
-                                  Kernel<TexturedSurface, SurfaceFn>::generic};
+                                  Kernel<TexturedSurface, SurfaceFn>::generic,
+                                  Kernel<ShadingNormal, ShadingNormalFn>::generic};
   return generic;
 }
 

@@ -33,6 +33,9 @@ struct LitKernels {
   // texture, turned toward the lit side) and the base colour times the base colour texture.
   void (*surface)(const ShadeConstants&, const Fragment&, simd::f8 (&)[3], simd::f8&, simd::f8&,
                   simd::f8&);
+  // The normal output of a normal- or bump-mapped pixel (kWorkShadingNormal): the unit
+  // interpolated normal in, perturbed as the shading perturbs it out.
+  void (*shading_normal)(const ShadeConstants&, const Fragment&, simd::f8 (&)[3]);
 };
 // The kernels compiled for `isa` (lit_kernels.cpp).
 const LitKernels& lit_kernels(Isa isa);

@@ -156,6 +156,9 @@ struct RenderOptions {
   uint32_t outputs = kOutColor | kOutDepth;
   Cull cull = Cull::Back;
   bool cull_double_sided = false;  // cull also the draws of double-sided materials (never_culled)
+  // The normal output with normal and bump maps applied (at the pixel frequency; not under the
+  // uv and depth views), else the interpolated vertex normal.
+  bool shading_normals = false;
   Shading shading = Shading::Auto;
   ShadingPath shading_path = ShadingPath::Auto;
   RasterAlgorithm raster = RasterAlgorithm::Edge;

@@ -189,15 +189,20 @@ void shade_draw(const RenderPlan& plan, const RenderOptions& options, bool headl
   const Brdf b = d.brdf;
   const bool view = b == Brdf::Uv || b == Brdf::Depth;  // debug views read no material
   const bool textured = plan.color && d.material.textured() && !view && b != Brdf::Headlight;
+  // The normal output with the normal or bump map applied (render(normal_kind="shading")).
+  const bool normal_map = plan.normal && options.shading_normals && !view &&
+                          options.frequency == Frequency::Pixel &&
+                          (d.material.normal_texture || d.material.bump_texture);
   d.needs = 0;
   if (plan.normal || (plan.color && b != Brdf::Unlit && !view))
     d.needs |= kNeedsNormal;
   if (is_lit(b) || textured || b == Brdf::Depth) d.needs |= kNeedsPosition;
   if (b == Brdf::Uv || textured) d.needs |= kNeedsUv;
   if (textured) d.needs |= kTexturedUv;
+  if (normal_map) d.needs |= kNeedsNormal | kNeedsPosition | kNeedsUv | kTexturedUv;
   if (options.frequency == Frequency::Face && (is_lit(b) || b == Brdf::Normal))
     d.needs |= kNeedsFaceNormal;
-  const bool plain = !d.material.textured() || !plan.color;
+  const bool plain = !d.material.textured() || (!plan.color && !normal_map);
   if (b == Brdf::Headlight || view ||
       (plain && (b == Brdf::Unlit || (b == Brdf::Normal && options.frequency == Frequency::Pixel))))
     d.needs |= kInline;
@@ -439,6 +444,8 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
                                float(v[2][2] / span), float((camera.far + v[3][2]) / span));
   }
   shade.in.frequency = options.frequency;
+  shade.in.shading_normals = plan.normal && options.shading_normals &&
+                             options.frequency == Frequency::Pixel;
   shade.in.texture_filter = options.texture_filter;
   const bool lights = !options.lights.empty();
   const Light head = lights ? Light{} : headlight(camera, options.ambient);

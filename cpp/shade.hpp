@@ -34,6 +34,7 @@ enum ShadeWork : uint8_t {
   kWorkColor = 8,           // the colour output                     } the render's bits
   kWorkNormalOut = 16,      // the normal output (normalised here)   } (ShadeParams::work)
   kWorkLitCode = 32,        // colour, with codes for the light pass }
+  kWorkShadingNormal = 64,  // the normal output with the normal or bump map applied (lit kernel)
 };
 
 struct ShadeParams {

@@ -55,10 +55,12 @@ struct Prepared {
     const Brdf brdf = prepare<K>(p, vt, s);
     // The render's bits (p.work: kWorkColor, kWorkNormalOut, kWorkLitCode), then the triangle's.
     const bool varying = p.color && s.color_kind != ShadeTriangle::kConstantColor;
-    const bool varying_normal = p.normal && !s.one_normal;
+    const bool shading_normal = K == KernelKind::Lit && p.normal && s.normal_out_map;
+    const bool varying_normal = p.normal && (!s.one_normal || shading_normal);
     work = uint8_t(p.work | (varying && s.color_kind == ShadeTriangle::kVaryingColor ? kWorkVaryingColor : 0) |
                    (varying_normal ? kWorkVaryingNormal : 0) |
-                   (p.normal && s.one_normal ? kWorkUnitNormal : 0));
+                   (shading_normal ? kWorkShadingNormal : 0) |
+                   (p.normal && s.one_normal && !shading_normal ? kWorkUnitNormal : 0));
     make_constants<K>(p.in, p.lit, brdf, varying || varying_normal, s, c);
   }
 };
@@ -134,6 +136,19 @@ SR_INLINE void shade_group(const P& t, f8 e0, f8 e1, f8 e2, i8 mine, int i, Shad
       merge<kPairs>(out.rgb[0] + i, r, mine);
       merge<kPairs>(out.rgb[1] + i, g, mine);
       merge<kPairs>(out.rgb[2] + i, b, mine);
+    }
+    if (kLit && (work & kWorkShadingNormal)) {  // the normal output as the shading perturbs it
+      if (!varying_color) {  // (the colour's block computes the uvs otherwise)
+        for (int j = 0; j < 2; ++j) {
+          frag.attr[j] = b0 * s.attr[0][j] + b1 * s.attr[1][j] + b2 * s.attr[2][j];
+          frag.attr_dx[j] = (s.attr_dx[j] - frag.attr[j] * s.sum_dx) * inv_sum;
+          frag.attr_dy[j] = (s.attr_dy[j] - frag.attr[j] * s.sum_dy) * inv_sum;
+        }
+        frag.mine = mine;
+      }
+      f8 n[3] = {nx, ny, nz};
+      c.kernels->shading_normal(c, frag, n);
+      for (int k = 0; k < 3; ++k) merge<kPairs>(out.normal[k] + i, n[k], mine);
     }
   }
   if (work & kWorkUnitNormal)

@@ -27,6 +27,20 @@ bool reads_position(const ShadeInputs& in, const Material& m, Brdf brdf) {
   return false;
 }
 
+// The triangle's tangent frame from its positions and uvs (per face, in world space):
+// dp = T du + B dv over its two edges. Mirrored uvs flip the bitangent (handedness).
+void tangent_frame(ShadeTriangle& s) {
+  const vec3 e1 = s.position[1] - s.position[0], e2 = s.position[2] - s.position[0];
+  const float du1 = s.attr[1][0] - s.attr[0][0], dv1 = s.attr[1][1] - s.attr[0][1];
+  const float du2 = s.attr[2][0] - s.attr[0][0], dv2 = s.attr[2][1] - s.attr[0][1];
+  const float det = du1 * dv2 - du2 * dv1;
+  const vec3 t = (e1 * dv2 - e2 * dv1), bt = (e2 * du1 - e1 * du2);
+  const vec3 n = s.normal[0] + s.normal[1] + s.normal[2];  // the visible side
+  const float sign = det < 0.0f ? -1.0f : 1.0f;   // t, bt above are det * (T, B)
+  s.tangent = det != 0.0f && std::isfinite(det) ? unit_or_zero(t * sign) : vec3(0.0f);
+  s.handedness = glm::dot(glm::cross(n, t * sign), bt * sign) < 0.0f ? -1.0f : 1.0f;
+}
+
 // A textured material's triangle: its colour always varies per pixel (the textures are sampled
 // there). The vertex and face frequencies light the vertices or the face with the untextured base
 // colour and modulate the result per pixel by the base colour texture (OpenGL's fixed-function
@@ -71,18 +85,8 @@ void classify_textured(const ShadeInputs& in, bool uniform_color, ShadeTriangle&
   if (brdf != Brdf::Normal && (reads_position(in, m, brdf) || m.material_maps()))
     s.reads |= ShadeTriangle::kReadPosition;
   if (m.normal_texture || m.bump_texture) {
-    // The triangle's tangent frame from its positions and uvs (per face, in world space):
-    // dp = T du + B dv over its two edges. Mirrored uvs flip the bitangent (handedness).
     s.normal_map = true;
-    const vec3 e1 = s.position[1] - s.position[0], e2 = s.position[2] - s.position[0];
-    const float du1 = s.attr[1][0] - s.attr[0][0], dv1 = s.attr[1][1] - s.attr[0][1];
-    const float du2 = s.attr[2][0] - s.attr[0][0], dv2 = s.attr[2][1] - s.attr[0][1];
-    const float det = du1 * dv2 - du2 * dv1;
-    const vec3 t = (e1 * dv2 - e2 * dv1), bt = (e2 * du1 - e1 * du2);
-    const vec3 n = s.normal[0] + s.normal[1] + s.normal[2];  // the visible side
-    const float sign = det < 0.0f ? -1.0f : 1.0f;   // t, bt above are det * (T, B)
-    s.tangent = det != 0.0f && std::isfinite(det) ? unit_or_zero(t * sign) : vec3(0.0f);
-    s.handedness = glm::dot(glm::cross(n, t * sign), bt * sign) < 0.0f ? -1.0f : 1.0f;
+    tangent_frame(s);
   }
 }
 
@@ -155,6 +159,13 @@ void classify_lit(const ShadeInputs& in, bool uniform_color, ShadeTriangle& s) {
   s.tangent = vec3(0.0f);
   s.handedness = 1.0f;
   classify_material(in, uniform_color, s);
+  // The normal output with the normal or bump map applied (render(normal_kind="shading")): the
+  // tangent frame even where the colour does not read it (unlit, or no colour output).
+  const Material& m = *s.material;
+  if (in.shading_normals && (m.normal_texture || m.bump_texture)) {
+    if (!s.normal_map) tangent_frame(s);
+    s.normal_out_map = true;
+  }
   // Only the formulas that start from the base colour read it: not the normal as a colour.
   if (s.color_kind == ShadeTriangle::kVaryingColor && (s.brdf != Brdf::Normal || s.passthrough))
     s.reads |= ShadeTriangle::kReadColor;

@@ -42,6 +42,9 @@ struct ShadeInputs {
   Frequency frequency = Frequency::Pixel;
   uint8_t texture_filter = kNoFilterOverride;  // a TextureFilter for every texture, or each its own
   bool defers_light = false;  // some draw's pixels are lit by the tile's light pass
+  // The normal output has normal and bump maps applied (render(normal_kind="shading"), the
+  // pixel frequency): the draws with such maps take the lit kernel's textured path.
+  bool shading_normals = false;
   vec4 depth_grey{0.0f};      // the depth view: grey = dot(xyz, world position) + w, clamped
 };
 
@@ -129,6 +132,7 @@ struct ShadeTriangle {
   // Lit and textured draws:
   bool passthrough;  // the interpolated colour is the radiance (unlit, or Gouraud)
   bool normal_map;   // a normal or bump texture perturbs the pixel's normal (pixel frequency)
+  bool normal_out_map;  // ... and the normal output too (ShadeInputs::shading_normals)
   float side;        // -1: a single-sided back face, lit with the normal facing away
   vec3 tangent;      // normal_map: the world-space direction of +u on the triangle (or zero)
   float handedness;  // normal_map: +1, or -1 where the uvs are mirrored (bitangent = -n x t)
@@ -221,6 +225,7 @@ SR_INLINE void classify(const ShadeInputs& in, Brdf draw_brdf, uint8_t needs, co
     s.unit_normal = vec3(0.0f);
   }
   s.passthrough = false;
+  s.normal_out_map = false;
   if (kLit && !(needs & kInline)) {
     s.brdf = brdf;
     s.material = &m;

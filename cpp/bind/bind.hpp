@@ -49,6 +49,7 @@ extern const Name<Frequency> kFrequencyNames[3];
 extern const Name<ShadingPath> kShadingPathNames[3];
 extern const Name<RasterAlgorithm> kRasterNames[2];
 extern const Name<int> kLineAlgorithmNames[2];  // LineAlgorithm (lines.hpp)
+extern const Name<int> kNormalKindNames[2];      // 1: RenderOptions::shading_normals
 extern const Name<int> kFilterNames[4];          // TextureFilter (texture.hpp)
 extern const Name<int> kWrapNames[3];            // Wrap (texture.hpp)
 extern const Name<LightKind> kLightKindNames[3];

@@ -27,6 +27,7 @@ const Name<RasterAlgorithm> kRasterNames[2] = {{"edge", RasterAlgorithm::Edge},
                                                {"scanline", RasterAlgorithm::Scanline}};
 const Name<int> kLineAlgorithmNames[2] = {{"bresenham", int(LineAlgorithm::Bresenham)},
                                           {"dda", int(LineAlgorithm::Dda)}};
+const Name<int> kNormalKindNames[2] = {{"interpolated", 0}, {"shading", 1}};
 const Name<int> kFilterNames[4] = {{"nearest", int(TextureFilter::Nearest)},
                                    {"bilinear", int(TextureFilter::Bilinear)},
                                    {"trilinear", int(TextureFilter::Trilinear)},
@@ -88,6 +89,7 @@ PYBIND11_MODULE(_core, m) {
            "render(shading=): 'auto' (each material's model) or one model for every draw");
   constant("REFLECTANCE_MODELS", names_of(kModelNames), "a material's models (Material.model)");
   constant("CULL_MODES", names_of(kCullNames), "cull=");
+  constant("NORMAL_KINDS", names_of(kNormalKindNames), "normal_kind=");
   constant("SHADING_PATHS", names_of(kShadingPathNames), "shading_path=");
   constant("RASTER_ALGORITHMS", names_of(kRasterNames), "raster=");
   constant("LINE_ALGORITHMS", names_of(kLineAlgorithmNames), "line_algorithm=");

@@ -27,7 +27,7 @@ enum OptionKey {
   k_view, k_proj, k_orthographic, k_near, k_far, k_outputs, k_cull, k_shading, k_shading_path,
   k_background, k_ambient, k_out, k_lights, k_ambient_light, k_frequency, k_srgb,
   k_texture_filter, k_normal_rotation, k_raster, k_msaa, k_ssaa, k_primitives, k_line_algorithm,
-  k_lit_kernel, k_cull_double_sided, kNumOptions
+  k_lit_kernel, k_cull_double_sided, k_normal_kind, kNumOptions
 };
 struct OptionDoc {
   const char* key;
@@ -69,6 +69,9 @@ constexpr OptionDoc kOptions[kNumOptions] = {
      "bits; default False)"},
     {"cull_double_sided", "bool", false,
      "cull the draws of double-sided materials too (default False: they are never culled)"},
+    {"normal_kind", "str", false,
+     "NORMAL_KINDS: the normal output's 'interpolated' vertex normal (default) or the 'shading' "
+     "normal (normal and bump maps applied)"},
 };
 
 // The options' keys, interned once (a lookup by a C string would build and hash a new Python
@@ -202,6 +205,8 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::dict& sp
   options.outputs = parse_outputs(get(k_outputs).cast<std::vector<std::string>>());
   if (given(k_cull)) options.cull = parse_name(name(k_cull), kCullNames, "cull");
   if (given(k_cull_double_sided)) options.cull_double_sided = get(k_cull_double_sided).cast<bool>();
+  if (given(k_normal_kind))
+    options.shading_normals = parse_name(name(k_normal_kind), kNormalKindNames, "normal_kind") == 1;
   if (given(k_shading)) options.shading = parse_name(name(k_shading), kShadingNames, "shading");
   if (given(k_shading_path))
     options.shading_path = parse_name(name(k_shading_path), kShadingPathNames, "shading_path");

@@ -27,6 +27,7 @@ LINE_ALGORITHMS: tuple[str, ...]  # line_algorithm=
 MAX_FRAMEBUFFER_BYTES: int  # a render whose requested outputs need more than this is refused
 MAX_IMAGE_SIDE: int  # largest width or height accepted
 MAX_THREADS: int  # largest thread count a Renderer accepts
+NORMAL_KINDS: tuple[str, ...]  # normal_kind=
 OUTPUTS: tuple[str, ...]  # every output name a render accepts, in the output table's order
 OUTPUT_TABLE: tuple[dict[str, Any], ...]  # one dict per output (cpp/framebuffer.hpp): name, dtype, channels (1 => (h, w), else (h, w, channels)), bytes_per_pixel, background, pass, doc
 RASTER_ALGORITHMS: tuple[str, ...]  # raster=
@@ -67,6 +68,7 @@ class RenderOptions(TypedDict, total=False):
     line_algorithm: str  # LINE_ALGORITHMS (default 'bresenham')
     lit_kernel: bool  # tests and benchmarks: shade with the lit kernel even where a plain one serves (the same bits; default False)
     cull_double_sided: bool  # cull the draws of double-sided materials too (default False: they are never culled)
+    normal_kind: str  # NORMAL_KINDS: the normal output's 'interpolated' vertex normal (default) or the 'shading' normal (normal and bump maps applied)
 
 class Draw:
     """One mesh instance: its mesh, pose, id, colour and material."""

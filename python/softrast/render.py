@@ -18,6 +18,7 @@ from .texture import check_filter
 __all__ = ["Frame", "Renderer"]
 
 _CULL = _core.CULL_MODES
+_NORMAL_KINDS = _core.NORMAL_KINDS  # interpolated, shading
 _SHADING_PATHS = _core.SHADING_PATHS
 _RASTER = _core.RASTER_ALGORITHMS
 _LINE_ALGORITHMS = _core.LINE_ALGORITHMS
@@ -517,6 +518,7 @@ class Renderer:
         line_color: Sequence[float] = (0.0, 0.0, 0.0),
         line_width: float = 1.0,
         cull_double_sided: bool = False,
+        normal_kind: str = "interpolated",
     ) -> Frame:
         """Render ``scene`` seen by ``camera``; only ``outputs`` are allocated and written.
 
@@ -570,6 +572,14 @@ class Renderer:
               ``camera.pose`` (OpenGL's x right, y up, z toward the viewer; OpenCV's x right,
               y down, z forward for an ``IntrinsicsCamera(convention="opencv")``), as
               ``camera.unproject(..., space="camera")`` gives points.
+        normal_kind : what the ``normal`` output holds: "interpolated" (default) — the
+              interpolated vertex normal (the face normal of a mesh without normals), unit,
+              of the visible side, as a G-buffer stores it: no normal or bump map; or
+              "shading" — the normal the lighting uses: that normal perturbed by the
+              material's ``normal_texture`` (or ``bump_texture``) at the pixel frequency,
+              exactly as the shading perturbs it (``shading="normal"`` shows it as a
+              colour). Meshes without such maps, the vertex and face frequencies, and the
+              "uv" and "depth" views give the interpolated normal either way.
         raster : how triangles are filled: "edge" (default; edge functions tested at every
               pixel of a triangle's box) or "scanline" (each row's span found by edge walking,
               the classical algorithm). Both use the same snapped vertices and top-left rule, so
@@ -617,6 +627,7 @@ class Renderer:
                 raise ValueError(f"camera {name} {size} differs from the renderer's {ours}")
         names = _output_names(outputs)
         choice(cull, "cull", _CULL)
+        choice(normal_kind, "normal_kind", _NORMAL_KINDS)
         if not isinstance(cull_double_sided, (bool, np.bool_)):
             raise TypeError(f"cull_double_sided must be True or False, got {cull_double_sided!r:.80}")
         choice(shading, "shading", _SHADING)
@@ -652,7 +663,8 @@ class Renderer:
             from .distortion import render_distorted
 
             return render_distorted(self, scene, camera, names, {
-                "cull": cull, "cull_double_sided": bool(cull_double_sided), "shading": shading,
+                "cull": cull, "cull_double_sided": bool(cull_double_sided),
+                "normal_kind": normal_kind, "shading": shading,
                 "background": background, "ambient": ambient,
                 "shading_path": shading_path, "frequency": frequency, "srgb": srgb,
                 "texture_filter": texture_filter, "normal_space": normal_space, "raster": raster},
@@ -671,7 +683,8 @@ class Renderer:
         buffers = self._core.render(draws, {
             "view": view, "proj": proj, "orthographic": camera.orthographic, "near": camera.near,
             "far": camera.far, "outputs": names, "cull": cull,
-            "cull_double_sided": bool(cull_double_sided), "shading": shading,
+            "cull_double_sided": bool(cull_double_sided), "normal_kind": normal_kind,
+            "shading": shading,
             "shading_path": shading_path, "background": bg, "ambient": ambient_f, "out": out_arrays,
             "lights": _lights(scene, view), "ambient_light": scene.ambient_light,
             "frequency": frequency, "srgb": bool(srgb), "texture_filter": texture_filter,
