@@ -81,7 +81,9 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 # pyrender reads PYOPENGL_PLATFORM when it is imported: OSMesa is its no-AA CPU path (its EGL
-# path forces 4x MSAA). moderngl's EGL context needs no display with the surfaceless platform.
+# path forces 4x MSAA; OSMesaPlatform.supports_framebuffers() is False, so OffscreenRenderer draws
+# into OSMesa's single-sample buffer: tests/test_pyrender_aliasing.py). moderngl's EGL context
+# needs no display with the surfaceless platform.
 os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
 os.environ.setdefault("EGL_PLATFORM", "surfaceless")
 
@@ -702,15 +704,16 @@ def report_textured(results: list[dict]) -> None:
 # ----------------------------------------------------------------- anti-aliasing (issue 18)
 
 AA_ROWS = [(6, 640, 480), (6, 1024, 1024)]
-AA_GOAL = 20.0  # issue 18: msaa=4 colour+depth >= 20x pyrender (which always renders 4x MSAA)
+AA_GOAL = 20.0  # issue 18: msaa=4 colour+depth >= 20x pyrender (aliased here: OSMesa, 1 sample)
 AA_MODES = [("msaa1", {}), ("msaa4", dict(msaa=4)), ("msaa8", dict(msaa=8)),
             ("msaa16", dict(msaa=16)), ("ssaa2", dict(ssaa=2)), ("ssaa4", dict(ssaa=4))]
 
 
 def run_aa(pyrender, target_s, n_min, n_max, rounds, png_dir, quick) -> list[dict]:
-    """The Lambert rows' scene, colour+depth: pyrender's OffscreenRenderer (its offscreen pass
-    draws into a 4-sample framebuffer and resolves it, on OSMesa as on EGL: renderer.py,
-    _configure_main_framebuffer) against softrast at each anti-aliasing level, 2 threads, out=."""
+    """The Lambert rows' scene, colour+depth: pyrender's OffscreenRenderer against softrast at
+    each anti-aliasing level, 2 threads, out=. Under OSMesa pyrender renders aliased (one sample
+    per pixel: its 4-sample framebuffer, renderer.py's _configure_main_framebuffer, is made only
+    on platforms that support framebuffers, EGL and pyglet; tests/test_pyrender_aliasing.py)."""
     results = []
     for sub, w, h in AA_ROWS:
         if quick and w * h > 640 * 480:
@@ -743,7 +746,7 @@ def run_aa(pyrender, target_s, n_min, n_max, rounds, png_dir, quick) -> list[dic
 def report_aa(results: list[dict]) -> None:
     get = lambda r, k: r["ms"].get(k, float("nan"))  # noqa: E731
     print("\nAnti-aliasing rows (issue 18): median ms per colour+depth frame, softrast t2 out=;"
-          "\npyrender always renders 4x MSAA")
+          "\npyrender under OSMesa is aliased (1 sample per pixel; its 4x MSAA is EGL / on-screen only)")
     head = (f"{'row':<16}{'pyrender':>9}" + "".join(f"{label:>8}" for label, _ in AA_MODES)
             + f"{'x pyr m4':>9}{'m4/m1':>7}  goal >= {AA_GOAL:.0f}x")
     print(head)
@@ -771,7 +774,7 @@ POINTS_GOAL = 20.0  # issue 18: a 1M-point cloud at 1024x1024 >= 20x pyrender's 
 
 def run_points(pyrender, target_s, n_min, n_max, rounds, png_dir) -> list[dict]:
     """n random points in a unit ball, per-point colours, one pixel each, colour+depth:
-    pyrender's Mesh.from_points (GL_POINTS, point_size 1, its 4x MSAA framebuffer) against
+    pyrender's Mesh.from_points (GL_POINTS, point_size 1, aliased under OSMesa) against
     softrast.Points (1 and 2 threads, out=)."""
     results = []
     for n, w, h in POINT_ROWS:

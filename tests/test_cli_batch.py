@@ -27,7 +27,8 @@ def test_batch_writes_a_dataset(tmp_path, capsys):
     assert main(["batch", str(SPOT), "--out", str(tmp_path), "--views", "5", "--size", "64x48",
                  "--outputs", "color,depth,instance_id,uv", "--formats", "depth=npy"]) == 0
     out = capsys.readouterr()
-    assert "softrast batch: 5 views of 1 mesh(es)" in out.out and "5/5" in out.err
+    assert "softrast batch: rendered 5 views of 1 mesh(es) in " in out.out and "5/5" in out.err
+    assert "skipped" not in out.out
     d = tmp_path / "spot"
     names = sorted(os.listdir(d))
     assert "cameras.json" in names and "000004_depth.npy" in names and "000004_uv.exr" in names
@@ -93,6 +94,58 @@ def test_missing_mesh_and_version(tmp_path, capsys):
     for option in ("--views", "--orbit", "--sphere", "--poses", "--intrinsics", "--outputs", "--formats",
                    "--workers", "--no-resume"):
         assert option in help_text
+
+
+class _FakeClock:
+    """A perf_counter that advances one second a call: the summary's arithmetic is checked
+    against it, so no test depends on how long anything takes."""
+
+    def __init__(self) -> None:
+        self.t = 0.0
+
+    def perf_counter(self) -> float:
+        self.t += 1.0
+        return self.t
+
+
+def test_a_resumed_run_counts_skipped_views_apart(tmp_path, capsys, monkeypatch):
+    """Issue 33 (12): a rerun that finds 3 of 5 views on disk says it rendered 2 and skipped 3,
+    and its rate is over the 2 rendered views only (it used to claim 5 views at 5 / time)."""
+    import softrast.cli as cli
+    import softrast.dataset as dataset
+
+    args = ["batch", str(SPOT), "--out", str(tmp_path), "--views", "5", "--size", "32x24",
+            "--outputs", "color,depth"]
+    assert main(args) == 0
+    capsys.readouterr()
+    d = tmp_path / "spot"
+    for k in (1, 3):
+        os.remove(d / f"{k:06d}_depth.exr")  # as if interrupted: views 1 and 3 are incomplete
+    clock = _FakeClock()  # calls: the run's start, write_dataset's start and end, the run's end
+    monkeypatch.setattr(cli, "time", clock, raising=False)
+    monkeypatch.setattr(dataset, "time", clock, raising=False)
+    assert main(args) == 0
+    out = capsys.readouterr()
+    # rendering the 2 views took 1 (fake) second, the run 3: 2.0 views/s, not 5 / 3 = 1.7
+    assert out.out.strip() == (f"softrast batch: rendered 2 views of 1 mesh(es) in 1.0 s (2.0 views/s), "
+                               f"skipped 3 already on disk; 3.0 s in all -> {tmp_path}")
+    assert "5/5" in out.err and "skipped 3" in out.err  # the bar starts at the skipped views
+    assert (d / "000001_depth.exr").exists() and (d / "000003_depth.exr").exists()
+    # nothing left to do: nothing rendered, no rate
+    assert main(args) == 0
+    out = capsys.readouterr().out.strip()
+    assert out.startswith("softrast batch: rendered 0 views of 1 mesh(es), skipped 5 already on disk; ")
+    assert "views/s" not in out
+
+
+def test_batch_summary_wording():
+    from softrast.cli import batch_summary
+
+    assert batch_summary(3, 7, 1, 1.2, 1.5, "ds") == (
+        "softrast batch: rendered 3 views of 1 mesh(es) in 1.2 s (2.5 views/s), skipped 7 already "
+        "on disk; 1.5 s in all -> ds")
+    assert batch_summary(1, 0, 2, 0.5, 0.6, "ds") == (
+        "softrast batch: rendered 1 view of 2 mesh(es) in 0.5 s (2.0 views/s); 0.6 s in all -> ds")
 
 
 def test_resume_after_an_interruption_gives_the_clean_result(tmp_path):

@@ -83,6 +83,11 @@ def test_resume_rewrites_only_what_is_missing(tmp_path):
     (tmp_path / ".keep.tmp").write_bytes(b"not ours")
     again = sr.write_dataset(scene, cams, tmp_path, outputs=OUTPUTS)
     assert again == first
+    # what each call did (issue 33): a rate is rendered / seconds, over the rendered views only
+    assert (first.rendered, first.skipped) == (len(cams), 0) and first.seconds > 0.0
+    assert (again.rendered, again.skipped) == (1, len(cams) - 1)
+    none = sr.write_dataset(scene, cams, tmp_path, outputs=OUTPUTS)
+    assert (none.rendered, none.skipped, none.seconds) == (0, len(cams), 0.0) and none == first
     assert not any(p.exists() for p in stale) and (tmp_path / ".keep.tmp").exists()
     for p, (mtime, data) in before.items():
         assert read(p) == data  # the same bytes

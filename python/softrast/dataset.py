@@ -29,6 +29,7 @@ from __future__ import annotations
 import concurrent.futures
 import json
 import os
+import time
 from dataclasses import dataclass, field
 from typing import Any, Iterable, Sequence
 
@@ -39,7 +40,8 @@ from .camera import Camera, IntrinsicsCamera, OrthographicCamera
 from .render import Frame, Renderer, _default_format
 from .scene import Scene
 
-__all__ = ["write_dataset", "load_cameras", "camera_record", "DatasetJob", "render_dataset"]
+__all__ = ["write_dataset", "load_cameras", "camera_record", "DatasetJob", "render_dataset",
+           "WrittenViews"]
 
 _GL_FROM_CV = np.diag([1.0, -1.0, -1.0, 1.0])
 _OUTPUT_INDEX = {name: k for k, name in enumerate(_core.OUTPUTS)}
@@ -148,15 +150,39 @@ def _atomic_json(path: str, doc: Any) -> None:
     os.replace(tmp, path)
 
 
+class WrittenViews(list):
+    """What ``write_dataset`` returns: a list of each view's {output: path}, in camera order (the
+    views skipped by ``resume`` included), that also says what this call did:
+
+    rendered : the number of views rendered and written by this call.
+    skipped : the number of views skipped because their files were all there (``resume``).
+    seconds : the wall time spent rendering and writing the rendered views (0.0 if none), so a
+        rate is ``rendered / seconds``: skipped views cost no rendering and are not counted.
+    """
+
+    def __init__(self, paths: Iterable[dict[str, str]] = (), rendered: int = 0, skipped: int = 0,
+                 seconds: float = 0.0) -> None:
+        super().__init__(paths)
+        self.rendered = int(rendered)
+        self.skipped = int(skipped)
+        self.seconds = float(seconds)
+
+    def __repr__(self) -> str:
+        return (f"WrittenViews({list.__repr__(self)}, rendered={self.rendered}, "
+                f"skipped={self.skipped}, seconds={self.seconds:.3f})")
+
+
 def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.PathLike[str],
                   outputs: Sequence[str] = ("color", "depth", "instance_id"),
                   formats: dict[str, str] | None = None, renderer: Renderer | None = None,
                   writers: int | None = None, progress: bool = False, resume: bool = True,
-                  first: int = 0, cameras_json: bool = True, **options: Any) -> list[dict[str, str]]:
+                  first: int = 0, cameras_json: bool = True, **options: Any) -> WrittenViews:
     """Render ``scene`` from every camera and write each frame as ``Frame.save`` does
     (``{stem}_{output}.{ext}``, stems 000000, 000001, ...), plus ``cameras.json``; returns each
     frame's {output: path}, in ``softrast.OUTPUTS`` order (as ``files`` in cameras.json: a
-    resumed run writes the same cameras.json, byte for byte, as an uninterrupted one).
+    resumed run writes the same cameras.json, byte for byte, as an uninterrupted one), as a
+    ``WrittenViews`` list, whose ``rendered``, ``skipped`` and ``seconds`` say how many views
+    this call rendered, how many ``resume`` skipped, and the time the rendered ones took.
 
     cameras : posed cameras, each with its image size (all the same size: one renderer).
     renderer : the renderer to use (default: a new one, all cores, for the cameras' size).
@@ -169,6 +195,8 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
         view with a truncated, empty or corrupt file (as far as its decoder or the .npy header
         reveals it: PNG chunks carry checksums, compressed data mostly fails to inflate, but
         flipped bits in raw .npy data or uncompressed pixels go unseen) is rendered again.
+    progress : a tqdm bar over all the views, starting at the skipped ones (named in it); its
+        rate counts only the views rendered.
     first : the index of the first camera's view (its stem); for a shard of a larger job.
     cameras_json : write cameras.json (False for a shard: ``render_dataset`` writes it whole).
     options : passed to ``render`` (shading=, cull=, background=, ...).
@@ -226,6 +254,8 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
     done: dict[int, dict[str, str]] = {}
     todo = []
     bar = None
+    skipped = 0
+    start = time.perf_counter()
     try:
         with concurrent.futures.ThreadPoolExecutor(n_writers, "softrast-writer") as pool:
             # resume: the writers decode the files already there (OpenImageIO releases the GIL)
@@ -235,9 +265,13 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
                     done[k] = paths
                 else:
                     todo.append(k)
+            skipped = len(done)
+            start = time.perf_counter()
             if progress:
                 from tqdm.auto import tqdm
-                bar = tqdm(total=len(cams), initial=len(done), unit="view", desc="write_dataset")
+                # tqdm's rate counts from `initial`: only rendered views make it
+                bar = tqdm(total=len(cams), initial=len(done), unit="view", desc="write_dataset",
+                           postfix=f"skipped {len(done)}" if done else None)
             pending: list[tuple[int, concurrent.futures.Future]] = []
 
             def drain(limit: int) -> None:
@@ -256,7 +290,9 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
     finally:
         if bar is not None:
             bar.close()
-    paths = [_in_output_order(done[k]) for k in range(len(cams))]
+    seconds = time.perf_counter() - start if todo else 0.0
+    paths = WrittenViews((_in_output_order(done[k]) for k in range(len(cams))), rendered=len(todo),
+                         skipped=skipped, seconds=seconds)
     if cameras_json:
         _write_cameras_json(directory, cams, stems, paths)
     return paths
