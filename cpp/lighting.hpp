@@ -156,6 +156,14 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, const simd::
         const f8 t = clamp01(clamp01(cd) * light.cone_scale + light.cone_offset);
         att *= t * t;
       }
+      if constexpr (kPbr) {
+        // A point or spot light exactly at the point (r = 0) lights nothing there: l = 0 and
+        // no attenuation keep every pbr term finite (the other models skip such a light: n.l
+        // is NaN there, never > 0).
+        const i8 apart = r2 > 0.0f;
+        for (int c = 0; c < 3; ++c) l[c] = apart ? l[c] : f8{};
+        att = apart ? att : f8{};
+      }
     }
     const f8 ndl = n[0] * l[0] + n[1] * l[1] + n[2] * l[2];
     if constexpr (kPbr) {

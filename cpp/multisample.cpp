@@ -162,6 +162,10 @@ struct MaskPass {
 };
 
 // Adds pass s's shade (`shaded`) times its weights; the representative's pass gives the normal.
+// Samples are summed scaled by kSumScale (Accumulate) and the mean scaled back (Finish).
+constexpr float kSumScale = 1.0f / 128.0f;
+static_assert(kMaxSamples <= 128, "the scaled sum of kMaxSamples finite samples stays finite");
+
 struct Accumulate {
   SR_INLINE static void run(MultisampleScratch* ms, const ShadeScratch* shaded, int n, int s,
                             bool normals) {
@@ -169,7 +173,10 @@ struct Accumulate {
     for (int i = 0; i < n; i += kLanes) {
       const i8 weight = load<i8>(ms->weight[s] + i);
       if (!any(weight != 0)) continue;
-      const f8 w = to_float(weight);
+      // The weight times 2^-7: a sum of up to 64 samples of the largest finite radiance stays
+      // finite (Finish scales back). A power of two scales exactly: the same bits as the plain
+      // sum, but for radiance below ~1e-36.
+      const f8 w = to_float(weight) * kSumScale;
       // (selects, not products alone: a pixel this pass did not shade holds a stale value)
       for (int c = 0; c < 3; ++c)
         store(ms->radiance[c] + i, load<f8>(ms->radiance[c] + i) +
@@ -187,7 +194,7 @@ struct Accumulate {
 // The mean, and the colour output's value: the mean plus the background's uncovered share.
 struct Finish {
   SR_INLINE static void run(MultisampleScratch* ms, int n, int count, const float* background) {
-    const f8 inv = splat(1.0f / float(count)), one = splat(1.0f);
+    const f8 inv = splat(1.0f / float(count) / kSumScale), one = splat(1.0f);
     const f8 bg[3] = {splat(background[0]), splat(background[1]), splat(background[2])};
     for (int i = 0; i < n; i += kLanes) {
       const f8 uncovered = one - load<f8>(ms->alpha + i);
