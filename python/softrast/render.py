@@ -330,6 +330,9 @@ def _check_output_names(outputs: str | Iterable[str]) -> list[str]:
     return list(dict.fromkeys(names))  # a name given twice is one output (and counted once)
 
 
+_END = object()  # render_many's end of the cameras (None is a camera to refuse, not the end)
+
+
 def _out_arrays(out: Frame | dict[str, np.ndarray] | None, names: list[str]) -> dict[str, np.ndarray] | None:
     """The arrays of ``out`` that ``names`` asks for (the core checks each one, and overlaps)."""
     if out is None:
@@ -650,8 +653,8 @@ class Renderer:
                 exhausted = False
                 while True:
                     while not exhausted and len(pending) < 2 * n_workers:
-                        cam = next(views, None)
-                        if cam is None:
+                        cam = next(views, _END)  # not None: a None camera is an error below
+                        if cam is _END:
                             exhausted = True
                             break
                         if not isinstance(cam, Camera):
