@@ -56,6 +56,16 @@ def positive_real(value: Any, name: str) -> float:
     return v
 
 
+def float32_real(value: Any, name: str, nonnegative: bool = False) -> float:
+    """A real number the core holds in float32: finite and at most FLOAT32_MAX in magnitude
+    (>= 0 too if ``nonnegative``), so it is refused when given, naming ``name``, not at render."""
+    v = real(value, name)
+    if not ((0.0 if nonnegative else -FLOAT32_MAX) <= v <= FLOAT32_MAX):  # NaN fails too
+        raise ValueError(f"{name} must be finite{', >= 0' if nonnegative else ''} and at most "
+                         f"{FLOAT32_MAX:.8g} in magnitude (float32's range), got {value!r}")
+    return v
+
+
 def integer(value: Any, name: str) -> int:
     """An int (Python or NumPy integer), not bool, not float."""
     if isinstance(value, (bool, np.bool_)):
