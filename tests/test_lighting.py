@@ -690,3 +690,22 @@ def test_values_beyond_float32_are_refused_when_made():
     frame = render(scene, camera(), outputs=("color",))
     assert frame.color.any()
 
+
+@pytest.mark.parametrize("length", [1e-200, 1e-30, 1e30, 1e300])
+@pytest.mark.parametrize("camera_space", [False, True])
+def test_light_pose_z_axis_of_any_finite_length(length, camera_space):
+    """Issue 39 #16: a light's direction is its pose's z axis normalised; a tiny (1e-200) or huge
+    (1e300) but nonzero column is a valid direction (its norm once under/overflowed to 0 / inf and
+    was refused as "zero length")."""
+    cam = camera()
+    frames = []
+    for scale in (1.0, length):
+        scene = sr.Scene()
+        scene.add(sphere_mesh(2), material=sr.Material(model="blinn_phong"))
+        for light in (sr.DirectionalLight(intensity=2.0), sr.SpotLight(intensity=30.0, outer_cone=1.2)):
+            pose = aim((1.0, 2.0, 3.0)).copy()
+            pose[:3, 2] *= scale
+            scene.add(light, pose=pose, camera_space=camera_space)
+        frames.append(render(scene, cam, outputs=("radiance",)).radiance)
+    assert frames[0].any()
+    np.testing.assert_allclose(frames[1], frames[0], rtol=1e-5, atol=1e-6)  # float64 rounding only

@@ -8,7 +8,7 @@ from typing import Any, Iterator, Sequence
 import numpy as np
 import numpy.typing as npt
 
-from ._checks import FLOAT32_MAX, affine_pose, integer
+from ._checks import FLOAT32_MAX, affine_pose, integer, unit_vector
 from .light import Light
 from .material import Material
 from .mesh import Mesh, _rgba
@@ -131,7 +131,7 @@ class Scene:
             if not isinstance(camera_space, (bool, np.bool_)):
                 raise TypeError(f"camera_space must be True or False, got {camera_space!r:.80}")
             light_pose = _check_model_pose(pose)
-            if not np.linalg.norm(light_pose[:3, 2]) > 0.0:
+            if unit_vector(light_pose[:3, 2]) is None:  # scaled: 1e-200 is a direction
                 raise ValueError("pose: a light's pose must keep its z axis (the way it shines): "
                                  "its third column is zero")
             self._lights.append(LightInstance(item, light_pose, bool(camera_space)))
