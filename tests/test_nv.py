@@ -516,6 +516,10 @@ BAD_CALLS = [
     (lambda: dr.rasterize(TRI_POS, TRI, (8, 8), grad_db=1), "grad_db"),
     (lambda: dr.rasterize(None, TRI, (8, 8)), "pos must be"),
     (lambda: dr.rasterize(glctx="gl", pos=TRI_POS, tri=TRI, resolution=(8, 8)), "glctx"),
+    # issue 39 #16: a wrong context given positionally is the context's fault, not pos's
+    (lambda: dr.rasterize(object(), TRI_POS, TRI, (8, 8)), r"^glctx must be"),
+    (lambda: dr.rasterize(object(), TRI_POS, TRI, resolution=(8, 8)), r"^glctx must be"),
+    (lambda: dr.rasterize(object(), TRI, (8, 8)), r"^pos must"),  # 3 arguments: pos, tri, resolution
     (lambda: dr.RasterizeGLContext(mode="auto"), "mode"),
     (lambda: dr.RasterizeGLContext(output_db=1), "output_db"),
 ]

@@ -398,6 +398,34 @@ _RASTERIZE_SIGNATURE = inspect.signature(_rasterize).replace(
     parameters=list(inspect.signature(_rasterize).parameters.values())[1:])
 
 
+def _wrong_context(args: tuple[Any, ...], kwargs: dict[str, Any]) -> bool:
+    """Whether ``args[0]``, not a context of this module, is meant as one: it is no array and
+    the call reads as ``rasterize(glctx, pos, tri, resolution, ...)`` (the rest binds, with a
+    resolution where one belongs) rather than ``rasterize(pos, tri, resolution, ...)``."""
+    first = args[0]
+    if first is None or isinstance(first, (np.ndarray, list, tuple, int, float, complex)) or any(
+            hasattr(first, a) for a in ("__array__", "__array_interface__", "__cuda_array_interface__",
+                                        "__dlpack__")):
+        return False
+
+    def bound(a: tuple[Any, ...]) -> Any:
+        try:
+            return _RASTERIZE_SIGNATURE.bind(*a, **kwargs).arguments
+        except TypeError:
+            return None
+
+    def pair_of_ints(value: Any) -> bool:
+        try:
+            arr = np.asarray(value)
+        except Exception:  # noqa: BLE001 - anything that is no array is no resolution
+            return False
+        return arr.shape == (2,) and arr.dtype.kind in "iu"
+
+    rest, whole = bound(args[1:]), bound(args)
+    return rest is not None and (whole is None or (pair_of_ints(rest["resolution"])
+                                                   and not pair_of_ints(whole["resolution"])))
+
+
 def rasterize(*args: Any, **kwargs: Any) -> tuple[np.ndarray, np.ndarray]:
     """Rasterize triangles: ``rasterize([glctx,] pos, tri, resolution, ranges=None, grad_db=True)``.
 
@@ -433,7 +461,8 @@ def rasterize(*args: Any, **kwargs: Any) -> tuple[np.ndarray, np.ndarray]:
 
     Raises ValueError naming the argument for a wrong shape or dtype, NaN, inf or a value beyond
     float32's range in ``pos``, an index in ``tri`` outside [0, num_vertices), ``ranges``
-    reaching outside ``tri``, or a resolution outside [1, MAX_IMAGE_SIDE].
+    reaching outside ``tri``, a resolution outside [1, MAX_IMAGE_SIDE], or a ``glctx`` that is
+    not a context of this module (positional or by keyword).
     """
     glctx: _Context | None = None
     if args and isinstance(args[0], _Context):
@@ -443,6 +472,9 @@ def rasterize(*args: Any, **kwargs: Any) -> tuple[np.ndarray, np.ndarray]:
         if glctx is not None and not isinstance(glctx, _Context):
             raise ValueError("glctx must be a softrast.nv.RasterizeCudaContext or RasterizeGLContext, "
                              f"got {type(glctx).__name__}")
+    elif args and _wrong_context(args, kwargs):
+        raise ValueError("glctx must be a softrast.nv.RasterizeCudaContext or RasterizeGLContext, "
+                         f"got {type(args[0]).__module__}.{type(args[0]).__name__}")
     try:
         bound = _RASTERIZE_SIGNATURE.bind(*args, **kwargs)
     except TypeError as exc:
