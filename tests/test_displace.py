@@ -72,3 +72,21 @@ def test_bad_arguments() -> None:
         sr.displace(mesh, tex, float("nan"))
     with pytest.raises(ValueError, match="subdivisions"):
         sr.displace(mesh, tex, 1.0, subdivisions=-1)
+
+
+def test_scale_that_moves_vertices_beyond_float32_names_scale() -> None:
+    """Issue 39 #16: a finite scale whose displaced positions overflow float32 is an error naming
+    ``scale`` (it once blamed ``positions``, an argument the caller never gave)."""
+    import warnings
+
+    mesh = sphere_with_uvs(1)
+    tex = sr.Texture(np.full((2, 2, 1), 0.5, np.float32))
+    for scale in (1e300, -1e300, 1e39):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # and no overflow RuntimeWarning on the way
+            with pytest.raises(ValueError, match=r"^scale") as info:
+                sr.displace(mesh, tex, scale)
+        assert "positions" not in str(info.value)
+    # a zero height difference moves nothing, whatever the scale
+    out = sr.displace(mesh, tex, 1e300, midlevel=0.5)
+    np.testing.assert_array_equal(out.positions, mesh.positions)

@@ -261,6 +261,16 @@ def test_mtl_roughness_rule_and_negative_ns(tmp_path):
     assert (m.shininess, m.roughness) == (0.0, 1.0)
 
 
+
+def test_mtl_ns_beyond_float32_is_clipped(tmp_path):
+    """Issue 39 #16: Material refuses a shininess beyond float32's range; an MTL file's Ns 1e39
+    is clipped to the largest float32 (as a negative Ns is clipped to 0), not a dropped material."""
+    obj = "mtllib two.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m\nf 1 2 3\n"
+    _write_obj(tmp_path, obj=obj, mtl="newmtl m\nKd 0.5 0.5 0.5\nNs 1e39\n")
+    mesh = sr.load_mesh(tmp_path / "two.obj")
+    assert mesh.material is not None and mesh.material.shininess == float(np.finfo(np.float32).max)
+
+
 # -- glTF ---------------------------------------------------------------------------------------
 def _glb_parts(data: bytes):
     _, _, _, n, _ = struct.unpack("<4sIII4s", data[:20])
@@ -442,3 +452,18 @@ def test_gltf_color_0_is_linear_and_multiplied_by_the_base_color_factor(tmp_path
     assert mesh.material == sr.Material(base_color=(0.5, 1.0, 0.25, 1.0), metallic=1.0, roughness=1.0,
                                         model="pbr", name="tint")
     np.testing.assert_allclose(mesh.colors, rgba / 255.0 * [0.5, 1.0, 0.25, 1.0], rtol=1e-6)
+
+
+def test_glb_alpha_cutoff_and_normal_scale_beyond_float32(tmp_path):
+    """Issue 39 #16: an alphaCutoff beyond float32's range falls back to 0.5 with a note, like any
+    bad cutoff (Material refuses it now), and the material is kept."""
+    def edit(doc):
+        paint = next(m for m in doc["materials"] if m["name"] == "paint")
+        paint["alphaMode"] = "MASK"
+        paint["alphaCutoff"] = 1e39
+
+    path, _, _ = _two_material_glb(tmp_path, edit)
+    with pytest.warns(UserWarning, match="alphaCutoff"):
+        scene = sr.load_scene(path)
+    by_name = {inst.material.name: inst.material for inst in scene}
+    assert by_name["paint"] == PAINT.replace(alpha_mode="mask", alpha_cutoff=0.5)

@@ -661,3 +661,51 @@ def test_bad_values_name_the_argument():
         render(scene, cam, outputs=("color",), shading="toon")
     with pytest.raises(ValueError, match="frequency"):
         render(scene, cam, outputs=("color",), frequency="foo")
+
+
+def test_values_beyond_float32_are_refused_when_made():
+    """Issue 39 #16: values the core holds in float32 are checked against its range by the
+    constructors, naming the field (they once failed at render: "material of draw 0 is out of
+    range", "a light has a value that is not finite", "ambient_light is not finite")."""
+    big = 3.5e38  # finite in float64, inf in float32
+    for name in ("shininess", "normal_scale", "bump_scale", "alpha_cutoff"):
+        with pytest.raises(ValueError, match=name):
+            sr.Material(**{name: big})
+    for name in ("normal_scale", "bump_scale", "alpha_cutoff"):
+        with pytest.raises(ValueError, match=name):
+            sr.Material(**{name: -big})
+    for cls in (sr.DirectionalLight, sr.PointLight, sr.SpotLight):
+        with pytest.raises(ValueError, match="intensity"):
+            cls(intensity=big)
+        cls(color=(1.0, 1.0, 1.0), intensity=float(np.finfo(np.float32).max))  # the largest is fine
+    with pytest.raises(ValueError, match="ambient_light"):
+        sr.Scene(ambient_light=(1e300, 0.0, 0.0))
+    scene = sr.Scene()
+    with pytest.raises(ValueError, match="ambient_light"):
+        scene.ambient_light = (0.0, big, 0.0)
+    # the largest values still render (no error at render time)
+    scene = sr.Scene(ambient_light=(3e38, 0.0, 0.0))
+    scene.add(sphere_mesh(1), material=sr.Material(shininess=3e38))
+    scene.add(sr.DirectionalLight(intensity=3e38), pose=aim((1.0, 2.0, 3.0)))
+    frame = render(scene, camera(), outputs=("color",))
+    assert frame.color.any()
+
+
+@pytest.mark.parametrize("length", [1e-200, 1e-30, 1e30, 1e300])
+@pytest.mark.parametrize("camera_space", [False, True])
+def test_light_pose_z_axis_of_any_finite_length(length, camera_space):
+    """Issue 39 #16: a light's direction is its pose's z axis normalised; a tiny (1e-200) or huge
+    (1e300) but nonzero column is a valid direction (its norm once under/overflowed to 0 / inf and
+    was refused as "zero length")."""
+    cam = camera()
+    frames = []
+    for scale in (1.0, length):
+        scene = sr.Scene()
+        scene.add(sphere_mesh(2), material=sr.Material(model="blinn_phong"))
+        for light in (sr.DirectionalLight(intensity=2.0), sr.SpotLight(intensity=30.0, outer_cone=1.2)):
+            pose = aim((1.0, 2.0, 3.0)).copy()
+            pose[:3, 2] *= scale
+            scene.add(light, pose=pose, camera_space=camera_space)
+        frames.append(render(scene, cam, outputs=("radiance",)).radiance)
+    assert frames[0].any()
+    np.testing.assert_allclose(frames[1], frames[0], rtol=1e-5, atol=1e-6)  # float64 rounding only

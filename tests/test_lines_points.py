@@ -682,3 +682,46 @@ def test_scene_edits_lines_and_points_like_meshes():
     scene.add(points, instance_id=1)
     with pytest.raises(ValueError, match="names 2 instances"):
         scene.remove(1)
+
+
+@pytest.mark.parametrize("mode", [0, 1])  # pyrender's GL_POINTS, GL_LINES
+def test_from_pyrender_infinite_far_covers_lines_and_points(mode):
+    """Issue 39 #6: a pyrender scene of only points or lines with zfar=None (infinite) gets a far
+    plane beyond them; the bounds once counted mesh instances only, so far = 2 * znear and nothing
+    was drawn. Stand-in classes named as pyrender's (read by attribute; pyrender itself runs in
+    a child process elsewhere)."""
+    class Primitive:
+        def __init__(self):
+            self.mode = mode
+            self.positions = np.array([[-1.0, 0.0, -10.0], [1.0, 0.0, -10.0],
+                                       [0.0, -1.0, -10.0], [0.0, 1.0, -10.0]])
+
+    class Mesh:
+        is_visible = True
+        primitives = [Primitive()]
+
+    class Node:
+        def __init__(self, name, **kw):
+            self.name = name
+            self.__dict__.update(kw)
+
+    class PerspectiveCamera:
+        yfov, znear, zfar, aspectRatio = 1.0, 0.05, None, None
+
+    class PyrenderScene:
+        ambient_light = None
+        mesh_nodes = [Node("lines", mesh=Mesh())]
+        light_nodes = []
+        main_camera_node = Node("camera", camera=PerspectiveCamera())
+
+        def get_pose(self, node):
+            return np.eye(4)
+
+    for cls in (Primitive, Mesh, Node, PyrenderScene):
+        cls.__module__ = "pyrender.fake"
+    PerspectiveCamera.__module__ = "pyrender.camera"
+    scene, cam = sr.from_pyrender(PyrenderScene(), 32, 32)
+    assert len(scene.primitives) == 1 and len(scene) == 0
+    assert cam.far >= 10.0
+    frame = sr.Renderer(32, 32).render(scene, cam, outputs=("mask",))
+    assert frame.mask.sum() >= (4 if mode == 0 else 8)  # 2 lines about 6 px long cross

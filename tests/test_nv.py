@@ -516,6 +516,10 @@ BAD_CALLS = [
     (lambda: dr.rasterize(TRI_POS, TRI, (8, 8), grad_db=1), "grad_db"),
     (lambda: dr.rasterize(None, TRI, (8, 8)), "pos must be"),
     (lambda: dr.rasterize(glctx="gl", pos=TRI_POS, tri=TRI, resolution=(8, 8)), "glctx"),
+    # issue 39 #16: a wrong context given positionally is the context's fault, not pos's
+    (lambda: dr.rasterize(object(), TRI_POS, TRI, (8, 8)), r"^glctx must be"),
+    (lambda: dr.rasterize(object(), TRI_POS, TRI, resolution=(8, 8)), r"^glctx must be"),
+    (lambda: dr.rasterize(object(), TRI, (8, 8)), r"^pos must"),  # 3 arguments: pos, tri, resolution
     (lambda: dr.RasterizeGLContext(mode="auto"), "mode"),
     (lambda: dr.RasterizeGLContext(output_db=1), "output_db"),
 ]
@@ -552,3 +556,66 @@ def test_bad_interpolate_input_raises_value_error():
     for call, match in cases:
         with pytest.raises(ValueError, match=match):
             call()
+
+
+# -- the memory budget (issue 39 #10) ------------------------------------------------------------
+
+QUAD_POS = np.array([[[-1, -1, 0, 1], [1, -1, 0, 1], [1, 1, 0, 1], [-1, 1, 0, 1]]], np.float32)
+QUAD_TRI = np.array([[0, 1, 2], [0, 2, 3]], np.int32)
+
+
+@pytest.fixture
+def budget():
+    before = sr.get_memory_budget()
+    yield sr.set_memory_budget
+    sr.set_memory_budget(before)
+
+
+def test_rasterize_refuses_outputs_over_the_budget_before_allocating(budget):
+    """8 images of 2048 x 2048 need 1 GiB of rast and rast_db: refused under 64 MiB, naming the
+    arguments that set the size (once allocated regardless: 512 MiB under 64 MiB)."""
+    budget(64 * 2**20)
+    pos = np.broadcast_to(QUAD_POS, (8, 4, 4))
+    with pytest.raises(ValueError, match=r"rasterize.*8 images \(pos\).*resolution \(2048, 2048\).*memory budget"):
+        dr.rasterize(pos, QUAD_TRI, (2048, 2048))
+    with pytest.raises(ValueError, match=r"ranges.*resolution \(2048, 2048\)"):
+        dr.rasterize(QUAD_POS[0], QUAD_TRI, (2048, 2048), ranges=np.array([[0, 2]] * 8, np.int32))
+    rast, _ = dr.rasterize(QUAD_POS, QUAD_TRI, (64, 64))  # small calls still run
+    assert (rast[..., 3] > 0).all()
+
+
+def test_rasterize_refuses_triangle_work_over_the_budget(budget):
+    """The clipping and culling work grows with the triangles of an image: named by tri."""
+    n = 20000
+    pos = np.zeros((1, 3 * n, 4), np.float32)
+    pos[..., 3] = 1.0
+    tri = np.arange(3 * n, dtype=np.int32).reshape(-1, 3)
+    budget(4 * 2**20)
+    with pytest.raises(ValueError, match=rf"rasterize.*{n} triangles \(tri\)"):
+        dr.rasterize(pos, tri, (8, 8))
+
+
+@pytest.mark.parametrize("case", ["cover", "triangles", "minibatch"])
+def test_rasterize_budget_bounds_what_it_allocates(budget, case):
+    """The check counts at least what rasterize allocates (NumPy's allocations, traced): a budget
+    one byte under the traced peak is refused."""
+    import tracemalloc
+
+    if case == "cover":
+        args = (QUAD_POS, QUAD_TRI, (300, 200))
+    elif case == "minibatch":
+        args = (np.repeat(QUAD_POS * np.float32([0.5, 0.5, 1, 1]), 5, axis=0), QUAD_TRI, (64, 96))
+    else:
+        rng = np.random.default_rng(1)
+        pos = rng.uniform(-1.5, 1.5, (1, 3000, 4)).astype(np.float32)
+        pos[..., 3] = rng.uniform(0.5, 2.0, (1, 3000))
+        args = (pos, np.arange(3000, dtype=np.int32).reshape(-1, 3), (32, 32))
+    tracemalloc.start()
+    try:
+        dr.rasterize(*args)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    budget(peak - 1)
+    with pytest.raises(ValueError, match="memory budget"):
+        dr.rasterize(*args)

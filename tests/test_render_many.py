@@ -92,3 +92,17 @@ def test_render_many_checks_its_arguments() -> None:
     with pytest.raises(ValueError, match="outputs"):
         list(r.render_many(scene, list(_cameras(2, 32, 24)), outputs=("colour",)))
     assert list(r.render_many(scene, [])) == []
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_render_many_refuses_a_none_camera(workers) -> None:
+    """Issue 39 #7: a None among the cameras is an error naming it, not the end of the views
+    (it once ended the iteration: 2 frames from 5 cameras)."""
+    r = sr.Renderer(32, 24, threads=2)
+    scene = _scene()
+    cams = list(_cameras(4, 32, 24))
+    frames = []
+    with pytest.raises(TypeError, match=r"cameras\[2\].*NoneType"):
+        for frame in r.render_many(scene, cams[:2] + [None] + cams[2:], outputs=("mask",), workers=workers):
+            frames.append(frame)
+    assert len(frames) <= 2

@@ -56,6 +56,29 @@ def positive_real(value: Any, name: str) -> float:
     return v
 
 
+def float32_real(value: Any, name: str, nonnegative: bool = False) -> float:
+    """A real number the core holds in float32: finite and at most FLOAT32_MAX in magnitude
+    (>= 0 too if ``nonnegative``), so it is refused when given, naming ``name``, not at render."""
+    v = real(value, name)
+    if not ((0.0 if nonnegative else -FLOAT32_MAX) <= v <= FLOAT32_MAX):  # NaN fails too
+        raise ValueError(f"{name} must be finite{', >= 0' if nonnegative else ''} and at most "
+                         f"{FLOAT32_MAX:.8g} in magnitude (float32's range), got {value!r}")
+    return v
+
+
+def unit_vector(v: Any) -> npt.NDArray[np.float64] | None:
+    """The direction of a finite float vector as a unit vector, or None for the zero vector.
+    Scaled first by the largest magnitude, so a 1e-200 or 1e300 long vector (whose squares are 0
+    or inf) has its direction too."""
+    a = np.asarray(v, dtype=np.float64)
+    m = float(np.max(np.abs(a))) if a.size else 0.0
+    if not m > 0.0:
+        return None
+    if not 1e-150 < m < 1e150:  # the squares would under- or overflow
+        a = a / m  # the largest component is +-1
+    return a / float(np.linalg.norm(a))  # unscaled otherwise: the same bits as ever
+
+
 def integer(value: Any, name: str) -> int:
     """An int (Python or NumPy integer), not bool, not float."""
     if isinstance(value, (bool, np.bool_)):

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from ._checks import finite_real, integer
+from ._checks import FLOAT32_MAX, finite_real, integer
 from .mesh import Mesh
 from .texture import Texture
 
@@ -68,7 +68,14 @@ def displace(mesh: Mesh, texture: Texture, scale: float, subdivisions: int = 0,
         normals = vertex_normals(trimesh.Trimesh(v, f, process=False), True)
     heights = texture if texture.srgb is not None else texture.replace(srgb=False)
     h = heights.sample(attrs["uv"], filter="bilinear")[:, 0].astype(np.float64)
-    moved = v + normals * (s * (h - mid))[:, None]
+    with np.errstate(over="ignore", invalid="ignore"):  # checked below, naming scale
+        moved = v + normals * (s * (h - mid))[:, None]
+    beyond = ~(np.abs(moved) <= FLOAT32_MAX).all(axis=1)
+    if beyond.any():
+        k = int(np.argmax(beyond))
+        raise ValueError(f"scale={scale!r} moves vertex {k} to {moved[k].tolist()}, beyond float32's "
+                         f"range (+-{FLOAT32_MAX:.8g}), a Mesh's vertex type: use a "
+                         "smaller scale")
     new_normals = vertex_normals(trimesh.Trimesh(moved, f, process=False), True)
     return Mesh(moved, f, normals=new_normals, uvs=attrs["uv"],
                 colors=attrs.get("color"), color=mesh.color, material=mesh.material)

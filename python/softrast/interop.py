@@ -45,7 +45,8 @@ What is converted, and how (pyrender 0.1.45's attribute names):
   ``sr.IntrinsicsCamera(..., convention="opengl")`` (exactly pyrender's projection);
   ``OrthographicCamera(xmag, ymag, znear, zfar)`` -> ``sr.OrthographicCamera``. pyrender allows
   ``zfar=None`` (an infinite far plane); softrast needs a finite one: twice the farthest
-  distance of the scene's bounding-box corners along the viewing axis (at least 2 * znear).
+  distance of the scene's bounding-box corners (of its meshes, lines and points) along the
+  viewing axis (at least 2 * znear).
   A ``metallicRoughnessTexture`` that pyrender keeps as its two channels (G, B) becomes an RGB
   texture (0, G, B), so metallic stays blue and roughness green.
 * The background: ``bg_color`` (pyrender's default white) comes back as the result's
@@ -339,7 +340,7 @@ def _far(zfar: Any, znear: float, scene: Scene, cam_pose: np.ndarray) -> float:
     if zfar is not None:
         return float(zfar)
     far = 2.0 * znear
-    if len(scene):
+    if len(scene) or scene.primitives:  # bounds of meshes, lines and points
         lo, hi = scene.bounds
         corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
         along = (corners - cam_pose[:3, 3]) @ -cam_pose[:3, 2]  # distance along the viewing axis

@@ -1,9 +1,10 @@
 """Lights, placed like pyrender's: ``scene.add(light, pose=)`` with a 4x4 light-to-world pose.
 
-A light shines along its local -z axis; a point or spot light sits at the pose's translation.
-``scene.add(light, pose=, camera_space=True)`` fixes a light to the camera instead (the pose is
-then light-to-camera, in the camera's OpenGL axes: x right, y up, looking down -z). The radiance
-a light sends is ``color * intensity``, times ``1 / r**2`` for point and spot lights with
+A light shines along its local -z axis (the pose's z column, of any nonzero length); a point or
+spot light sits at the pose's translation. ``scene.add(light, pose=, camera_space=True)`` fixes a
+light to the camera instead (the pose is then light-to-camera, in the camera's OpenGL axes: x
+right, y up, looking down -z). The radiance a light sends is ``color * intensity`` (intensity
+>= 0, at most float32's 3.4e38), times ``1 / r**2`` for point and spot lights with
 ``falloff="inverse_square"`` (the default; ``"none"`` drops it, as classic Phong and PyTorch3D
 do), times glTF's smooth cone factor for spot lights (KHR_lights_punctual):
 
@@ -22,7 +23,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from . import _core
-from ._checks import choice, real, unit_rgb
+from ._checks import choice, float32_real, real, unit_rgb, unit_vector
 
 __all__ = ["DirectionalLight", "Light", "PointLight", "SpotLight"]
 
@@ -32,10 +33,9 @@ _DIRECTIONAL, _POINT, _SPOT = _core.LIGHT_KINDS  # "directional", "point", "spot
 
 
 def _intensity(value: Any) -> float:
-    v = real(value, "intensity")
-    if not (math.isfinite(v) and v >= 0.0):
-        raise ValueError(f"intensity must be finite and >= 0, got {value!r}")
-    return v
+    # The core holds color * intensity in float32: with color in [0, 1] and intensity at most
+    # FLOAT32_MAX, the product stays finite there.
+    return float32_real(value, "intensity", nonnegative=True)
 
 
 class Light:
@@ -77,12 +77,10 @@ class Light:
         """The fields of the core's light record, by name, in float64 (the record holds float32;
         tests/shading_reference.py reads these)."""
         pos = pose_world[:3, 3]
-        d = -pose_world[:3, 2]
-        norm = float(np.linalg.norm(d))
-        if not (math.isfinite(norm) and norm > 0.0):
+        d = unit_vector(-pose_world[:3, 2])  # scaled: a 1e-200 or 1e300 long z axis has one too
+        if d is None:
             raise ValueError(f"{type(self).__name__} pose: its z axis has zero length, so it has "
                              "no direction")
-        d = d / norm
         scale, offset = self._cone()
         return dict(kind=self._kind, radiance=tuple(c * self.intensity for c in self.color),
                     position=tuple(float(x) for x in pos), direction=tuple(float(x) for x in d),

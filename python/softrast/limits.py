@@ -2,7 +2,7 @@
 
 Files and arguments come from anywhere; a 69-byte PNG may claim 40000x40000 pixels. Every size
 that softrast can know before allocating (the outputs of a render, an image's header, a mesh
-file's declared element counts, a mesh's arrays) is checked against this budget first, and a
+file's declared element counts, a mesh's arrays, a texture's mip chain and decoded copy) is checked against this budget first, and a
 request above it raises ValueError instead of taking the process down.
 """
 from __future__ import annotations

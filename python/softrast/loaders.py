@@ -120,6 +120,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from ._checks import FLOAT32_MAX
 from .material import Material
 from .texture import Texture
 
@@ -558,7 +559,7 @@ def _parse_mtl(text: str, mtl_name: str, info: _FileInfo, folder: str = "") -> d
                 if v < 0.0:
                     info.warn((where, "ns<0"), f"{where}: {words[0]} {words[1]} is negative: read as 0 "
                                                "(no highlight)")
-                current["ns"] = max(v, 0.0)
+                current["ns"] = min(max(v, 0.0), FLOAT32_MAX)  # Material's (float32) range
             else:
                 current["d"] = min(max(v, 0.0), 1.0)
         elif key in _MTL_MAPS:
@@ -634,7 +635,7 @@ def _mtl_resolve(entry: _MtlEntry, info: _FileInfo) -> tuple[Material, list[str]
         if scaled and "-bm" in m.options:
             try:
                 scale = float(m.options["-bm"][0])
-                if not math.isfinite(scale):
+                if not abs(scale) <= FLOAT32_MAX:  # inf and NaN too: Material's (float32) range
                     raise ValueError
             except (ValueError, IndexError):
                 scale = None
@@ -735,8 +736,9 @@ def _gltf_alpha(mode: Any, cutoff: Any, dropped: list[str]) -> dict[str, Any]:
         if cutoff is None:
             cutoff = 0.5
         if (isinstance(cutoff, bool) or not isinstance(cutoff, (int, float))
-                or not math.isfinite(cutoff) or cutoff < 0):
-            dropped.append(f"alphaCutoff {cutoff!r} is not a number >= 0 (using 0.5)")
+                or not 0 <= cutoff <= FLOAT32_MAX):  # NaN fails too; Material's float32 range
+            dropped.append(f"alphaCutoff {cutoff!r} is not a number >= 0 within float32's range "
+                           "(using 0.5)")
             cutoff = 0.5
         return {"alpha_mode": "mask", "alpha_cutoff": float(cutoff)}
     if mode not in (None, "OPAQUE"):
@@ -820,7 +822,7 @@ def _gltf_textures(entry: dict[str, Any], pbr: dict[str, Any], info: _FileInfo, 
         if key == "normalTexture" and "scale" in ref:
             scale = ref["scale"]
             if (isinstance(scale, (int, float)) and not isinstance(scale, bool)
-                    and math.isfinite(scale)):
+                    and abs(scale) <= FLOAT32_MAX):  # NaN fails too; Material's float32 range
                 out["normal_scale"] = float(scale)
             else:
                 dropped.append(f"normalTexture scale {scale!r:.40} is not a number (using 1)")
@@ -945,7 +947,7 @@ def _trimesh_material(mat: Any, info: _FileInfo) -> tuple[Material | None, list[
                 dropped.append(f"its texture image {why}: not drawn")
         # a texture multiplies the diffuse colour: kd is the base colour then
         # the MTL rule (see the module docstring): pbr, metallic 0, roughness from Ks and Ns
-        ns = max(float(mat.glossiness), 0.0)
+        ns = min(max(float(mat.glossiness), 0.0), FLOAT32_MAX)  # Material's (float32) range
         m = Material(base_color=(*rgb[1], alpha), ka=rgb[0], kd=None if texture is not None else rgb[1],
                      ks=rgb[2], shininess=ns, metallic=0.0, roughness=_mtl_roughness(rgb[2], ns),
                      model="pbr", name=name if isinstance(name, str) else None,

@@ -37,13 +37,12 @@ linear values unless their texture says ``srgb=True``.
 """
 from __future__ import annotations
 
-import math
 from typing import Any, Sequence
 
 import numpy as np
 
 from . import _core
-from ._checks import real, real_array
+from ._checks import float32_real, real, real_array
 from .texture import Texture
 
 __all__ = ["Material", "MODELS", "ALPHA_MODES"]
@@ -90,7 +89,8 @@ class Material:
     ka, kd, ks : RGB in [0, 1] (one number is grey: ``ks=0.5``) or None: ambient, diffuse and
         specular reflectance of the lambert / phong / blinn_phong models. ``kd=None`` => the base colour; ``ka=None`` =>
         ``kd``; ``ks`` defaults to 0.5 grey (a mesh without any material has ks = 0).
-    shininess : the specular exponent p >= 0 (``Ns`` in MTL files). Default 32.
+    shininess : the specular exponent p >= 0 (``Ns`` in MTL files). Default 32. It and the other
+        numbers below are held in float32 by the core: beyond its range (3.4e38) is refused.
     metallic, roughness : glTF metallic-roughness factors in [0, 1] (``pbr``). Defaults 0 and
         0.5 (glTF files default to 1 and 1 when they give none; the loaders apply that).
     emissive : RGB in [0, 1] (or one number, grey), added to the radiance of every lit model.
@@ -160,9 +160,7 @@ class Material:
         s(self, "ka", None if ka is None else _color(ka, "ka", 3))
         s(self, "kd", None if kd is None else _color(kd, "kd", 3))
         s(self, "ks", (0.0, 0.0, 0.0) if ks is None else _color(ks, "ks", 3))
-        p = real(shininess, "shininess")
-        if not (math.isfinite(p) and p >= 0.0):
-            raise ValueError(f"shininess must be finite and >= 0, got {shininess!r}")
+        p = float32_real(shininess, "shininess", nonnegative=True)  # the core's float32 range
         s(self, "shininess", p)
         s(self, "metallic", _unit_real(metallic, "metallic"))
         s(self, "roughness", _unit_real(roughness, "roughness"))
@@ -189,26 +187,20 @@ class Material:
             if tex is not None and slot in ("base_color_texture", "emissive_texture"):
                 tex._check_color_range(slot)
             s(self, slot, tex)
-        scale = real(normal_scale, "normal_scale")
-        if not math.isfinite(scale):
-            raise ValueError(f"normal_scale must be finite, got {normal_scale!r}")
+        scale = float32_real(normal_scale, "normal_scale")
         s(self, "normal_scale", scale)
         if normal_map_convention not in ("opengl", "directx"):
             raise ValueError(f"normal_map_convention must be 'opengl' or 'directx', got "
                              f"{normal_map_convention!r:.80}")
         s(self, "normal_map_convention", normal_map_convention)
         s(self, "occlusion_strength", _unit_real(occlusion_strength, "occlusion_strength"))
-        bump = real(bump_scale, "bump_scale")
-        if not math.isfinite(bump):
-            raise ValueError(f"bump_scale must be finite, got {bump_scale!r}")
+        bump = float32_real(bump_scale, "bump_scale")
         s(self, "bump_scale", bump)
         if not isinstance(alpha_mode, str) or alpha_mode not in ALPHA_MODES:
             raise ValueError(f"alpha_mode must be one of {ALPHA_MODES}, got {alpha_mode!r:.80}"
                              + (" (blending is not drawn yet)" if alpha_mode == "blend" else ""))
         s(self, "alpha_mode", alpha_mode)
-        cutoff = real(alpha_cutoff, "alpha_cutoff")
-        if not math.isfinite(cutoff):
-            raise ValueError(f"alpha_cutoff must be finite, got {alpha_cutoff!r}")
+        cutoff = float32_real(alpha_cutoff, "alpha_cutoff")
         s(self, "alpha_cutoff", cutoff)
         core = lambda tex, srgb: tex._core(srgb) if tex is not None else None  # noqa: E731
         # The core's record (cpp/bind/records.cpp, every field by name): colour slots decode

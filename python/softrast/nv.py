@@ -34,6 +34,7 @@ import numpy.typing as npt
 
 from . import _core
 from .camera import OrthographicCamera
+from .limits import check_budget
 from .mesh import Mesh
 from .render import Renderer
 from .scene import Scene
@@ -319,10 +320,21 @@ def _shade(clip: npt.NDArray[np.float64], visible: npt.NDArray[np.int64], first_
     a_i is affine in (X, Y), so the image-space derivatives are exact: d b_i / dX =
     (a_i' - b_i sum(a')) / sum(a) times dX/dcolumn = 2 / W (and 2 / H for rows).
     """
+    all_rows, all_cols = np.nonzero(visible >= 0)
+    # A block of pixels at a time: each pixel's values depend on it alone, and the float64 work
+    # (about 400 bytes a pixel) stays a few MB whatever the resolution.
+    for start in range(0, len(all_rows), _SHADE_BLOCK):
+        _shade_pixels(clip, visible, first_id, rast, rast_db, all_rows[start:start + _SHADE_BLOCK],
+                      all_cols[start:start + _SHADE_BLOCK])
+
+
+_SHADE_BLOCK = 1 << 14  # pixels shaded at once
+
+
+def _shade_pixels(clip: npt.NDArray[np.float64], visible: npt.NDArray[np.int64], first_id: int,
+                  rast: npt.NDArray[np.float32], rast_db: npt.NDArray[np.float32],
+                  rows: npt.NDArray[np.int64], cols: npt.NDArray[np.int64]) -> None:
     height, width = visible.shape
-    rows, cols = np.nonzero(visible >= 0)
-    if len(rows) == 0:
-        return
     tri = visible[rows, cols]
     rast[rows, cols, 3] = _ids_to_float(tri + first_id + 1)
     p = clip[tri]  # (N, 3, 4)
@@ -384,6 +396,8 @@ def _rasterize(glctx: _Context | None, pos: Any, tri: Any, resolution: Any, rang
     else:
         jobs = [(p, int(first), int(n)) for first, n in _check_ranges(ranges, len(t))]
     output_db = glctx is None or glctx.output_db
+    _check_rasterize_budget(len(jobs), height, width, output_db, max((n for _, _, n in jobs), default=0),
+                            "pos" if p.ndim == 3 else "ranges")
     rast = np.zeros((len(jobs), height, width, 4), dtype=np.float32)
     rast_db = np.zeros((len(jobs), height, width, 4 if output_db else 0), dtype=np.float32)
     for k, (vertices, first, n) in enumerate(jobs):
@@ -394,8 +408,57 @@ def _rasterize(glctx: _Context | None, pos: Any, tri: Any, resolution: Any, rang
     return rast, rast_db
 
 
+# rasterize's working memory besides its outputs, bytes (NumPy's allocations as tracemalloc traces
+# them, with margin; tests/test_nv.py checks that these bound them): per pixel of an image (the
+# visibility map, the covered pixels' indices), per pixel shaded at once (_SHADE_BLOCK of them at
+# most: the float64 barycentrics and derivatives), per triangle of an image (culling, clipping).
+_PIXEL_WORK, _SHADED_PIXEL_WORK, _TRIANGLE_WORK = 40, 450, 1700
+
+
+def _check_rasterize_budget(images: int, height: int, width: int, output_db: bool, triangles: int,
+                            minibatch_from: str) -> None:
+    """rast and rast_db, and the work of one image, against the memory budget before any of it
+    is allocated, naming the arguments that set the size."""
+    pixels = height * width
+    outputs = images * pixels * (32 if output_db else 16)  # (h, w, 4) float32 each
+    work = (pixels * _PIXEL_WORK + min(pixels, _SHADE_BLOCK) * _SHADED_PIXEL_WORK
+            + triangles * _TRIANGLE_WORK)
+    check_budget(outputs + work,
+                 f"rasterize(): rast{' and rast_db' if output_db else ''} for {images} images "
+                 f"({minibatch_from}) at resolution ({height}, {width}), with the work of up to "
+                 f"{triangles} triangles (tri) an image,")
+
+
 _RASTERIZE_SIGNATURE = inspect.signature(_rasterize).replace(
     parameters=list(inspect.signature(_rasterize).parameters.values())[1:])
+
+
+def _wrong_context(args: tuple[Any, ...], kwargs: dict[str, Any]) -> bool:
+    """Whether ``args[0]``, not a context of this module, is meant as one: it is no array and
+    the call reads as ``rasterize(glctx, pos, tri, resolution, ...)`` (the rest binds, with a
+    resolution where one belongs) rather than ``rasterize(pos, tri, resolution, ...)``."""
+    first = args[0]
+    if first is None or isinstance(first, (np.ndarray, list, tuple, int, float, complex)) or any(
+            hasattr(first, a) for a in ("__array__", "__array_interface__", "__cuda_array_interface__",
+                                        "__dlpack__")):
+        return False
+
+    def bound(a: tuple[Any, ...]) -> Any:
+        try:
+            return _RASTERIZE_SIGNATURE.bind(*a, **kwargs).arguments
+        except TypeError:
+            return None
+
+    def pair_of_ints(value: Any) -> bool:
+        try:
+            arr = np.asarray(value)
+        except Exception:  # noqa: BLE001 - anything that is no array is no resolution
+            return False
+        return arr.shape == (2,) and arr.dtype.kind in "iu"
+
+    rest, whole = bound(args[1:]), bound(args)
+    return rest is not None and (whole is None or (pair_of_ints(rest["resolution"])
+                                                   and not pair_of_ints(whole["resolution"])))
 
 
 def rasterize(*args: Any, **kwargs: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -433,7 +496,10 @@ def rasterize(*args: Any, **kwargs: Any) -> tuple[np.ndarray, np.ndarray]:
 
     Raises ValueError naming the argument for a wrong shape or dtype, NaN, inf or a value beyond
     float32's range in ``pos``, an index in ``tri`` outside [0, num_vertices), ``ranges``
-    reaching outside ``tri``, or a resolution outside [1, MAX_IMAGE_SIDE].
+    reaching outside ``tri``, a resolution outside [1, MAX_IMAGE_SIDE], a ``glctx`` that is
+    not a context of this module (positional or by keyword), or outputs and working memory
+    (about 40 bytes a pixel and 1.7 kB a triangle of an image besides rast and rast_db) beyond
+    the memory budget (``softrast.set_memory_budget``), before allocating them.
     """
     glctx: _Context | None = None
     if args and isinstance(args[0], _Context):
@@ -443,6 +509,9 @@ def rasterize(*args: Any, **kwargs: Any) -> tuple[np.ndarray, np.ndarray]:
         if glctx is not None and not isinstance(glctx, _Context):
             raise ValueError("glctx must be a softrast.nv.RasterizeCudaContext or RasterizeGLContext, "
                              f"got {type(glctx).__name__}")
+    elif args and _wrong_context(args, kwargs):
+        raise ValueError("glctx must be a softrast.nv.RasterizeCudaContext or RasterizeGLContext, "
+                         f"got {type(args[0]).__module__}.{type(args[0]).__name__}")
     try:
         bound = _RASTERIZE_SIGNATURE.bind(*args, **kwargs)
     except TypeError as exc:

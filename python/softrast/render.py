@@ -13,7 +13,7 @@ from ._checks import choice, image_side, integer, real, unit_rgb
 from .camera import Camera
 from .limits import check_budget
 from .scene import Scene
-from .texture import check_filter
+from .texture import FILTERS_WITH_MIPS, check_filter
 
 __all__ = ["Frame", "Renderer"]
 
@@ -385,6 +385,35 @@ def _draws(scene: Scene) -> list[Any]:
     return cached
 
 
+def _textures(scene: Scene) -> list[tuple[Any, Any]]:
+    """(Texture, its core texture) of every texture slot of the scene's materials, as the draws
+    use them (cached in the scene until it changes)."""
+    cached = scene._render_cache.get("textures")
+    if cached is None:
+        cached, seen = [], set()
+        for inst in scene._instances:
+            mat = inst.material
+            if mat is None:
+                continue
+            for slot in mat._TEXTURE_SLOTS:
+                tex = getattr(mat, slot)
+                if tex is not None:
+                    core = tex._core(slot in ("base_color_texture", "emissive_texture"))  # as Material
+                    if id(core) not in seen:
+                        seen.add(id(core))
+                        cached.append((tex, core))
+        scene._render_cache["textures"] = cached
+    return cached
+
+
+def _check_mip_budgets(scene: Scene, texture_filter: str | None) -> None:
+    """The mip chains this render builds (the core builds those its filters need, once per
+    texture: cpp/bind/render.cpp), each checked against the memory budget first."""
+    for tex, core in _textures(scene):
+        if (texture_filter or tex.filter) in FILTERS_WITH_MIPS and not core.has_mips:
+            tex._check_mips(core)
+
+
 # Checked output tuples (and single names): a batch asks for the same outputs every render.
 _CHECKED_OUTPUTS: dict[Any, Sequence[str]] = {}
 
@@ -417,6 +446,9 @@ def _check_output_names(outputs: str | Iterable[str]) -> list[str]:
         if name not in _core.OUTPUTS:
             raise ValueError(f"outputs: unknown output {name!r}; choose from {', '.join(_core.OUTPUTS)}")
     return list(dict.fromkeys(names))  # a name given twice is one output (and counted once)
+
+
+_END = object()  # render_many's end of the cameras (None is a camera to refuse, not the end)
 
 
 def _out_arrays(out: Frame | dict[str, np.ndarray] | None, names: list[str]) -> dict[str, np.ndarray] | None:
@@ -673,6 +705,7 @@ class Renderer:
         new = names if not out_arrays else [n for n in names if n not in out_arrays]  # out= reused
         if new:
             check_budget(w * h * sum(_OUTPUT_BYTES[n] for n in new), f"outputs {tuple(new)} at {w}x{h}")
+        _check_mip_budgets(scene, texture_filter)
 
         draws = _draws(scene)
         primitives = _primitive_draws(scene)
@@ -760,8 +793,8 @@ class Renderer:
                 exhausted = False
                 while True:
                     while not exhausted and len(pending) < 2 * n_workers:
-                        cam = next(views, None)
-                        if cam is None:
+                        cam = next(views, _END)  # not None: a None camera is an error below
+                        if cam is _END:
                             exhausted = True
                             break
                         if not isinstance(cam, Camera):

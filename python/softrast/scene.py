@@ -8,7 +8,7 @@ from typing import Any, Iterator, Sequence
 import numpy as np
 import numpy.typing as npt
 
-from ._checks import affine_pose, integer
+from ._checks import FLOAT32_MAX, affine_pose, integer, unit_vector
 from .light import Light
 from .material import Material
 from .mesh import Mesh, _rgba
@@ -65,9 +65,9 @@ def _check_model_pose(pose: Any) -> npt.NDArray[np.float64]:
 class Scene:
     """An ordered collection of mesh instances and lights (the camera is a render argument).
 
-    ambient_light : RGB >= 0 (linear), the ambient light ``Ia`` every lit model multiplies by
-        ``ka``; None (default) => the render's ``ambient`` in a scene without lights (the
-        headlight's ambient term) and 0 in a scene with lights.
+    ambient_light : RGB >= 0 (linear, at most float32's 3.4e38), the ambient light ``Ia`` every
+        lit model multiplies by ``ka``; None (default) => the render's ``ambient`` in a scene
+        without lights (the headlight's ambient term) and 0 in a scene with lights.
     """
 
     def __init__(self, ambient_light: Sequence[float] | None = None) -> None:
@@ -101,8 +101,9 @@ class Scene:
         arr = real_array(value, "ambient_light")
         if arr.shape != (3,):
             raise ValueError(f"ambient_light must be 3 numbers (RGB), got shape {arr.shape}")
-        if not (np.isfinite(arr).all() and (arr >= 0.0).all()):
-            raise ValueError(f"ambient_light must be finite and >= 0, got {arr.tolist()}")
+        if not ((arr >= 0.0).all() and (arr <= FLOAT32_MAX).all()):  # NaN fails too
+            raise ValueError(f"ambient_light must be >= 0 and at most {FLOAT32_MAX:.8g} (float32's "
+                             f"range), got {arr.tolist()}")
         self._ambient_light = (float(arr[0]), float(arr[1]), float(arr[2]))
 
     def add(self, item: Mesh | Light | Lines | Points, pose: npt.ArrayLike | None = None,
@@ -130,7 +131,7 @@ class Scene:
             if not isinstance(camera_space, (bool, np.bool_)):
                 raise TypeError(f"camera_space must be True or False, got {camera_space!r:.80}")
             light_pose = _check_model_pose(pose)
-            if not np.linalg.norm(light_pose[:3, 2]) > 0.0:
+            if unit_vector(light_pose[:3, 2]) is None:  # scaled: 1e-200 is a direction
                 raise ValueError("pose: a light's pose must keep its z axis (the way it shines): "
                                  "its third column is zero")
             self._lights.append(LightInstance(item, light_pose, bool(camera_space)))

@@ -39,7 +39,10 @@ Conventions (``tests/texture_reference.py`` implements every rule below independ
   them, in linear space with straight alpha: each level halves each side (floor, at least 1)
   with an exact area-weighted box filter (an odd side's texels are split between neighbours by
   overlap), down to 1 x 1. Levels are float32 RGBA: a chain costs about 21 bytes per texel of
-  level 0 (16/3 x 4), built in C++ at about 10 ns per texel.
+  level 0 (16/3 x 4), built in C++ at about 10 ns per texel; the build peaks near 28 bytes per
+  texel (a float32 RGBA copy of level 0, a half-width pass and level 1), and that peak is checked
+  against ``softrast.set_memory_budget`` first, naming the texture, as is the float32 copy a
+  texture other than uint8 (or float32 read as linear) is converted to.
 * **NaN uvs** (and infinite ones with repeat or mirror) sample as (0, 0, 0, 0): black and
   transparent, never an out-of-bounds read. With clamp an infinite uv reads the edge texel.
 
@@ -57,6 +60,7 @@ import numpy.typing as npt
 
 from . import _core
 from ._checks import integer
+from .limits import check_budget
 
 __all__ = ["Texture", "load_texture", "FILTERS", "WRAPS"]
 
@@ -83,6 +87,19 @@ def srgb_decode(c: np.ndarray) -> np.ndarray:
     linear segment, values above 1 the power segment."""
     c = np.asarray(c, dtype=np.float64)
     return np.where(c <= 0.04045, c / 12.92, ((np.maximum(c, 0.04045) + 0.055) / 1.055) ** 2.4)
+
+
+def mip_chain_bytes(width: int, height: int) -> int:
+    """The peak bytes of building a width x height texture's mip chain (cpp/texture.cpp,
+    Texture::build_mips): its float32 RGBA copy of level 0, the row pass to half width and level 1
+    at once (later levels are smaller: their peak with the kept levels is lower)."""
+    if width == 1 and height == 1:
+        return 0
+    half_w, half_h = max(1, width // 2), max(1, height // 2)
+    return 16 * (width * height + half_w * height + half_w * half_h)
+
+
+FILTERS_WITH_MIPS = ("trilinear", "anisotropic")
 
 
 def _check_image(image: Any) -> np.ndarray:
@@ -190,30 +207,41 @@ class Texture:
             return False  # float images are linear (EXR, HDR), in every slot
         return True if slot_srgb is None else slot_srgb
 
+    def _label(self) -> str:
+        """How budget errors name this texture."""
+        size = f"{self.width}x{self.height}x{self.channels} {self.image.dtype}"
+        return f"texture {self.name!r} ({size})" if self.name else f"texture ({size})"
+
     def _core(self, slot_srgb: bool | None = None) -> Any:
         """The core's texture, decoding sRGB or not (made once for each)."""
         srgb = self._decodes_srgb(slot_srgb)
         core = self._cores.get(srgb)
         if core is None:
             arr = self.image
+            contiguous = arr.flags.c_contiguous
             if arr.dtype == np.uint8:
+                if not contiguous:
+                    check_budget(arr.size, f"{self._label()}: its contiguous copy")
                 core = _core.Texture(np.ascontiguousarray(arr), srgb)
             else:
-                if arr.dtype == np.uint16:
-                    values = arr.astype(np.float64) / 65535.0
-                else:
-                    values = arr
-                if srgb:
-                    values = np.asarray(values, dtype=np.float64).copy()
-                    color = values.shape[2] if values.shape[2] in (1, 3) else values.shape[2] - 1
-                    values[:, :, :color] = srgb_decode(values[:, :, :color])
-                    top = float(values.max())
-                    if not top <= float(np.finfo(np.float32).max):
+                if srgb or arr.dtype != np.float32 or not contiguous:
+                    check_budget(4 * arr.size, f"{self._label()}: its decoded float32 copy")
+                if srgb or arr.dtype == np.uint16:
+                    # Converted a block of rows at a time (each value in float64 as ever): the
+                    # float64 temporaries stay small whatever the texture's size.
+                    values = np.empty(arr.shape, np.float32)
+                    rows = max(1, (1 << 18) // (arr.shape[1] * arr.shape[2]))
+                    with np.errstate(over="ignore"):
+                        for r in range(0, arr.shape[0], rows):
+                            values[r:r + rows] = self._decoded(arr[r:r + rows], srgb)
+                    if srgb and arr.dtype.kind == "f" and not np.isfinite(values).all():
                         raise ValueError(
                             f"Texture{' ' + repr(self.name) if self.name else ''}: sRGB-decoding "
                             f"its float image (values up to {float(arr.max()):g}) overflows "
                             f"float32; float images are linear unless srgb=True")
-                core = _core.Texture(np.ascontiguousarray(values, dtype=np.float32))
+                else:
+                    values = np.ascontiguousarray(arr, dtype=np.float32)  # a view if it can be
+                core = _core.Texture(values)
             core.configure(FILTERS.index(self.filter), WRAPS.index(self.wrap[0]),
                            WRAPS.index(self.wrap[1]), self.uv_origin == "top_left",
                            self.max_anisotropy)
@@ -240,6 +268,23 @@ class Texture:
                           f"texels are used as they are, 1 being full intensity, so colours above "
                           f"1 saturate.{hint}", UserWarning, stacklevel=3)
 
+    @staticmethod
+    def _decoded(block: np.ndarray, srgb: bool) -> np.ndarray:
+        """Texels as linear values in float64: uint16 scaled to [0, 1], colour channels
+        sRGB-decoded if ``srgb`` (alpha never)."""
+        values = block.astype(np.float64) / 65535.0 if block.dtype == np.uint16 else block.astype(np.float64)
+        if srgb:
+            color = values.shape[2] if values.shape[2] in (1, 3) else values.shape[2] - 1
+            values[:, :, :color] = srgb_decode(values[:, :, :color])
+        return values
+
+    def _check_mips(self, core: Any) -> None:
+        """Before the core builds ``core``'s mip chain (a render or sample with a trilinear or
+        anisotropic filter, or ``mip``): its peak against the memory budget."""
+        if not core.has_mips:
+            check_budget(mip_chain_bytes(self.width, self.height),
+                         f"{self._label()}: its mip chain (float32 RGBA)")
+
     @property
     def levels(self) -> list[tuple[int, int]]:
         """The (height, width) of each mip level, level 0 first, the last 1 x 1."""
@@ -247,11 +292,16 @@ class Texture:
         return [tuple(core.level_size(level)) for level in range(core.num_levels)]
 
     def mip(self, level: int) -> np.ndarray:
-        """Mip level ``level`` as (h, w, 4) float32 linear RGBA (built on first use)."""
+        """Mip level ``level`` as (h, w, 4) float32 linear RGBA (the chain built on first use;
+        it and the array are checked against the memory budget first)."""
         core = self._core()
         level = integer(level, "level")
         if not 0 <= level < core.num_levels:
             raise ValueError(f"level must be in [0, {core.num_levels - 1}], got {level}")
+        if level > 0:
+            self._check_mips(core)
+        h, w = core.level_size(level)
+        check_budget(16 * h * w, f"{self._label()}: level {level} as a ({h}, {w}, 4) float32 array")
         return core.mip(level)
 
     def sample(self, uv: npt.ArrayLike, duv: npt.ArrayLike | None = None,
@@ -270,7 +320,10 @@ class Texture:
                 raise ValueError(f"duv must be a real (n, 4) array matching uv, got shape "
                                  f"{duv_arr.shape} dtype {duv_arr.dtype}")
         f = self.filter if filter is None else check_filter(filter)
-        return self._core().sample(np.ascontiguousarray(uv_arr, np.float32),
+        core = self._core()
+        if f in FILTERS_WITH_MIPS:
+            self._check_mips(core)
+        return core.sample(np.ascontiguousarray(uv_arr, np.float32),
                                    np.ascontiguousarray(duv_arr, np.float32), FILTERS.index(f))
 
     def __reduce__(self) -> tuple[Any, ...]:
