@@ -255,7 +255,6 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
     todo = []
     bar = None
     skipped = 0
-    start = time.perf_counter()
     try:
         with concurrent.futures.ThreadPoolExecutor(n_writers, "softrast-writer") as pool:
             # resume: the writers decode the files already there (OpenImageIO releases the GIL)
