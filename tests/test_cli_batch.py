@@ -172,3 +172,110 @@ def test_resume_after_an_interruption_gives_the_clean_result(tmp_path):
                            timeout=300)
     assert rerun.returncode == 0, rerun.stderr
     assert _files(d) == _files(tmp_path / "clean" / "spot")
+
+
+@pytest.fixture
+def budget():
+    """Restores the memory budget that a test lowers."""
+    before = sr.get_memory_budget()
+    yield sr.set_memory_budget
+    sr.set_memory_budget(before)
+
+
+def _bad_inputs(d: pathlib.Path) -> dict[str, list[str]]:
+    scaled = np.diag([2.0, 2.0, 2.0, 1.0])[None]
+    last_row = np.eye(4)
+    last_row[3] = (0.0, 0.0, 1.0, 1.0)
+    files = {"scaled.npy": scaled, "last_row.npy": last_row[None], "no_poses.npy": np.zeros((0, 4, 4)),
+             "K_negative.npy": np.array([[-60.0, 0, 31.5], [0, 60.0, 23.5], [0, 0, 1]]),
+             "K_zero.npy": np.array([[0.0, 0, 31.5], [0, 60.0, 23.5], [0, 0, 1]]),
+             "K_not_K.npy": np.array([[60.0, 0, 31.5], [0, 60.0, 23.5], [0, 0, 2]]),
+             "K_skew.npy": np.array([[60.0, 0.5, 31.5], [0, 60.0, 23.5], [0, 0, 1]])}
+    for name, arr in files.items():
+        np.save(d / name, arr)
+    return {name: [("--poses" if name[0] != "K" else "--intrinsics"), str(d / name)] for name in files}
+
+
+@pytest.mark.parametrize("extra, match", [
+    (["--size", "20000x10"], "--size"),
+    (["--size", "10x16385"], "--size"),
+    (["--workers", "1000"], "--workers"),
+    ("scaled.npy", "--poses"),
+    ("last_row.npy", "--poses"),
+    ("no_poses.npy", "--poses"),
+    ("K_negative.npy", "--intrinsics"),
+    ("K_zero.npy", "--intrinsics"),
+    ("K_not_K.npy", "--intrinsics"),
+    ("K_skew.npy", "--intrinsics"),
+])
+def test_bad_sizes_workers_poses_and_K_write_nothing(tmp_path, capsys, extra, match):
+    """Issue 39 (8): these were found after the output folder (and the mesh's) was created."""
+    if isinstance(extra, str):
+        extra = _bad_inputs(tmp_path)[extra]
+    out = tmp_path / "ds"
+    assert main(["batch", str(SPOT), "--out", str(out), "--views", "2", "--size", "32x24"] + extra) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("softrast: error:") and err.count("\n") == 1 and match in err, err
+    assert not out.exists()
+
+
+def test_frames_over_the_memory_budget_write_nothing(tmp_path, capsys, budget):
+    budget(2**20)  # 1 MiB: one 640x480 colour + depth + instance_id frame is 3.4 MB
+    out = tmp_path / "ds"
+    assert main(["batch", str(SPOT), "--out", str(out), "--views", "2", "--size", "640x480"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("softrast: error: --size 640x480") and "memory budget" in err, err
+    assert not out.exists()
+
+
+def test_a_corrupt_second_mesh_is_reported_before_anything_is_written(tmp_path, capsys):
+    bad = tmp_path / "broken.ply"
+    bad.write_bytes(b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nend_header\n1 2\n")
+    empty = tmp_path / "empty.obj"
+    empty.write_text("# no faces\nv 0 0 0\n")
+    for second in (bad, empty):
+        out = tmp_path / "ds"
+        assert main(["batch", str(SPOT), str(second), "--out", str(out), "--views", "2",
+                     "--size", "32x24"]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("softrast: error:") and err.count("\n") == 1 and second.name in err, err
+        assert not out.exists()  # spot's views were written first, before
+
+
+def test_more_views_than_memory_allows_fail_before_writing(tmp_path, capsys, budget):
+    budget(16 * 2**20)
+    out = tmp_path / "ds"
+    assert main(["batch", str(SPOT), "--out", str(out), "--views", "5000", "--size", "8x8",
+                 "--outputs", "mask", "--workers", "1"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("softrast: error: --views 5000") and "memory budget" in err, err
+    assert not out.exists()
+
+
+def test_more_poses_than_memory_allows_fail_before_writing(tmp_path, capsys, budget):
+    np.save(tmp_path / "poses.npy", np.broadcast_to(np.eye(4), (3000, 4, 4)))
+    budget(16 * 2**20)
+    out = tmp_path / "ds"
+    assert main(["batch", str(SPOT), "--out", str(out), "--poses", str(tmp_path / "poses.npy"),
+                 "--size", "8x8", "--outputs", "mask", "--workers", "1"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("softrast: error: --poses: 3000 views") and "memory budget" in err, err
+    assert not out.exists()
+
+
+def test_a_billion_views_fail_fast_naming_views(tmp_path):
+    """`--views 1000000000` grew to 24 GB before the kernel killed it: now refused before any
+    camera is made (the child's address space is capped so the old behaviour fails, not swaps)."""
+    import resource
+
+    def cap() -> None:
+        resource.setrlimit(resource.RLIMIT_AS, (3 * 2**30, 3 * 2**30))
+
+    out = tmp_path / "ds"
+    proc = subprocess.run([sys.executable, "-m", "softrast", "batch", str(SPOT), "--out", str(out),
+                           "--views", "1000000000", "--workers", "1"], capture_output=True, text=True,
+                          timeout=120, preexec_fn=cap)
+    assert proc.returncode == 2, proc.stderr[-2000:]
+    assert proc.stderr.startswith("softrast: error: --views 1000000000"), proc.stderr[-2000:]
+    assert proc.stderr.count("\n") == 1 and "memory budget" in proc.stderr
+    assert not out.exists()

@@ -19,7 +19,10 @@ Without --eye the camera frames the whole mesh from the front (+z) and slightly 
 (files, cameras.json), showing progress, and ends with a summary line; a rerun skips complete
 views, and the summary counts them apart ("rendered 3 views of 1 mesh(es) in 1.2 s (2.5 views/s),
 skipped 7 already on disk; 1.4 s in all -> DIR": the rate over the rendered views alone).
-Every argument is checked before anything is written.
+Every argument, and every mesh file (each is loaded and checked first), is checked before
+anything is written (the output folder included). A run holds about 8 KB a view (its camera and
+file records) until its mesh is done, so --views (or --poses's count) is refused above the memory
+budget's worth (softrast.limits) before any camera is made.
 Errors print one line to stderr and exit with status 2; Ctrl-C prints one line and exits 130.
 """
 from __future__ import annotations
@@ -318,18 +321,95 @@ def batch_summary(rendered: int, skipped: int, meshes: int, render_seconds: floa
     return f"{line}; {total_seconds:.1f} s in all -> {out}"
 
 
+# What one view of a batch holds in memory until its mesh is done, an upper estimate: its camera
+# (~0.7 KB), its file paths (~0.5 KB), its cameras.json record (~3 KB while the file is written),
+# and write_dataset's lists. ``--views`` is checked against the memory budget with it before any
+# camera is made (a billion views once grew to 24 GB before the kernel killed the process).
+_VIEW_BYTES = 8 * 1024
+
+
+def _mesh_bytes(mesh) -> int:
+    """The bytes of a mesh's arrays (what keeping it loaded costs, textures aside)."""
+    arrays = (mesh.positions, mesh.faces, mesh.normals, mesh.uvs, mesh.colors)
+    return sum(int(a.nbytes) for a in arrays if a is not None)
+
+
+def _load_poses(path: str) -> np.ndarray:
+    """``--poses``: (n, 4, 4) camera-to-world poses (OpenGL axes), each checked as a camera pose,
+    their number checked against the memory budget before they are read."""
+    from .camera import _check_pose
+    from .dataset import load_cameras
+    from .limits import _human, get_memory_budget
+
+    try:
+        if path.endswith(".json"):
+            poses = np.stack([c.view_matrix() for c in load_cameras(path)])
+            poses = np.linalg.inv(poses)  # camera-to-world, OpenGL axes
+        else:
+            poses = np.load(path, mmap_mode="r", allow_pickle=False)  # the header only, so far
+    except (OSError, ValueError) as e:
+        raise CliError(f"--poses: {e}") from None
+    if not isinstance(poses, np.ndarray) or poses.dtype.kind not in "iuf":
+        raise CliError(f"--poses: expected an array of numbers, got {getattr(poses, 'dtype', type(poses))}")
+    if poses.ndim != 3 or poses.shape[1:] != (4, 4) or poses.shape[0] == 0:
+        raise CliError(f"--poses: expected (n, 4, 4) camera-to-world poses with n >= 1, got shape "
+                       f"{poses.shape}")
+    if poses.shape[0] * _VIEW_BYTES > get_memory_budget():  # before they are read
+        raise CliError(f"--poses: {poses.shape[0]} views need about "
+                       f"{_human(poses.shape[0] * _VIEW_BYTES)} for their cameras and file records, "
+                       f"more than the memory budget of {_human(get_memory_budget())}: at most "
+                       f"{get_memory_budget() // _VIEW_BYTES} views a run (split the poses)")
+    poses = np.array(poses, dtype=np.float64)
+    for k, pose in enumerate(poses):
+        try:
+            _check_pose(pose)
+        except ValueError as e:
+            raise CliError(f"--poses: pose {k}: {e}") from None
+    return poses
+
+
+def _load_intrinsics(path: str, width: int, height: int) -> np.ndarray:
+    """``--intrinsics``: a (3, 3) OpenCV K, [[fx, 0, cx], [0, fy, cy], [0, 0, 1]], fx, fy > 0."""
+    from .camera import IntrinsicsCamera
+
+    try:
+        K = np.load(path, allow_pickle=False)
+    except (OSError, ValueError) as e:
+        raise CliError(f"--intrinsics: {e}") from None
+    if not isinstance(K, np.ndarray) or K.dtype.kind not in "iuf" or K.shape != (3, 3) \
+            or not np.isfinite(K).all():
+        raise CliError(f"--intrinsics: expected a finite (3, 3) K of numbers, got "
+                       f"{getattr(K, 'shape', type(K).__name__)}")
+    K = K.astype(np.float64)
+    if K[0, 1] != 0.0 or K[1, 0] != 0.0 or K[2, 0] != 0.0 or K[2, 1] != 0.0 or K[2, 2] != 1.0:
+        raise CliError(f"--intrinsics: K must be [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] (no skew), "
+                       f"got {K.tolist()}")
+    try:
+        IntrinsicsCamera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], width, height, convention="opencv")
+    except ValueError as e:
+        raise CliError(f"--intrinsics: {e}") from None
+    return K
+
+
 def _batch(args: argparse.Namespace) -> None:
     import os
 
     from .camera import IntrinsicsCamera, PerspectiveCamera
-    from .dataset import load_cameras, write_dataset
+    from .dataset import write_dataset
+    from .limits import _human, check_budget, get_memory_budget
     from .mesh import load_mesh
     from .poses import orbit, sphere_poses
-    from .render import Renderer
+    from .render import _OUTPUT_BYTES, Renderer
     from .scene import Scene
 
     width, height = args.size
-    # Everything is checked before anything is written.
+    # Everything is checked before anything is written: the arguments, then every mesh file.
+    if not (1 <= width <= _core.MAX_IMAGE_SIDE and 1 <= height <= _core.MAX_IMAGE_SIDE):
+        raise CliError(f"--size: width and height must be in [1, {_core.MAX_IMAGE_SIDE}] pixels, "
+                       f"got {width}x{height}")
+    if args.workers > _core.MAX_THREADS:
+        raise CliError(f"--workers must be in [0, {_core.MAX_THREADS}] (0 = one per core), got "
+                       f"{args.workers}")
     if not 0.0 < args.fov < 180.0:
         raise CliError(f"--fov must be in (0, 180) degrees, got {args.fov}")
     for path in args.meshes:
@@ -341,45 +421,32 @@ def _batch(args: argparse.Namespace) -> None:
     for name, fmt in args.formats.items():
         if name not in args.outputs:
             raise CliError(f"--formats: {name} is not in --outputs ({','.join(args.outputs)})")
-    poses = None
-    if args.poses is not None:
-        try:
-            if args.poses.endswith(".json"):
-                poses = np.stack([c.view_matrix() for c in load_cameras(args.poses)])
-                poses = np.linalg.inv(poses)  # camera-to-world, OpenGL axes
-            else:
-                poses = np.load(args.poses, allow_pickle=False)
-        except (OSError, ValueError) as e:
-            raise CliError(f"--poses: {e}") from None
-        if poses.ndim != 3 or poses.shape[1:] != (4, 4) or not np.isfinite(poses).all():
-            raise CliError(f"--poses: expected finite (n, 4, 4) camera-to-world poses, got shape {poses.shape}")
-    K = None
-    if args.intrinsics is not None:
-        try:
-            K = np.load(args.intrinsics, allow_pickle=False)
-        except (OSError, ValueError) as e:
-            raise CliError(f"--intrinsics: {e}") from None
-        if K.shape != (3, 3) or not np.isfinite(K).all():
-            raise CliError(f"--intrinsics: expected a finite (3, 3) K, got shape {K.shape}")
+    frame_bytes = width * height * sum(_OUTPUT_BYTES[n] for n in args.outputs)
     try:
-        os.makedirs(args.out, exist_ok=True)
-    except OSError as e:
-        raise CliError(f"--out: {e}") from None
+        check_budget(frame_bytes, f"--size {width}x{height} with --outputs {','.join(args.outputs)}")
+    except ValueError as e:
+        raise CliError(str(e)) from None
+    poses = _load_poses(args.poses) if args.poses is not None else None
+    K = _load_intrinsics(args.intrinsics, width, height) if args.intrinsics is not None else None
+    views = len(poses) if poses is not None else args.views
+    if views * _VIEW_BYTES > get_memory_budget():  # before any camera (or pose) is made
+        raise CliError(f"--views {views}: {views} views need about {_human(views * _VIEW_BYTES)} "
+                       f"for their cameras and file records ({_VIEW_BYTES} bytes a view), more "
+                       f"than the memory budget of {_human(get_memory_budget())}: at most "
+                       f"{get_memory_budget() // _VIEW_BYTES} views a run (split the poses into "
+                       "several runs with --poses)")
 
-    renderer = Renderer(width, height, threads=args.workers)
-    rendered = skipped = 0
-    render_seconds, start = 0.0, time.perf_counter()
-    for path, stem in zip(args.meshes, stems):
-        scene = Scene()
-        scene.add(load_mesh(path, up_axis=args.up_axis), instance_id=0)
-        eye, target, near, far = frame_camera(scene.bounds, args.fov, width, height)
+    def cameras(bounds: np.ndarray, count: int) -> list:
+        """The first ``count`` views' cameras for a mesh with these bounds."""
+        eye, target, near, far = frame_camera(bounds, args.fov, width, height)
         radius = float(np.linalg.norm(eye - target))
         if poses is not None:
-            view_poses = poses
+            view_poses = poses[:count]
         elif args.sphere:
-            view_poses = sphere_poses(target, radius, args.views)
+            view_poses = sphere_poses(target, radius, args.views)[:count]
         else:
-            view_poses = orbit(target, radius, args.views, elevation=20.0 if args.orbit is None else args.orbit)
+            view_poses = orbit(target, radius, args.views,
+                               elevation=20.0 if args.orbit is None else args.orbit)[:count]
         near = min(near, 1e-3 * radius) if poses is not None else near
         far = max(far, 10.0 * radius) if poses is not None else far
         cams = []
@@ -392,10 +459,47 @@ def _batch(args: argparse.Namespace) -> None:
                 cam = PerspectiveCamera(fov_y=args.fov, width=width, height=height, near=near, far=far)
                 cam.pose = pose
             cams.append(cam)
+        return cams
+
+    start = time.perf_counter()  # the summary's time "in all" includes loading the meshes
+    # Every mesh is loaded and checked (and its first camera made) before anything is written;
+    # the meshes stay loaded while they fit in half the memory budget, the others are loaded
+    # again in their turn.
+    loaded: list = []
+    kept = 0
+    for path in args.meshes:
+        try:
+            mesh = load_mesh(path, up_axis=args.up_axis)
+            scene = Scene()
+            scene.add(mesh, instance_id=0)
+            bounds = scene.bounds
+            cameras(bounds, 1)
+        except (OSError, ValueError) as e:
+            raise CliError(str(e) if path in str(e) else f"{path}: {e}") from None
+        size = _mesh_bytes(mesh)
+        keep = kept + size <= get_memory_budget() // 2
+        kept += size if keep else 0
+        loaded.append((scene if keep else None, bounds))
+    renderer = Renderer(width, height, threads=args.workers)
+
+    try:
+        os.makedirs(args.out, exist_ok=True)
+    except OSError as e:
+        raise CliError(f"--out: {e}") from None
+    rendered = skipped = 0
+    render_seconds = 0.0
+    for k, (path, stem) in enumerate(zip(args.meshes, stems)):
+        scene, bounds = loaded[k]
+        loaded[k] = None  # a mesh is let go once its views are written
+        if scene is None:
+            scene = Scene()
+            scene.add(load_mesh(path, up_axis=args.up_axis), instance_id=0)
+        cams = cameras(bounds, views)
         directory = os.path.join(args.out, stem)
         os.makedirs(directory, exist_ok=True)
         written = write_dataset(scene, cams, directory, outputs=args.outputs, formats=args.formats,
                                 renderer=renderer, progress=True, resume=not args.no_resume)
+        del scene, cams
         rendered, skipped = rendered + written.rendered, skipped + written.skipped
         render_seconds += written.seconds
     print(batch_summary(rendered, skipped, len(args.meshes), render_seconds,

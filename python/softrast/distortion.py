@@ -237,14 +237,17 @@ def _shadow_scene(scene: Any) -> Any:
 
     from .scene import Scene
 
-    shadow = scene._render_cache.get("distortion_shadow")
-    if shadow is None:
+    def build() -> Any:
+        instances = scene.instances  # one snapshot: the shadow's instances and ids agree
         shadow = Scene(ambient_light=scene.ambient_light)
         shadow._lights = list(scene._lights)
         shadow._instances = [dataclasses.replace(inst, instance_id=k)
-                             for k, inst in enumerate(scene._instances)]
-        scene._render_cache["distortion_shadow"] = shadow
-    return shadow
+                             for k, inst in enumerate(instances)]
+        shadow._source_ids = np.array([inst.instance_id for inst in instances] or [0],
+                                      dtype=np.int32)
+        return shadow
+
+    return scene._cached("distortion_shadow", build)
 
 
 _REFINED = ("depth", "ray_depth", "position", "barycentric")
@@ -283,7 +286,9 @@ def render_distorted(renderer: Any, scene: Any, camera: Any, names: Any, options
         pose_cv = camera.pose if camera.convention == "opencv" else camera.pose @ _GL_FROM_CV
         hits = _core._distortion_resolve(
             *rays.core_args(), rays.sample_to_normalized, frame.triangle_id, frame.instance_id,
-            [(inst.mesh._core_data(), tuple(inst.pose.reshape(-1))) for inst in scene._instances],
+            # the shadow scene's instances (the ones rendered), not the scene's: another thread
+            # may have edited it since
+            [(inst.mesh._core_data(), tuple(inst.pose.reshape(-1))) for inst in view_scene._instances],
             tuple(pose_cv[:3, :3].reshape(-1)), tuple(pose_cv[:3, 3]), surface, renderer.threads)
     table = {row["name"]: row for row in _core.OUTPUT_TABLE}
     result: dict[str, np.ndarray] = {}
@@ -304,9 +309,8 @@ def render_distorted(renderer: Any, scene: Any, camera: Any, names: Any, options
                           + np.float32(0.5)).astype(np.uint8)
             value[~valid] = bg
         elif name == "instance_id":
-            ids = np.array([inst.instance_id for inst in scene._instances] or [0], dtype=np.int32)
             seen = value >= 0
-            value[seen] = ids[value[seen]]
+            value[seen] = view_scene._source_ids[value[seen]]
             value[~valid] = -1
         else:
             value[~valid] = row["background"]

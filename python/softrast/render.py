@@ -317,29 +317,28 @@ def _lights(scene: Scene, view: Any) -> list[Any]:
     scene for the last view matrix (cameras keep one array per pose): camera-space lights move
     with it. A scene without lights gets the headlight from the core."""
     cached = scene._render_cache.get("lights")
-    if cached is not None and cached[0] is view:
-        return cached[1]
+    version = scene.__dict__.get("_version", 0)
+    if cached is not None and cached[0] == version and cached[1] is view:
+        return cached[2]
     records = []
     cam_to_world = None
-    for li in scene._lights:
+    for li in list(scene._lights):
         pose = li.pose
         if li.camera_space:
             if cam_to_world is None:
                 cam_to_world = np.linalg.inv(np.asarray(view, dtype=np.float64))
             pose = cam_to_world @ pose
         records.append(li.light._core(pose))
-    scene._render_cache["lights"] = (view, records)
+    # Stored with the version read before the lights were: used only while it is current.
+    scene._render_cache["lights"] = (version, view, records)
     return records
 
 
 def _primitive_draws(scene: Scene) -> list[Any]:
     """The core's records of the scene's lines and points (cached in the scene until it
     changes); each holds its object's read-only arrays, which the core views during a render."""
-    cached = scene._render_cache.get("primitives")
-    if cached is None:
-        cached = scene._render_cache["primitives"] = [
-            p.item._core_record(p.pose, p.instance_id) for p in scene.primitives]
-    return cached
+    return scene._cached("primitives", lambda: [
+        p.item._core_record(p.pose, p.instance_id) for p in scene.primitives])
 
 
 # render(wireframe=True): in the depth test an edge counts as nearer by this fraction of its depth,
@@ -351,14 +350,12 @@ WIREFRAME_DEPTH_BIAS = 2.0**-8
 def _wireframe_draws(scene: Scene, line_color: tuple, line_width: float) -> list[Any]:
     """Line records of every mesh instance's unique edges (cached in the scene until it changes;
     one Lines per mesh, shared by its instances)."""
-    key = ("wireframe", line_color, line_width)
-    cached = scene._render_cache.get(key)
-    if cached is None:
-        from .primitives import Lines
+    from .primitives import Lines
 
+    def build() -> list[Any]:
         per_mesh: dict[int, Lines] = {}
-        cached = []
-        for inst in scene._instances:
+        records = []
+        for inst in scene.instances:
             mesh = inst.mesh
             lines = per_mesh.get(id(mesh))
             if lines is None:
@@ -367,22 +364,21 @@ def _wireframe_draws(scene: Scene, line_color: tuple, line_width: float) -> list
                 edges = np.unique(edges, axis=0) if len(edges) else edges.reshape(0, 2)
                 lines = per_mesh[id(mesh)] = Lines(mesh.positions, edges, width=line_width,
                                                    color=line_color)
-            cached.append(lines._core_record(inst.pose, inst.instance_id,
-                                             depth_bias=WIREFRAME_DEPTH_BIAS))
-        scene._render_cache[key] = cached
-    return cached
+            records.append(lines._core_record(inst.pose, inst.instance_id,
+                                              depth_bias=WIREFRAME_DEPTH_BIAS))
+        return records
+
+    return scene._cached(("wireframe", line_color, line_width), build)
 
 
 def _draws(scene: Scene) -> list[Any]:
     """The core's draw records (``softrast._core.Draw``), cached in the scene until it changes.
-    The core decides how each is shaded (its material's model, or the render's shading=)."""
-    cached = scene._render_cache.get("draws")
-    if cached is None:
-        cached = scene._render_cache["draws"] = [
-            _core.Draw(mesh=i.mesh._core_data(), pose=i.pose, instance_id=i.instance_id,
-                       color=i.color, material=i.material._core if i.material is not None else None)
-            for i in scene._instances]
-    return cached
+    The core decides how each is shaded (its material's model, or the render's shading=).
+    A scene edited by another thread meanwhile: see Scene._cached."""
+    return scene._cached("draws", lambda: [
+        _core.Draw(mesh=i.mesh._core_data(), pose=i.pose, instance_id=i.instance_id,
+                   color=i.color, material=i.material._core if i.material is not None else None)
+        for i in scene.instances])
 
 
 def _textures(scene: Scene) -> list[tuple[Any, Any]]:

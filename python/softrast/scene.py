@@ -2,8 +2,9 @@
 material), the lights, and the ambient light."""
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
-from typing import Any, Iterator, Sequence
+from typing import Any, Callable, Iterator, Sequence, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -17,6 +18,11 @@ from .primitives import Lines, Points
 __all__ = ["Instance", "LightInstance", "PrimitiveInstance", "Scene"]
 
 _ID_LIMIT = 2**31  # instance_id output is int32 (ids < 2**31); -1 is reserved for background
+
+# Scene versions: every edit of any scene takes the next number (next() on a count is atomic, so
+# two threads editing at once never get the same one, and no version is ever reused).
+_VERSIONS = itertools.count(1)
+_T = TypeVar("_T")
 
 
 @dataclass(frozen=True)
@@ -75,9 +81,29 @@ class Scene:
         self._lights: list[LightInstance] = []
         self._primitives: list[PrimitiveInstance] = []  # lines and points, in the order added
         # What render.py derives from the scene for the core (draw and light records), kept
-        # until the scene changes: every change goes through add, clear or ambient_light.
+        # until the scene changes (see _cached): every change goes through _changed.
         self._render_cache: dict[Any, Any] = {}
+        self._version = 0
         self.ambient_light = ambient_light  # checked by the property
+
+    def _changed(self) -> None:
+        """Called after every edit, once the scene holds its new state: a new version, and the
+        records derived from the old one dropped."""
+        self._version = next(_VERSIONS)
+        self._render_cache.clear()
+
+    def _cached(self, key: Any, build: Callable[[], _T]) -> _T:
+        """``build()``, kept in the scene for ``key`` until it changes. Safe while another thread
+        edits the scene: each entry is stored with the version read *before* ``build`` read the
+        scene, and used only while that is still the scene's version, so records built from a
+        state that an edit has since replaced are never used again (whenever they are stored)."""
+        version = self.__dict__.get("_version", 0)  # (scenes pickled before versions)
+        entry = self._render_cache.get(key)
+        if entry is not None and entry[0] == version:
+            return entry[1]
+        value = build()
+        self._render_cache[key] = (version, value)
+        return value
 
     def __getstate__(self) -> dict[str, Any]:
         """Pickled without what renders derived from it (the core's records, rebuilt on use)."""
@@ -92,9 +118,9 @@ class Scene:
 
     @ambient_light.setter
     def ambient_light(self, value: Sequence[float] | None) -> None:
-        self._render_cache.clear()
         if value is None:
             self._ambient_light = None
+            self._changed()
             return
         from ._checks import real_array
 
@@ -105,6 +131,7 @@ class Scene:
             raise ValueError(f"ambient_light must be >= 0 and at most {FLOAT32_MAX:.8g} (float32's "
                              f"range), got {arr.tolist()}")
         self._ambient_light = (float(arr[0]), float(arr[1]), float(arr[2]))
+        self._changed()
 
     def add(self, item: Mesh | Light | Lines | Points, pose: npt.ArrayLike | None = None,
             instance_id: int | None = None, color: Sequence[float] | None = None,
@@ -135,7 +162,7 @@ class Scene:
                 raise ValueError("pose: a light's pose must keep its z axis (the way it shines): "
                                  "its third column is zero")
             self._lights.append(LightInstance(item, light_pose, bool(camera_space)))
-            self._render_cache.clear()
+            self._changed()
             return len(self._lights) - 1
         if camera_space:
             raise ValueError("camera_space is for lights, not meshes")
@@ -150,7 +177,7 @@ class Scene:
                 raise ValueError(f"instance_id must be in [0, 2**31), got {iid}")
             self.__dict__.setdefault("_primitives", []).append(  # (scenes pickled before lines)
                 PrimitiveInstance(item, model, int(iid)))
-            self._render_cache.clear()
+            self._changed()
             return int(iid)
         mesh = item
         if material is not None and not isinstance(material, Material):
@@ -170,7 +197,7 @@ class Scene:
             if mat is not None:
                 mat = mat.replace(base_color=rgba)
         self._instances.append(Instance(mesh, model, int(iid), rgba, mat))
-        self._render_cache.clear()
+        self._changed()
         return int(iid)
 
     @classmethod
@@ -255,22 +282,23 @@ class Scene:
             where[k] = Instance(old.mesh, model, old.instance_id, old.color, old.material)
         else:
             where[k] = PrimitiveInstance(old.item, model, old.instance_id)
-        self._render_cache.clear()
+        self._changed()
         return where[k]
 
     def remove(self, instance: Instance | PrimitiveInstance | int) -> Instance | PrimitiveInstance:
         """Remove one instance (an ``Instance``, a ``PrimitiveInstance``, or a unique instance
         id) and return it."""
         where, k = self._find(instance)
-        self._render_cache.clear()
-        return where.pop(k)
+        removed = where.pop(k)
+        self._changed()
+        return removed
 
     def clear(self) -> None:
         """Remove every instance, line, point and light."""
         self._instances.clear()
         self._primitives = []
         self._lights.clear()
-        self._render_cache.clear()
+        self._changed()
 
     @property
     def bounds(self) -> npt.NDArray[np.float64]:
