@@ -48,6 +48,8 @@ struct DrawContext {
   const Viewport* viewport;
   bool orthographic;
   bool need_world;  // the position / ray_depth outputs: one more transform per point
+  dvec3 eye;        // the camera's position in model space (clip_far_segment's pivot)
+  double error_px;  // 2^-50 max(width, height): px off per unit of m / w (clip_segment)
 };
 
 LinePoint transform(const DrawContext& c, std::size_t index) {
@@ -66,21 +68,155 @@ void window(const Viewport& vp, const dvec4& p_clip, double& x, double& y) {
   y = (1.0 - p_clip.y * inv_w) * 0.5 * vp.height;
 }
 
-// Liang-Barsky against the six planes (near, far, guard band): false if nothing is left.
-bool clip_segment(const ClipPlanes& planes, LinePoint& a, LinePoint& b) {
+// How Liang-Barsky below ended.
+enum class Clipped { Kept, Gone, Unsure };
+
+// Liang-Barsky against the six planes (near, far, guard band) on the clip-space endpoints: Gone
+// if nothing is left, Unsure where the clip-space lerp may be far from the exact clipped point
+// (clip_far_segment then clips the segment again). `a` and `b` are written only when Kept.
+//
+// Why Unsure: a clipped point is a + (b - a) t, and when the endpoints are huge next to the
+// visible part (a segment from x = -1e20 to 1e20 crossing the view at depth 5), t is a double
+// near 0.5 (one ulp there moves the point by 2^-53 |b - a|) and the sum cancels: at 1e20 both
+// clipped ends came out at the same point and the line drew one pixel. The rounding is up to a
+// few ulps of the largest endpoint coordinate `m`, so the result is kept only where that is at
+// most 2^-16 px in the window at the clipped ends' w (and 2^-24 relatively in their depth);
+// everything else (every segment of ordinary size) keeps the bits it always had.
+Clipped clip_segment(const ClipPlanes& planes, double error_px, LinePoint& a, LinePoint& b) {
   double t0 = 0.0, t1 = 1.0;
   for (int plane = 0; plane < kNumClipPlanes; ++plane) {
     const double da = planes.distance(plane, a.p_clip, a.depth_view);
     const double db = planes.distance(plane, b.p_clip, b.depth_view);
-    if (!(da >= 0.0) && !(db >= 0.0)) return false;  // both outside (or NaN) => gone
+    if (!(da >= 0.0) && !(db >= 0.0)) return Clipped::Gone;  // both outside (or NaN) => gone
     if (da < 0.0) t0 = std::max(t0, da / (da - db));
     else if (db < 0.0) t1 = std::min(t1, da / (da - db));
   }
-  if (!(t0 <= t1)) return false;
+  if (!(t0 <= t1)) return Clipped::Unsure;  // (a sliver's t0 and t1 may have crossed by rounding)
   const LinePoint ca = t0 > 0.0 ? lerp(a, b, t0) : a;
   const LinePoint cb = t1 < 1.0 ? lerp(a, b, t1) : b;
+  const double w = std::min(ca.p_clip.w, cb.p_clip.w);
+  if (t0 > 0.0 || t1 < 1.0) {
+    double m = 0.0, m_depth = std::max(std::fabs(a.depth_view), std::fabs(b.depth_view));
+    for (const LinePoint* p : {&a, &b})
+      m = std::max({m, std::fabs(p->p_clip.x), std::fabs(p->p_clip.y), std::fabs(p->p_clip.w)});
+    const double depth = std::min(std::fabs(ca.depth_view), std::fabs(cb.depth_view));
+    if (!(w > 0.0))  // behind the eye, unless rounding of that size put it there
+      return m * 0x1p-48 < std::min(std::fabs(ca.p_clip.w), std::fabs(cb.p_clip.w))
+                 ? Clipped::Gone : Clipped::Unsure;
+    if (!(m * error_px <= 0x1p-16 * w) || !(m_depth * 0x1p-50 <= 0x1p-24 * depth))
+      return Clipped::Unsure;
+  }
+  if (!(w > 0.0)) return Clipped::Gone;
   a = ca;
   b = cb;
+  return Clipped::Kept;
+}
+
+// Double-double sums (an unevaluated hi + lo, to about 2^-106 relative): the pivot below.
+struct DD {
+  double hi, lo;
+};
+DD two_sum(double a, double b) {  // exact: a + b = hi + lo (Knuth)
+  const double s = a + b, v = s - a;
+  return {s, (a - (s - v)) + (b - v)};
+}
+DD fast_two_sum(double a, double b) {  // exact where |a| >= |b|
+  const double s = a + b;
+  return {s, b - (s - a)};
+}
+DD operator+(const DD& x, const DD& y) {
+  DD s = two_sum(x.hi, y.hi);
+  const DD t = two_sum(x.lo, y.lo);
+  s = fast_two_sum(s.hi, s.lo + t.hi);
+  return fast_two_sum(s.hi, s.lo + t.lo);
+}
+DD two_prod(double a, double b) {  // exact: a b = hi + lo
+  const double p = a * b;
+  return {p, std::fma(a, b, -p)};
+}
+
+// Clip space and view depth of a model-space point (w = 1) or direction (w = 0), in double.
+ClipVertexD transform_d(const DrawTransform& xf, const dvec4& p) {
+  const dvec4 v = xf.model_view_d * p;
+  return {xf.proj_d * v, -v.z};
+}
+
+// The signed distance's change along a clip-space direction (ClipPlanes::distance less its
+// constant part).
+double plane_slope(const ClipPlanes& planes, int plane, const dvec4& d, double d_depth) {
+  switch (plane) {
+    case 0: return d_depth;
+    case 1: return -d_depth;
+    case 2: return d.x - planes.ndc_x_min * d.w;
+    case 3: return planes.ndc_x_max * d.w - d.x;
+    case 4: return planes.ndc_y_max * d.w - d.y;
+    default: return d.y - planes.ndc_y_min * d.w;
+  }
+}
+
+// A segment as pivot + s d (model space), with the two transformed and the colours of its ends.
+struct SegmentFrame {
+  dvec3 pivot, d;
+  ClipVertexD pivot_clip, d_clip;
+  double s_a;  // end A's s
+  dvec3 color_a, color_b;
+
+  LinePoint at(const DrawContext& c, double s) const {
+    const double k = std::clamp(s - s_a, 0.0, 1.0);  // from A toward B
+    return {pivot_clip.p_clip + s * d_clip.p_clip, pivot_clip.depth_view + s * d_clip.depth_view,
+            color_a + (color_b - color_a) * k,
+            c.need_world ? dvec3(c.draw->model * dvec4(pivot + s * d, 1.0)) : dvec3(0.0)};
+  }
+};
+
+// Clips segment A-B (model-space endpoints `pa`, `pb`; `a`, `b` their transformed points) where
+// clip_segment is Unsure: relative to a pivot P on the segment near the camera, found in model
+// space, where the float inputs are exact in double. P = A + t D is summed in double-double from
+// A and D = B - A (both exact), so it lies on the segment to a rounding of its own size however
+// large A and B are. The segment is then P + s D, s in [s_a, s_b], which is transformed as a point
+// and a direction and clipped in s: the clipped points P + s D have the size of the visible part,
+// not of the endpoints. An end inside every plane stays as it was (its own transform).
+bool clip_far_segment(const DrawContext& c, const dvec3& pa, const dvec3& pb, LinePoint& a,
+                      LinePoint& b) {
+  DD p[3], d[3];  // the pivot, and D = B - A exactly
+  dvec3 d_hi;
+  for (int i = 0; i < 3; ++i) {
+    d[i] = two_sum(pb[i], -pa[i]);
+    d_hi[i] = d[i].hi;
+  }
+  const double len2 = glm::dot(d_hi, d_hi);
+  if (!(len2 > 0.0) || !std::isfinite(len2)) return false;  // (a point: clip_segment decided)
+  // The parameter of the point nearest the eye, on the segment, and the point; then the same
+  // from there (t is only known to 2^-53 here, which is 2^-53 |D| along the segment).
+  double t = glm::dot(c.eye - pa, d_hi) / len2;
+  t = std::isfinite(t) ? std::clamp(t, 0.0, 1.0) : 0.0;
+  dvec3 p1;
+  for (int i = 0; i < 3; ++i) {
+    p[i] = DD{pa[i], 0.0} + two_prod(t, d[i].hi) + two_prod(t, d[i].lo);
+    p1[i] = p[i].hi + p[i].lo;
+  }
+  double u = glm::dot(c.eye - p1, d_hi) / len2;
+  u = std::isfinite(u) ? std::clamp(u, -t, 1.0 - t) : 0.0;
+  dvec3 pivot;
+  for (int i = 0; i < 3; ++i) {
+    p[i] = p[i] + two_prod(u, d[i].hi) + two_prod(u, d[i].lo);
+    pivot[i] = p[i].hi + p[i].lo;
+  }
+  const double s_a = -t - u, s_b = (1.0 - t) - u;
+  const ClipVertexD pc = transform_d(c.xf, dvec4(pivot, 1.0));
+  const ClipVertexD dc = transform_d(c.xf, dvec4(d_hi, 0.0));
+  double lo = s_a, hi = s_b;
+  for (int plane = 0; plane < kNumClipPlanes; ++plane) {
+    const double dp = c.planes->distance(plane, pc.p_clip, pc.depth_view);
+    const double dd = plane_slope(*c.planes, plane, dc.p_clip, dc.depth_view);
+    if (dd > 0.0) lo = std::max(lo, -dp / dd);
+    else if (dd < 0.0) hi = std::min(hi, -dp / dd);
+    else if (!(dp >= 0.0)) return false;  // parallel and outside (or NaN)
+  }
+  if (!(lo <= hi)) return false;
+  const SegmentFrame f{pivot, d_hi, pc, dc, s_a, a.color, b.color};
+  if (lo > s_a) a = f.at(c, lo);
+  if (hi < s_b) b = f.at(c, hi);
   return a.p_clip.w > 0.0 && b.p_clip.w > 0.0;
 }
 
@@ -114,9 +250,14 @@ bool box_tiles(const Viewport& vp, const int32_t box[4], int& tx0, int& ty0, int
 void setup_lines(const DrawContext& c, std::size_t begin, std::size_t end, PrimitiveBlock& out) {
   const PrimitiveDraw& d = *c.draw;
   for (std::size_t s = begin; s < end; ++s) {
-    LinePoint a = transform(c, std::size_t(d.segments[s].x));
-    LinePoint b = transform(c, std::size_t(d.segments[s].y));
-    if (!clip_segment(*c.planes, a, b)) continue;
+    const std::size_t ia = std::size_t(d.segments[s].x), ib = std::size_t(d.segments[s].y);
+    LinePoint a = transform(c, ia);
+    LinePoint b = transform(c, ib);
+    const Clipped clipped = clip_segment(*c.planes, c.error_px, a, b);
+    if (clipped == Clipped::Gone) continue;
+    if (clipped == Clipped::Unsure &&
+        !clip_far_segment(c, dvec3(d.positions[ia]), dvec3(d.positions[ib]), a, b))
+      continue;
     LineRecord r;
     const LinePoint* ends[2] = {&a, &b};
     for (int e = 0; e < 2; ++e) {
@@ -416,8 +557,11 @@ void PrimitiveSetup::build(const std::vector<PrimitiveDraw>& draws, const Camera
   struct Range { std::size_t draw, begin, end; };
   std::vector<Range> ranges;
   for (std::size_t d = 0; d < draws.size(); ++d) {
-    contexts.push_back({&draws[d], make_draw_transform(draws[d].model, camera), &planes, &viewport,
-                        camera.orthographic, need_world});
+    const DrawTransform xf = make_draw_transform(draws[d].model, camera);
+    // (A singular pose has no eye: clip_far_segment then starts from the first endpoint.)
+    const dvec3 eye(glm::inverse(xf.model_view_d)[3]);
+    contexts.push_back({&draws[d], xf, &planes, &viewport, camera.orthographic, need_world, eye,
+                        0x1p-50 * std::max(viewport.width, viewport.height)});
     const std::size_t n = draws[d].points ? draws[d].positions.size() : draws[d].segments.size();
     for (std::size_t b = 0; b < n; b += kPrimitiveBlock)
       ranges.push_back({d, b, std::min(n, b + kPrimitiveBlock)});

@@ -16,7 +16,10 @@
 //    (x, y) the projected point; s < 1 draws as 1, so size 1 is the pixel holding the point.
 //  - Segments are clipped to the near and far planes and the guard band in homogeneous space
 //    (Liang-Barsky, double); a point outside them is dropped. Pixels outside the image are not
-//    drawn (the visible part is the unclipped line's).
+//    drawn (the visible part is the unclipped line's). Where the endpoints are so large next to
+//    the visible part that the clip-space lerp would be off (by more than 2^-16 px), the segment
+//    is clipped again relative to its point nearest the camera (lines.cpp, clip_far_segment):
+//    a segment from x = -1e20 to 1e20 at depth 5 draws its visible part, not one pixel.
 //  - Each pixel's attributes are those of the segment's point nearest the pixel centre in the
 //    window (parameter s), perspective-correct: t = s / w_b / ((1 - s) / w_a + s / w_b); depth,
 //    colour and world position are lerps by t.

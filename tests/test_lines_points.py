@@ -725,3 +725,165 @@ def test_from_pyrender_infinite_far_covers_lines_and_points(mode):
     assert cam.far >= 10.0
     frame = sr.Renderer(32, 32).render(scene, cam, outputs=("mask",))
     assert frame.mask.sum() >= (4 if mode == 0 else 8)  # 2 lines about 6 px long cross
+
+
+# -- far endpoints (issue 39, defect 12) ----------------------------------------------------------
+# A segment whose endpoints are huge next to its visible part, e.g. from x = -1e20 to 1e20 across
+# the view at depth 5: clipping it in clip space lerps a + (b - a) t with t a double near 0.5,
+# where one ulp of t is 2^-53 |b - a| (16384 units at 1e20), so both clipped ends collapsed to one
+# point and the line drew one pixel. Each case below is drawn next to its visible part, clipped by
+# hand, as an ordinary short segment: the same pixels, depths and colours.
+
+FAR_W, FAR_H = 64, 48
+
+
+def far_camera(pose=None):
+    cam = sr.PerspectiveCamera(fov_y=60.0, near=0.5, far=100.0)
+    cam.pose = np.eye(4) if pose is None else pose
+    return cam
+
+
+def far_render(positions, colors, cam, outputs=("mask", "depth", "radiance"), **kw):
+    scene = sr.Scene()
+    scene.add(sr.Lines(np.asarray(positions, np.float64), [[0, 1]], colors=colors), instance_id=2)
+    return render(scene, cam, outputs=outputs, w=FAR_W, h=FAR_H, **kw)
+
+
+def assert_same_line(frame, ref, what):
+    np.testing.assert_array_equal(frame.mask, ref.mask, err_msg=what)
+    m = ref.mask
+    np.testing.assert_allclose(frame.depth[m], ref.depth[m], rtol=1e-6, err_msg=what)
+    np.testing.assert_allclose(frame.radiance[m], ref.radiance[m], atol=1e-5, err_msg=what)
+
+
+def colours_at(colors, k):
+    """The colours at parameters k along a segment (k = 0 at its first end), as float32 rows."""
+    c = np.asarray(colors, np.float64)
+    return (c[0] + np.asarray(k, np.float64)[:, None] * (c[1] - c[0])).astype(np.float32)
+
+
+# (x of A, x of B, y of A, y of B): at depth 5 (world = view), a row of the 64 px image.
+FAR_ROWS = [(-1e19, 1e19, 0.1, 0.1), (-1e20, 1e20, 0.1, 0.1), (-1e30, 1e30, 0.1, 0.1),
+            (1e20, -1e20, 0.1, 0.1), (-1e30, 1e19, 0.1, 0.1), (-1e19, 1e30, -0.4, -0.4),
+            (-1e20, 1e20, 0.1, 0.3), (-3e38, 3e38, 0.7, 0.7), (0.3, 1e30, 0.1, 0.1),
+            (-1e20, -0.25, 0.1, 0.1)]
+
+
+@pytest.mark.parametrize("algorithm", ["bresenham", "dda"])
+def test_far_horizontal_lines_are_their_visible_part(algorithm):
+    cam = far_camera()
+    colors = [[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]
+    # The image spans |x| < 5 tan(30 deg) * 4 / 3 = 3.85 at depth 5: the visible part, clipped by
+    # hand, is the part with |x| <= 8 (or up to an end inside that), a segment of ordinary size.
+    for xa, xb, ya, yb in FAR_ROWS:
+        frame = far_render([[xa, ya, -5.0], [xb, yb, -5.0]], colors, cam,
+                           line_algorithm=algorithm)
+        lo, hi = max(min(xa, xb), -8.0), min(max(xa, xb), 8.0)
+        x = np.array([lo, hi] if xa < xb else [hi, lo])
+        k = (x - xa) / (xb - xa)
+        y = ya + k * (yb - ya)
+        ref = far_render(np.c_[x, y, [-5.0, -5.0]], colours_at(colors, k), cam,
+                         line_algorithm=algorithm)
+        what = f"{(xa, xb, ya, yb)} {algorithm}"
+        assert_same_line(frame, ref, what)
+        rows = np.nonzero(frame.mask.any(axis=1))[0]
+        assert len(rows) == 1, what
+        if min(xa, xb) < -8.0 and max(xa, xb) > 8.0:
+            assert frame.mask.sum() == FAR_W, what  # the whole row
+
+
+def test_far_lines_along_the_view_axis_are_clipped_at_near_and_far():
+    # From behind the camera to far beyond the far plane: a diagonal from the near plane's
+    # point to the far plane's, both inside the image (window positions away from integers).
+    cam = far_camera()
+    colors = [[0.0, 1.0, 0.0], [1.0, 0.0, 1.0]]
+    x, y = 0.3, 0.1
+    for za, zb in [(1e19, -1e19), (1e20, -1e20), (1e30, -1e30), (1e30, -1e19), (2.0, -1e30),
+                   (1e20, -20.0), (-1e20, 1e30)]:
+        frame = far_render([[x, y, za], [x, y, zb]], colors, cam)
+        z = np.array([-0.5, -100.0] if za > zb else [-100.0, -0.5])
+        z = np.clip(z, min(za, zb), max(za, zb))
+        k = (z - za) / (zb - za)
+        ref = far_render(np.c_[[x, x], [y, y], z], colours_at(colors, k), cam)
+        assert_same_line(frame, ref, str((za, zb)))
+        assert frame.mask.sum() >= 9
+        wx, wy, _ = project(cam, np.c_[[x, x], [y, y], z], FAR_W, FAR_H)
+        assert np.abs(np.r_[wx, wy] - np.round(np.r_[wx, wy])).min() > 1e-3
+
+
+def test_far_lines_in_any_direction_under_a_rotated_camera():
+    # Lines through the world origin (A = -B 2^k exactly, so the float32 ends define a line that
+    # does pass through it) in a direction near the view axis of a camera looking at the origin
+    # from 5 units away: visible from the near plane to the far plane. The reference is clipped
+    # in exact rational arithmetic.
+    from fractions import Fraction
+
+    yaw, pitch = np.radians(25.0), np.radians(-15.0)
+    fwd = np.array([np.sin(yaw) * np.cos(pitch), np.sin(pitch), -np.cos(yaw) * np.cos(pitch)])
+    right = np.cross(fwd, [0.0, 1.0, 0.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, fwd)
+    pose = np.eye(4)
+    pose[:3, 0], pose[:3, 1], pose[:3, 2], pose[:3, 3] = right, up, -fwd, -5.0 * fwd
+    cam = far_camera(pose)
+    view = cam.view_matrix()
+    colors = [[1.0, 1.0, 0.0], [0.0, 0.5, 1.0]]
+    direction = fwd + 0.23 * right + 0.17 * up
+    for scale, k2 in [(1e19, 1), (1e20, 1), (1e30, 1), (1e20, 2.0**33), (1e30, 2.0**-36)]:
+        b = (direction / np.linalg.norm(direction) * scale).astype(np.float32)
+        a = (-b.astype(np.float64) * k2).astype(np.float32)
+        assert (a.astype(np.float64) == -b.astype(np.float64) * k2).all()
+        frame = far_render(np.stack([a, b]), colors, cam)
+        # depth(s) of a + s (b - a), exactly; the s where it is near and far.
+        fa = [Fraction(float(v)) for v in a]
+        fd = [Fraction(float(vb)) - Fraction(float(va)) for va, vb in zip(a, b)]
+        row = [Fraction(float(v)) for v in view[2]]
+        depth0 = -(sum(r * v for r, v in zip(row, fa)) + row[3])
+        slope = -sum(r * v for r, v in zip(row[:3], fd))
+        s = [(Fraction(d) - depth0) / slope for d in (0.5, 100.0)]
+        s.sort()
+        ends = np.array([[float(fa[i] + si * fd[i]) for i in range(3)] for si in s])
+        ref = far_render(ends, colours_at(colors, [float(si) for si in s]), cam)
+        what = f"{scale} {k2}"
+        assert_same_line(frame, ref, what)
+        assert frame.mask.sum() >= 10, what
+        clip = np.c_[ends, np.ones(2)] @ (cam.projection_matrix(FAR_W, FAR_H) @ view).T
+        win = np.r_[(clip[:, 0] / clip[:, 3] + 1) * 0.5 * FAR_W,
+                    (1 - clip[:, 1] / clip[:, 3]) * 0.5 * FAR_H]
+        assert np.abs(win - np.round(win)).min() > 1e-3, what
+
+
+def test_far_points_are_culled_and_near_ones_land_where_numpy_projects():
+    cam = far_camera()
+    far = [[1e20, 0.1, -5.0], [-1e20, 0.1, -5.0], [0.1, 1e30, -5.0], [0.1, 0.1, -1e20],
+           [0.1, 0.1, 1e20], [3e38, -3e38, -3e38], [1e19, 1e19, 1e19], [-1e30, 0.0, -1e20]]
+    for size in (1.0, 3.0):
+        scene = sr.Scene()
+        scene.add(sr.Points(far, size=size), instance_id=1)
+        assert not render(scene, cam, outputs=("mask",), w=FAR_W, h=FAR_H).mask.any(), size
+    # Far along the view axis inside a far plane of 1e25: drawn where NumPy projects them.
+    deep = sr.PerspectiveCamera(fov_y=60.0, near=0.5, far=1e25)
+    deep.pose = np.eye(4)
+    pts = np.array([[1e19, 2e18, -1e20], [-3e23, -1e23, -1e24], [0.1, 0.1, -5.0]])
+    scene = sr.Scene()
+    scene.add(sr.Points(pts, size=1.0), instance_id=1)
+    frame = render(scene, deep, outputs=("mask", "depth"), w=FAR_W, h=FAR_H)
+    x, y, _ = project(deep, pts.astype(np.float32).astype(np.float64), FAR_W, FAR_H)
+    np.testing.assert_array_equal(frame.mask, to_mask(zip(np.floor(x).astype(int),
+                                                          np.floor(y).astype(int)), FAR_W, FAR_H))
+    assert frame.mask.sum() == 3
+
+
+def test_wireframe_of_a_mesh_with_far_vertices():
+    # render(wireframe=True) draws mesh edges as lines: a far vertex's edges are clipped the same.
+    cam = far_camera()
+    v = np.array([[-1e20, 0.1, -5.0], [1e20, 0.1, -5.0], [0.0, 1e20, -5.0]])
+    scene = sr.Scene()
+    scene.add(sr.Mesh(v, np.array([[0, 1, 2]])), instance_id=3)
+    frame = render(scene, cam, outputs=("mask", "triangle_id", "depth"), w=FAR_W, h=FAR_H,
+                   shading="unlit", wireframe=True)
+    edge = far_render([[-8.0, 0.1, -5.0], [8.0, 0.1, -5.0]], None, cam)
+    wire = frame.mask & (frame.triangle_id == -1)
+    np.testing.assert_array_equal(wire, edge.mask)
+    assert wire.sum() == FAR_W
+    np.testing.assert_allclose(frame.depth[wire], 5.0, rtol=1e-6)
