@@ -317,3 +317,22 @@ def test_bad_distortion_input_names_the_argument() -> None:
     cam = sr.IntrinsicsCamera(600, 600, 600, 450, 1200, 900, dist=[-0.01, 0, 0, 0], oversample=16)
     with pytest.raises(ValueError, match="MAX_IMAGE_SIDE"):
         sr.Renderer(1200, 900).render(scene(), cam, "depth")
+
+
+def test_oversampled_view_over_the_budget_is_refused_before_rendering(spot):
+    """Issue 39: oversample=16 once rendered the huge undistorted view (22 s) before the budget
+    refused it; now the view's outputs are checked first, naming oversample."""
+    before = sr.get_memory_budget()
+    scene = sr.Scene()
+    scene.add(spot)
+    r = sr.Renderer(W, H)
+    cam = camera(CALIBRATIONS["barrel"], oversample=16)
+    need = r.render(scene, camera(CALIBRATIONS["barrel"], oversample=1), outputs=("depth",))  # fine
+    assert need.depth is not None
+    try:
+        sr.set_memory_budget(64 * 2**20)
+        with pytest.raises(ValueError, match=r"oversample=16: the undistorted view's outputs"):
+            r.render(scene, cam, outputs=("color", "depth"))
+        assert not r.__dict__.get("_distortion_renderers", {}).get((16 * W, 16 * H))
+    finally:
+        sr.set_memory_budget(before)

@@ -259,7 +259,8 @@ def render_distorted(renderer: Any, scene: Any, camera: Any, names: Any, options
                      out: Any) -> Any:
     """``Renderer.render`` for a camera with lens distortion (see this module's docstring)."""
     from . import _core
-    from .render import Frame, Renderer, _out_arrays
+    from .limits import check_budget
+    from .render import _OUTPUT_BYTES, Frame, Renderer, _out_arrays
 
     w, h = renderer.width, renderer.height
     rays = _rays(camera, w, h)
@@ -275,6 +276,10 @@ def render_distorted(renderer: Any, scene: Any, camera: Any, names: Any, options
     # pixel's ray at its neighbourhood's triangles: that needs every sample's triangle.
     resolve = any(n not in _BILINEAR for n in wanted)
     inner = list(dict.fromkeys(wanted + (["triangle_id", "instance_id"] if resolve else [])))
+    # The ideal view's outputs, checked before its renderer is made or anything is drawn.
+    check_budget(rays.view_size * sum(_OUTPUT_BYTES[n] for n in inner),
+                 f"oversample={camera.oversample}: the undistorted view's outputs {tuple(inner)} at "
+                 f"{rays.width}x{rays.height}")
     view_scene = _shadow_scene(scene) if resolve else scene  # instance_id = the instance's index
     rays.camera.pose = camera.pose  # the ideal view shares the camera's pose (set per render)
     frame = big.render(view_scene, rays.camera, inner, **options)

@@ -142,7 +142,7 @@ class Texture:
     """
 
     __slots__ = ("image", "srgb", "filter", "wrap", "max_anisotropy", "uv_origin", "name",
-                 "_cores", "__weakref__")
+                 "_cores", "_warned", "__weakref__")
 
     def __init__(self, image: npt.ArrayLike, srgb: bool | None = None, filter: str = "trilinear",
                  wrap: str | Sequence[str] = "repeat", max_anisotropy: int = 16,
@@ -176,6 +176,7 @@ class Texture:
         s(self, "uv_origin", uv_origin)
         s(self, "name", name)
         s(self, "_cores", {})
+        s(self, "_warned", set())  # the colour slots already checked (_check_color_range)
 
     def __setattr__(self, key: str, value: Any) -> None:
         raise AttributeError("Texture is immutable: make a new one (softrast.Texture(...) or "
@@ -252,13 +253,14 @@ class Texture:
         """Refuses negative values in a colour slot's float image, and warns of values above 1
         (often 0..255 as floats)."""
         arr = self.image
-        if arr.dtype.kind != "f":
-            return
+        if arr.dtype.kind != "f" or slot in self._warned:
+            return  # (each slot checked once per texture: materials are remade by replace())
         color = arr[:, :, :arr.shape[2] if arr.shape[2] in (1, 3) else arr.shape[2] - 1]
         low = float(arr.min())
         if low < 0.0:  # radiance would go negative; data slots (normal maps) keep signed values
             raise ValueError(f"{slot}: its float image has a negative value ({low:g}); colour "
                              f"and alpha texels must be >= 0")
+        self._warned.add(slot)
         top = float(color.max())
         if top > 1.0:
             hint = (" It looks like 8-bit values stored as floats: pass a uint8 array, or "
