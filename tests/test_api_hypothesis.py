@@ -4,11 +4,14 @@ type, a crash or a hang.
 
 Each example builds a Renderer, meshes, a Scene, a camera and a render call from strategies
 that draw, for every argument, a valid value (over wide ranges: singular and mirroring poses,
-extreme fields of view, near/far ratios of 1e9, tiny and huge scenes) or, for at most one
+extreme fields of view, near/far ratios of 1e9, tiny and huge scenes, a vertex at 1e19-1e30
+among unit ones; materials with textures in every slot, of every dtype and 1 to 4 channels,
+float ones up to 1e30; lights of intensity up to 3.4e38, placed up to 1e30 away; lines and
+points up to 1e30; msaa and ssaa; both normal kinds) or, for at most one
 argument, a bad one whose expected argument name is known. A returned frame must satisfy the
 invariants the fuzzer checks on the C++ core (mask == depth > 0, ids -1 exactly on background,
-finite normals of length 1 on covered pixels and 0 elsewhere, background colour where nothing is
-hit, the requested outputs with their shapes and dtypes).
+finite normals of length 1 on covered pixels and 0 elsewhere, finite radiance >= 0, background
+colour where nothing is hit, the requested outputs with their shapes and dtypes).
 
 The examples run in a child process under a timeout, so a crash fails the test with its signal
 and a hang fails it at the timeout instead of stalling CI. derandomize=True: the same examples
@@ -104,7 +107,7 @@ def _strategies():
         # Fixed, well-spread points plus drawn offsets (hypothesis favours zeros: drawn points
         # alone would mostly coincide), a fan of faces over them, and maybe drawn extra faces.
         n = draw(st.integers(3, 9))
-        scale = draw(st.sampled_from([1.0] * 16 + [1e-20, 1e-3, 1e3, 1e20]))
+        scale = draw(st.sampled_from([1.0] * 16 + [1e-20, 1e-3, 1e3, 1e20, 1e30]))
         offsets = np.array(draw(st.lists(st.tuples(*[floats(-1.0, 1.0)] * 3), min_size=n, max_size=n)))
         positions = (np.random.default_rng(n).uniform(-1.5, 1.5, (n, 3)) + offsets) * scale
         faces = [[0, k, k + 1] for k in range(1, n - 1)]
@@ -118,6 +121,12 @@ def _strategies():
                                     dtype=np.float64)
         if draw(st.booleans()):
             kw["color"] = draw(rgb)
+        if draw(st.booleans()):  # uvs over a few periods, for the textures
+            kw["uvs"] = np.random.default_rng(n + 1).uniform(-2.0, 3.0, (n, 2)) * draw(
+                st.sampled_from([1.0, 1.0, 1e-3, 1e6]))
+        if scale == 1.0 and draw(st.integers(0, 9)) == 0:  # one vertex very far among unit ones
+            kw["positions"] = kw["positions"].copy()
+            kw["positions"][0] *= draw(st.sampled_from([1e19, 1e30, -1e25]))
         return kw
 
     @st.composite
@@ -175,8 +184,11 @@ def _strategies():
     def render_args(draw):
         outputs = draw(st.one_of(st.sampled_from(OUTPUTS),
                                  st.lists(st.sampled_from(OUTPUTS), min_size=1, max_size=8).map(tuple)))
-        return {"outputs": outputs,
+        aa = draw(st.sampled_from([{}, {}, {}, {"msaa": 4}, {"msaa": 2}, {"ssaa": 2}, {"ssaa": 3}]))
+        return {**aa, "outputs": outputs,
                 "cull": draw(st.sampled_from(["back", "front", "none", "none"])),
+                "cull_double_sided": draw(st.booleans()),
+                "normal_kind": draw(st.sampled_from(["interpolated", "shading"])),
                 "shading": draw(st.sampled_from(SHADINGS)),
                 "frequency": draw(st.sampled_from(["pixel", "pixel", "vertex", "face"])),
                 "srgb": draw(st.booleans()),
@@ -185,16 +197,39 @@ def _strategies():
                 "ambient": draw(unit)}
 
     @st.composite
+    def texture_args(draw):
+        # 1 to 4 channels of every dtype, float ones up to HDR values of 1e30.
+        dtype = draw(st.sampled_from([np.uint8, np.uint16, np.float32, np.float64]))
+        c = draw(st.integers(1, 4))
+        h, w = draw(st.integers(1, 9)), draw(st.integers(1, 9))
+        rng = np.random.default_rng(h * 31 + w * 7 + c)
+        if np.dtype(dtype).kind == "u":
+            image = rng.integers(0, np.iinfo(dtype).max, (h, w, c), endpoint=True).astype(dtype)
+        else:
+            top = draw(st.sampled_from([1.0, 1.0, 4.0, 1e6, 1e30]))
+            image = (rng.uniform(0.0, 1.0, (h, w, c)) * top).astype(dtype)
+        return {"image": image, "filter": draw(st.sampled_from(["nearest", "bilinear", "trilinear", "anisotropic"])),
+                "wrap": draw(st.sampled_from(["repeat", "clamp", "mirror"])),
+                "srgb": draw(st.sampled_from([None, None, False]))}
+
+    @st.composite
     def material_args(draw):
-        return {"base_color": draw(rgb), "ks": draw(rgb), "shininess": draw(st.sampled_from([0.0, 1.0, 32.0, 1e4])),
-                "metallic": draw(unit), "roughness": draw(unit), "emissive": draw(rgb),
-                "double_sided": draw(st.booleans()),
-                "model": draw(st.sampled_from([None, "lambert", "phong", "blinn_phong", "pbr", "unlit", "normal"]))}
+        kw = {"base_color": draw(rgb), "ks": draw(rgb), "shininess": draw(st.sampled_from([0.0, 1.0, 32.0, 1e4, 3.4e38])),
+              "metallic": draw(unit), "roughness": draw(unit), "emissive": draw(rgb),
+              "double_sided": draw(st.booleans()),
+              "model": draw(st.sampled_from([None, "lambert", "phong", "blinn_phong", "pbr", "unlit", "normal"]))}
+        for slot in ("base_color_texture", "emissive_texture", "normal_texture", "bump_texture",
+                     "metallic_roughness_texture", "occlusion_texture", "specular_texture"):
+            if draw(st.integers(0, 5)) == 0:
+                kw[slot] = draw(texture_args())
+        if draw(st.integers(0, 4)) == 0:
+            kw["alpha_mode"] = "mask"
+        return kw
 
     @st.composite
     def light_args(draw):
         kind = draw(st.sampled_from(["directional", "point", "spot"]))
-        kw = {"color": draw(rgb), "intensity": draw(st.sampled_from([0.0, 1.0, 3.0, 1e3]))}
+        kw = {"color": draw(rgb), "intensity": draw(st.sampled_from([0.0, 1.0, 3.0, 1e3, 1e30, 3.4e38]))}
         if kind != "directional":
             kw["falloff"] = draw(st.sampled_from(["inverse_square", "none"]))
         if kind == "spot":
@@ -204,7 +239,20 @@ def _strategies():
         pose = np.eye(4)
         pose[:3, :3] = rotation(draw)
         pose[:3, 3] = draw(st.tuples(*[floats(-5.0, 5.0)] * 3))
+        if draw(st.integers(0, 9)) == 0:
+            pose[:3, 3] *= draw(st.sampled_from([1e-30, 1e20, 1e30]))
         return kind, kw, pose, draw(st.booleans())
+
+    @st.composite
+    def primitive_args(draw):
+        n = draw(st.integers(1, 6))
+        scale = draw(st.sampled_from([1.0, 1.0, 1.0, 1e-3, 1e19, 1e30]))
+        positions = np.random.default_rng(n + 5).uniform(-1.5, 1.5, (n, 3)) * scale
+        if draw(st.booleans()):
+            segments = np.array([[k, (k + 1) % n] for k in range(n)], np.int64)
+            return "lines", {"positions": positions, "segments": segments,
+                             "width": draw(st.sampled_from([1.0, 1.0, 2.5, 0.5]))}
+        return "points", {"positions": positions, "size": draw(st.sampled_from([1.0, 3.0, 0.5]))}
 
     # ---- bad values: (where, argument, value, expected name in the message) ----------------
     nan3 = (0.1, math.nan, 0.2)
@@ -245,7 +293,7 @@ def _strategies():
         ("render", "shading"): st.sampled_from([None, "toon", 0, ("lambert",), "lit"]),
         ("render", "frequency"): st.sampled_from([None, "fragment", 1, ("pixel",)]),
         ("render", "srgb"): st.sampled_from([None, "yes", 1, 0.0]),
-        ("material", "base_color"): st.one_of(not_numbers_or_none, st.sampled_from([(2.0, 0.0, 0.0), nan3, (0.1,)])),
+        ("material", "base_color"): st.one_of(not_numbers, st.sampled_from([(2.0, 0.0, 0.0), nan3, (0.1,)])),  # None: the default
         ("material", "shininess"): st.one_of(not_numbers_or_none, st.sampled_from([-1.0, math.nan, math.inf])),
         ("material", "metallic"): st.one_of(not_numbers_or_none, st.sampled_from([-0.1, 1.5, math.nan])),
         ("material", "roughness"): st.one_of(not_numbers_or_none, st.sampled_from([-0.1, 2.0, math.nan])),
@@ -286,6 +334,7 @@ def _strategies():
                          "color": draw(st.one_of(st.none(), rgb))} for _ in spec["meshes"]]
         spec["materials"] = [draw(st.one_of(st.none(), st.none(), material_args())) for _ in spec["meshes"]]
         spec["lights"] = [draw(light_args()) for _ in range(draw(st.sampled_from([0, 0, 1, 2, 4])))]
+        spec["primitives"] = [draw(primitive_args()) for _ in range(draw(st.sampled_from([0, 0, 0, 1, 2])))]
         spec["ambient_light"] = draw(st.one_of(st.none(), rgb))
         if which is not None:
             where, arg = which
@@ -342,6 +391,8 @@ def _check_frame(frame, spec, renderer, scene, cam):
     for name, covered in (("mask", lambda a: a), ("depth", lambda a: a > 0), ("triangle_id", lambda a: a >= 0),
                           ("instance_id", lambda a: a >= 0)):
         arr = getattr(frame, name)
+        if name == "triangle_id" and scene.primitives:
+            continue  # lines and points have triangle_id -1 (checked below)
         if arr is not None:
             if hit is None:
                 hit = covered(arr)
@@ -355,11 +406,14 @@ def _check_frame(frame, spec, renderer, scene, cam):
     instances = scene.instances
     if frame.triangle_id is not None:
         assert (frame.triangle_id[~hit] == -1).all()
+        if not scene.primitives:
+            assert (frame.triangle_id[hit] >= 0).all()
         most = max((len(i.mesh.faces) for i in instances), default=0)
         assert (frame.triangle_id[hit] < most).all()
     if frame.instance_id is not None:
         assert (frame.instance_id[~hit] == -1).all()
-        assert np.isin(frame.instance_id[hit], [i.instance_id for i in instances]).all()
+        ids = [i.instance_id for i in instances] + [p.instance_id for p in scene.primitives]
+        assert np.isin(frame.instance_id[hit], ids).all()
     if frame.normal is not None:
         n = frame.normal
         assert np.isfinite(n).all(), "normal not finite"
@@ -368,11 +422,12 @@ def _check_frame(frame, spec, renderer, scene, cam):
         # Unit, or 0 where no normal exists: a zero vertex normal, a face the pose collapses to a
         # segment (rank <= 1 poses: every face) or a float32-collinear face.
         assert ((np.abs(length - 1.0) < 1e-5) | (length == 0.0)).all(), "normal neither unit nor 0"
-    if frame.coverage is not None:
+    if frame.coverage is not None and not scene.primitives:  # (lines and points count no coverage)
         assert (frame.coverage[hit] >= 1).all(), "visible pixel with coverage 0"
     if frame.radiance is not None:
         assert (frame.radiance[~hit] == 0).all(), "background radiance is not 0"
-        assert not np.isnan(frame.radiance).any(), "NaN radiance"
+        assert np.isfinite(frame.radiance).all(), "radiance not finite"
+        assert (frame.radiance >= 0).all(), "negative radiance"
     if frame.color is not None:
         bg = np.asarray(spec["render"]["background"], dtype=np.float32)
         bg8 = (np.clip(bg, 0, 1) * np.float32(255.0) + np.float32(0.5)).astype(np.uint8)
@@ -390,8 +445,16 @@ def _run(spec):
     scene = sr.Scene(ambient_light=spec["ambient_light"])
     for mesh_kw, add_kw, mat_kw in zip(spec["meshes"], spec["adds"], spec["materials"]):
         mesh = sr.Mesh(**mesh_kw)
-        material = None if mat_kw is None else sr.Material(**mat_kw)
+        material = None
+        if mat_kw is not None:
+            mat_kw = {k: sr.Texture(**v) if k.endswith("_texture") and isinstance(v, dict) else v
+                      for k, v in mat_kw.items()}
+            with warnings.catch_warnings():  # a colour slot's float image above 1 warns: meant
+                warnings.filterwarnings("ignore", message=r".*_texture: its float image")
+                material = sr.Material(**mat_kw)
         scene.add(mesh, material=material, **add_kw)
+    for kind, kw in spec.get("primitives", []):
+        scene.add(sr.Lines(**kw) if kind == "lines" else sr.Points(**kw))
     kinds = {"directional": sr.DirectionalLight, "point": sr.PointLight, "spot": sr.SpotLight}
     for kind, kw, pose, camera_space in spec["lights"]:
         scene.add(kinds[kind](**kw), pose=pose, camera_space=camera_space)

@@ -25,12 +25,18 @@
 //   u8 normal_y_down (then, for the later slots: F occlusion_strength, F bump_scale; for an
 //   alpha mask: F alpha_cutoff);
 //   then u8 surface outputs (bits 0-3: barycentric, uv, position, ray_depth; bit 4: normals in
-//   camera space).
+//   camera space; bit 5: alpha; bits 6-7: anti-aliasing);
+//   then u8 extras (bit 0: cull_double_sided; bit 1: shading normals; bit 2: the texture is also
+//   every draw's specular texture; bit 3: double-sided materials never culled; bits 4-5:
+//   primitives % 3, bit 6: the dda line algorithm), per primitive: u8 flags (bit 0 points, bit 1
+//   per-position colours), u8 positions (1 + p % 8), each 3 x F, lines: u8 segments % 9, each
+//   two u8 % positions; colours 3 x F each; F width, M model, i32 instance id, F depth bias.
 // F (float) / D (double) values: u8 selector, then for some selectors a payload (see value()).
 // I (face index): u8 < 0xf0 => that byte % vertices, else a special value (see index()).
 // M (matrix): u8 mode: identity, translation, scale + translation, 16 raw values, mirror.
 // P (projection): u8 mode: perspective(fovy, aspect, near, far), ortho, 16 raw values, identity.
 #include "framebuffer.hpp"
+#include "lines.hpp"
 #include "renderer.hpp"
 #include "texture.hpp"
 
@@ -158,7 +164,7 @@ void fill(Reader& in, std::vector<V>& out, std::size_t n, int comps) {
 
 // Checks what the README promises of any successful render; returns the number of hits.
 int check_frame(const Framebuffer& fb, const MeshData& mesh, std::size_t num_draws,
-                 const uint8_t background[3]) {
+                 const uint8_t background[3], bool primitives) {
   const int n = fb.width * fb.height;
   int hits = 0;
   for (int i = 0; i < n; ++i) {
@@ -176,9 +182,13 @@ int check_frame(const Framebuffer& fb, const MeshData& mesh, std::size_t num_dra
     if (fb.get<int32_t>(kOutTriangleId)) {
       if (fb.get<int32_t>(kOutTriangleId)[i] < -1 || fb.get<int32_t>(kOutTriangleId)[i] >= int64_t(mesh.faces.size()))
         fail("triangle_id in [-1, faces)", i);
-      agree(fb.get<int32_t>(kOutTriangleId)[i] != -1, "triangle_id == -1 exactly where mask is false");
+      // (lines and points: triangle_id -1 on their pixels, and no coverage)
+      if (!primitives)
+        agree(fb.get<int32_t>(kOutTriangleId)[i] != -1, "triangle_id == -1 exactly where mask is false");
+      else if (hit == 0 && fb.get<int32_t>(kOutTriangleId)[i] != -1)
+        fail("background triangle_id", i);
     }
-    if (fb.get<uint32_t>(kOutCoverage) && hit == 1 && fb.get<uint32_t>(kOutCoverage)[i] == 0) fail("visible pixel has coverage 0", i);
+    if (fb.get<uint32_t>(kOutCoverage) && hit == 1 && !primitives && fb.get<uint32_t>(kOutCoverage)[i] == 0) fail("visible pixel has coverage 0", i);
     if (fb.get<int32_t>(kOutInstanceId) && hit == 0 && fb.get<int32_t>(kOutInstanceId)[i] != -1) fail("background instance_id", i);
     if (fb.get<float>(kOutNormal)) {
       const float* nrm = fb.get<float>(kOutNormal) + 3 * i;
@@ -196,8 +206,10 @@ int check_frame(const Framebuffer& fb, const MeshData& mesh, std::size_t num_dra
     if (const float* b = fb.get<float>(kOutBarycentric)) {
       const float* w = b + 3 * i;
       if (hit == 0 && (w[0] != 0.0f || w[1] != 0.0f || w[2] != 0.0f)) fail("background barycentric is 0", i);
-      // Each weight is in [0, 1] and they sum to 1 (NaN fails), up to float rounding.
-      if (hit == 1 && !(w[0] >= 0.0f && w[1] >= 0.0f && w[2] >= 0.0f && w[0] <= 1.0f &&
+      // Each weight is in [0, 1] and they sum to 1 (NaN fails), up to float rounding; a line or
+      // point pixel has none (0).
+      const bool none = w[0] == 0.0f && w[1] == 0.0f && w[2] == 0.0f;
+      if (hit == 1 && !(primitives && none) && !(w[0] >= 0.0f && w[1] >= 0.0f && w[2] >= 0.0f && w[0] <= 1.0f &&
                         w[1] <= 1.0f && w[2] <= 1.0f && std::fabs(w[0] + w[1] + w[2] - 1.0f) < 1e-5f))
         fail("barycentric weights in [0, 1] summing to 1", i);
     }
@@ -214,7 +226,7 @@ int check_frame(const Framebuffer& fb, const MeshData& mesh, std::size_t num_dra
       if (!(a[i] >= 0.0f && a[i] <= 1.0f)) fail("alpha in [0, 1]", i);
       agree(a[i] > 0.0f, "mask == (alpha > 0)");
     }
-    if (hit == 1 && num_draws == 0) fail("a hit without draws", i);
+    if (hit == 1 && num_draws == 0 && !primitives) fail("a hit without draws", i);
     hits += hit == 1;
   }
   return hits;
@@ -366,6 +378,46 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
     default: break;
   }
 
+  const uint8_t extras = in.u8();
+  options.cull_double_sided = extras & 1;
+  options.shading_normals = extras & 2;
+  for (Draw& d : draws) {
+    if (extras & 4) d.material.specular_texture = texture.get();
+    d.never_culled = (extras & 8) && d.material.double_sided;
+  }
+  // Lines and points: their arrays live in `prim_data` (the draws view them).
+  struct PrimitiveArrays {
+    std::vector<vec3> positions, colors;
+    std::vector<glm::ivec2> segments;
+  };
+  std::vector<PrimitiveArrays> prim_data((extras >> 4) % 4 % 3);
+  std::vector<PrimitiveDraw> primitives(prim_data.size());
+  for (std::size_t k = 0; k < primitives.size(); ++k) {
+    PrimitiveArrays& a = prim_data[k];
+    PrimitiveDraw& p = primitives[k];
+    const uint8_t pf = in.u8();
+    p.points = pf & 1;
+    a.positions.resize(1 + in.u8() % 8);
+    for (vec3& v : a.positions) v = vec3(in.value_f(), in.value_f(), in.value_f());
+    const int np = int(a.positions.size());
+    if (!p.points) {
+      a.segments.resize(in.u8() % 9);
+      for (glm::ivec2& s : a.segments) s = glm::ivec2(in.u8() % np, in.u8() % np);
+    }
+    if (pf & 2) {
+      a.colors.resize(a.positions.size());
+      for (vec3& c : a.colors) c = vec3(in.value_f(), in.value_f(), in.value_f());
+    }
+    p.positions = view_of(a.positions);
+    p.segments = view_of(a.segments);
+    p.colors = view_of(a.colors);
+    p.width = in.value_f();
+    p.model = in.matrix();
+    p.instance_id = in.raw<int32_t>();
+    p.depth_bias = in.value_f();
+  }
+  const LineAlgorithm line_algorithm = extras & 64 ? LineAlgorithm::Dda : LineAlgorithm::Bresenham;
+
   try {
     mesh->validate();
   } catch (const std::invalid_argument& e) {
@@ -374,7 +426,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
   }
   std::unique_ptr<Framebuffer> fb;
   try {
-    fb = renderer(width, height, threads).render(draws, camera, options);
+    for (std::size_t k = 0; k < primitives.size(); ++k)
+      validate_primitive(primitives[k], "primitive " + std::to_string(k));
+    fb = renderer(width, height, threads).render(draws, camera, options, nullptr, primitives,
+                                                 line_algorithm);
   } catch (const std::invalid_argument& e) {
     trace("render refused: %s\n", e.what());
     return 0;  // bad camera or options
@@ -382,7 +437,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
   uint8_t background[3];
   for (int c = 0; c < 3; ++c)
     background[c] = uint8_t(std::clamp(options.background[c], 0.0f, 1.0f) * 255.0f + 0.5f);
-  const int hits = check_frame(*fb, *mesh, draws.size(), background);
+  const int hits = check_frame(*fb, *mesh, draws.size(), background, !primitives.empty());
   trace("rendered %dx%d, %zu vertices, %zu faces, %zu draws, outputs 0x%x: %d hits\n", width,
         height, mesh->positions.size(), mesh->faces.size(), draws.size(),
         unsigned(options.outputs), hits);
@@ -390,7 +445,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
   if (flags & 2) {  // bit-identical for any thread count and either kernel set (README: determinism)
     const int other = 1 + threads % 3;
     const bool simd = !(flags & 4);
-    auto fb2 = renderer(width, height, other, simd).render(draws, camera, options);
+    auto fb2 = renderer(width, height, other, simd).render(draws, camera, options, nullptr,
+                                                           primitives, line_algorithm);
     if (!same_frames(*fb, *fb2)) fail("same frame for 1, 2 and 3 threads, AVX2 and generic kernels", -1);
   }
   return 0;

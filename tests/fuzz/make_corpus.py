@@ -149,6 +149,20 @@ def texturing(texels, channels=3, floats=False, srgb=True, top_left=False, mips=
 
 # --- geometry -------------------------------------------------------------------------------
 
+def primitive(points: bool, positions, segments=(), *, colors=None, width=1.0, size=None,
+              pose=None, instance_id=7, depth_bias=0.0) -> bytes:
+    """One line or point set after the extras byte: flags, positions, segments, colours, width
+    (or size), pose, id, depth bias."""
+    out = u8((1 if points else 0) | (2 if colors is not None else 0)) + u8(len(positions) - 1)
+    out += b"".join(value(float(c)) for p in positions for c in p)
+    if not points:
+        out += u8(len(segments)) + b"".join(u8(a) + u8(b) for a, b in segments)
+    if colors is not None:
+        out += b"".join(value(float(c)) for rgb in colors for c in rgb)
+    out += value(float(size if points and size is not None else width)) + matrix(pose)
+    return out + struct.pack("<i", instance_id) + value(float(depth_bias))
+
+
 def icosphere(subdivisions: int = 1):
     t = (1.0 + 5 ** 0.5) / 2.0
     p = [[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t], [0, -1, -t],
@@ -346,6 +360,28 @@ def seeds() -> dict[str, bytes]:
         ortho_cam=True, outputs=4, positions=sphere_p, faces=sphere_f,
         draws=((translation((0, 0, -3)), 5, (1, 1, 1, 1)),),
         lit=lighting(materials=[mats[0]]) + texturing(checker, slots=((0, 1.0, 0),)) + u8(0x0C))
+    # The extras byte after the surface byte: double-sided draws never culled (and the override),
+    # shading normals with a normal map, a specular map, and lines and points (far ones too).
+    normal_map = np.zeros((8, 8, 3), np.uint8)
+    normal_map[:] = (150, 110, 230)
+    normal_map[::2, 1::2] = (100, 160, 220)
+    for name, extras, prims in (
+            ("never_culled_shading_normals", 1 << 3 | 2 | 4, b""),
+            ("cull_double_sided_override", 1 | 1 << 3, b""),
+            ("lines_and_points", 2 << 4,
+             primitive(False, [(-1, -1, -3), (1, 1, -3), (1e20, 0.2, -4), (-1e30, 0.1, -4)],
+                       [(0, 1), (2, 3)], width=2.5)
+             + primitive(True, [(0, 0, -3), (0.5, -0.5, -2), (1e30, 0, -3)], size=3.0,
+                         colors=[(1, 0, 0), (0, 1, 0), (NAN, 0, 1)])),
+            ("lines_dda_depth_bias", 1 << 4 | 64,
+             primitive(False, [(-1, 0, -2.9), (1, 0.3, -3.1), (0, 1, -3)], [(0, 1), (1, 2), (2, 0)],
+                       width=1.0, depth_bias=0.01))):
+        out[f"extras_{name}"] = scene(
+            threads=2, compare_threads=True, outputs=0xFF, shading=4, cull="back", positions=sphere_p,
+            faces=sphere_f, normals=sphere_p, uvs=sphere_p[:, :2],
+            draws=((translation((0, 0, -3)), 0, (1, 1, 1, 1)),),
+            lit=lighting(lights[:2], materials=[mats[0]])
+            + texturing(normal_map, slots=((4, 1.0, 0),)) + u8(0x1F) + u8(extras) + prims)
     out["lit_nan_light_refused"] = scene(
         outputs=0xFF, shading=4, positions=TRI, faces=[[0, 1, 2]],
         lit=lighting([(0, (NAN, 1, 1), (0, 0, 0), (0, 0, -1), 0, 0.0, 1.0)], materials=[mats[3]]))
