@@ -15,7 +15,8 @@ colour where nothing is hit, the requested outputs with their shapes and dtypes)
 
 The examples run in a child process under a timeout, so a crash fails the test with its signal
 and a hang fails it at the timeout instead of stalling CI. derandomize=True: the same examples
-every run. SOFTRAST_HYPOTHESIS_EXAMPLES sets their number (default 300, about 5 s).
+every run. SOFTRAST_HYPOTHESIS_EXAMPLES sets their number (default 200, about 15 s with the
+textures, anti-aliasing and primitives; 1,500 passed on 2026-11-28, about 2 min).
 """
 from __future__ import annotations
 
@@ -28,8 +29,8 @@ import warnings
 
 import numpy as np
 
-EXAMPLES = int(os.environ.get("SOFTRAST_HYPOTHESIS_EXAMPLES", "300"))
-TIMEOUT_S = 120 + EXAMPLES * 0.2  # a hang guard only (300 examples take ~5 s, 5,000 ~80 s)
+EXAMPLES = int(os.environ.get("SOFTRAST_HYPOTHESIS_EXAMPLES", "200"))
+TIMEOUT_S = 120 + EXAMPLES * 0.5  # a hang guard only (200 examples take ~15 s, 1,500 ~2 min)
 
 
 def test_public_api_renders_correctly_or_names_the_bad_argument():
@@ -45,7 +46,7 @@ def test_public_api_renders_correctly_or_names_the_bad_argument():
     counts = re.search(r"examples: (\d+) rendered: (\d+) refused: (\d+) \(renders with pixels hit: (\d+)", proc.stdout)
     assert counts, proc.stdout
     examples, rendered, refused, hit = map(int, counts.groups())
-    # Both outcomes exercised, and renders that cover pixels (300 examples: ~230 / 70 / 80).
+    # Both outcomes exercised, and renders that cover pixels (300 examples: ~200 / 100 / 90).
     assert examples >= EXAMPLES and rendered > EXAMPLES // 2 and refused > EXAMPLES // 10, proc.stdout
     assert hit > EXAMPLES // 10, proc.stdout
 
