@@ -20,7 +20,7 @@ if __name__ == "__main__":  # (Dask's worker processes import this file: keep th
         cameras.append(camera)
     job = sr.DatasetJob([root / "assets" / "meshes" / "spot.obj"], cameras,
                         outputs=("color", "depth", "instance_id"), out_dir=out, shard_size=4)
-    with LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None) as cluster, \
+    with LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address="127.0.0.1:0") as cluster, \
             Client(cluster) as client:
         paths = sr.render_dataset(job, client.get_executor())
     print(f"wrote {sum(len(p) for p in paths)} views with cameras.json to {out}")

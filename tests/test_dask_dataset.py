@@ -50,7 +50,7 @@ def test_process_pool_equals_local_run(tmp_path):
 def test_dask_local_cluster_equals_local_run(tmp_path):
     sr.render_dataset(_job(tmp_path / "local"))
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+                                  dashboard_address="127.0.0.1:0") as cluster, distributed.Client(cluster) as client:
         paths = sr.render_dataset(_job(tmp_path / "dask"), client.get_executor())
     assert _tree(tmp_path / "local") == _tree(tmp_path / "dask")
     assert all(p.startswith(str(tmp_path / "dask")) for per in paths for view in per for p in view.values())
