@@ -252,6 +252,17 @@ def test_more_views_than_memory_allows_fail_before_writing(tmp_path, capsys, bud
     assert not out.exists()
 
 
+def test_the_default_budget_allows_524288_views_a_run(tmp_path, capsys, budget):
+    """README: about 8 KB a view, 524,288 views at the default 4 GiB budget."""
+    budget(4 * 2**30)
+    out = tmp_path / "ds"
+    assert main(["batch", str(SPOT), "--out", str(out), "--views", "524289", "--size", "8x8",
+                 "--outputs", "mask", "--workers", "1"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("softrast: error: --views 524289") and "524288 views a run" in err, err
+    assert not out.exists()
+
+
 def test_more_poses_than_memory_allows_fail_before_writing(tmp_path, capsys, budget):
     np.save(tmp_path / "poses.npy", np.broadcast_to(np.eye(4), (3000, 4, 4)))
     budget(16 * 2**20)
