@@ -242,24 +242,18 @@ def test_a_corrupt_second_mesh_is_reported_before_anything_is_written(tmp_path, 
         assert not out.exists()  # spot's views were written first, before
 
 
-def test_more_views_than_memory_allows_fail_before_writing(tmp_path, capsys, budget):
-    budget(16 * 2**20)
+@pytest.mark.parametrize("budget_bytes, views, said", [
+    (16 * 2**20, 5000, "memory budget"),
+    (4 * 2**30, 524289, "524288 views a run"),  # README: 524,288 views at the default 4 GiB
+])
+def test_more_views_than_memory_allows_fail_before_writing(tmp_path, capsys, budget, budget_bytes,
+                                                           views, said):
+    budget(budget_bytes)  # about 8 KB a view
     out = tmp_path / "ds"
-    assert main(["batch", str(SPOT), "--out", str(out), "--views", "5000", "--size", "8x8",
+    assert main(["batch", str(SPOT), "--out", str(out), "--views", str(views), "--size", "8x8",
                  "--outputs", "mask", "--workers", "1"]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("softrast: error: --views 5000") and "memory budget" in err, err
-    assert not out.exists()
-
-
-def test_the_default_budget_allows_524288_views_a_run(tmp_path, capsys, budget):
-    """README: about 8 KB a view, 524,288 views at the default 4 GiB budget."""
-    budget(4 * 2**30)
-    out = tmp_path / "ds"
-    assert main(["batch", str(SPOT), "--out", str(out), "--views", "524289", "--size", "8x8",
-                 "--outputs", "mask", "--workers", "1"]) == 2
-    err = capsys.readouterr().err
-    assert err.startswith("softrast: error: --views 524289") and "524288 views a run" in err, err
+    assert err.startswith(f"softrast: error: --views {views}") and said in err, err
     assert not out.exists()
 
 
