@@ -31,7 +31,7 @@ def test_batch_writes_a_dataset(tmp_path, capsys):
     assert "skipped" not in out.out
     d = tmp_path / "spot"
     names = sorted(os.listdir(d))
-    assert "cameras.json" in names and "000004_depth.npy" in names and "000004_uv.exr" in names
+    assert "cameras.json" in names and "000004_depth.npy" in names and "000004_uv.tif" in names
     cams = sr.load_cameras(d)
     assert len(cams) == 5 and (cams[0].width, cams[0].height) == (64, 48)
     # each view is what render gives for its camera
@@ -120,7 +120,7 @@ def test_a_resumed_run_counts_skipped_views_apart(tmp_path, capsys, monkeypatch)
     capsys.readouterr()
     d = tmp_path / "spot"
     for k in (1, 3):
-        os.remove(d / f"{k:06d}_depth.exr")  # as if interrupted: views 1 and 3 are incomplete
+        os.remove(d / f"{k:06d}_depth.tif")  # as if interrupted: views 1 and 3 are incomplete
     clock = _FakeClock()  # calls: the run's start, write_dataset's start and end, the run's end
     monkeypatch.setattr(cli, "time", clock, raising=False)
     monkeypatch.setattr(dataset, "time", clock, raising=False)
@@ -130,7 +130,7 @@ def test_a_resumed_run_counts_skipped_views_apart(tmp_path, capsys, monkeypatch)
     assert out.out.strip() == (f"softrast batch: rendered 2 views of 1 mesh(es) in 1.0 s (2.0 views/s), "
                                f"skipped 3 already on disk; 3.0 s in all -> {tmp_path}")
     assert "5/5" in out.err and "skipped 3" in out.err  # the bar starts at the skipped views
-    assert (d / "000001_depth.exr").exists() and (d / "000003_depth.exr").exists()
+    assert (d / "000001_depth.tif").exists() and (d / "000003_depth.tif").exists()
     # nothing left to do: nothing rendered, no rate
     assert main(args) == 0
     out = capsys.readouterr().out.strip()

@@ -29,7 +29,7 @@ def test_defaults_round_trip_exactly(tmp_path):
     assert set(paths) == set(sr.OUTPUTS)
     exts = {name: os.path.splitext(p)[1] for name, p in paths.items()}
     assert exts["color"] == exts["mask"] == exts["instance_id"] == exts["triangle_id"] == ".png"
-    assert exts["depth"] == exts["normal"] == exts["uv"] == exts["position"] == ".exr"
+    assert exts["depth"] == exts["normal"] == exts["uv"] == exts["position"] == ".tif"
     assert exts["coverage"] == ".tif"
     back = sr.Frame.load(tmp_path, "000007")
     for name in sr.OUTPUTS:
@@ -131,6 +131,7 @@ def test_load_checks_images_against_the_output_table(tmp_path):
     sr.imwrite(tmp_path / "f_depth.exr", np.zeros((30, 40, 3), np.float32))
     with pytest.raises(ValueError, match=r"f_depth\.exr.*\(30, 40, 3\)"):
         sr.Frame.load(tmp_path, "f")
+    os.remove(tmp_path / "f_depth.exr")  # the default save writes f_depth.tif
     frame.save(tmp_path, "f")
     sr.imwrite(tmp_path / "f_color.png", np.zeros((30, 40, 3), np.uint16))  # 16-bit colour
     with pytest.raises(ValueError, match=r"f_color\.png.*uint16"):

@@ -104,5 +104,6 @@ PYBIND11_MODULE(_core, m) {
   bind_records(m);
   bind_render(m);
   bind_distortion(m);
+  bind_encode(m);
   m.attr("RECORDS") = record_docs();
 }

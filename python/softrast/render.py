@@ -66,13 +66,16 @@ class Frame:
                     must fit: at most 65534), coverage
             "png16mm" 16-bit PNG of depth or ray_depth in millimetres (round half up, clipped to
                     [1, 65535] where hit, 0 = background: lossy, for tools that want it)
-            "exr"   float32 OpenEXR (zip): every float output
-            "tif"   TIFF in the output's own dtype: every output
-            "npy"   NumPy's .npy: every output, raw (the fastest)
-        Defaults: color and mask "png"; the float outputs "exr"; triangle_id and instance_id
-        "png16" when every id fits, else "tif" (int32, the id itself); coverage "tif". Every
-        format but jpg and png16mm gives the output back exactly (``Frame.load``), and the same
-        frame gives the same bytes (files are reproducible). Each file is written atomically.
+            "tif"   TIFF in the output's own dtype (deflated): every output
+            "exr"   float32 OpenEXR (zip, through OpenImageIO, 5-10x slower): every float output
+            "npy"   NumPy's .npy: every output, raw
+        Defaults: color and mask "png"; the float outputs "tif" (float32, which OpenCV,
+        scikit-image, imageio, tifffile and OpenImageIO open; Pillow the one-channel ones);
+        triangle_id and instance_id "png16" when every id fits, else "tif" (int32, the id
+        itself); coverage "tif". PNG and TIFF are written by softrast's own encoder
+        (``softrast.imwrite``), fast and with the GIL released. Every format but jpg and
+        png16mm gives the output back exactly (``Frame.load``), and the same frame gives the
+        same bytes (files are reproducible). Each file is written atomically.
         """
         from .io import imwrite
 
@@ -242,13 +245,13 @@ def _read_output(path: str, name: str) -> np.ndarray:
 
 
 def _default_format(name: str, arr: np.ndarray) -> str:
+    """Save's format for output ``name`` (benchmarks/RESULTS.md, "Issue 37", has the table of
+    encoders this was chosen from): the fastest exact file that the common readers open."""
     if name in ("color", "mask"):
         return "png"
     if name in ("triangle_id", "instance_id"):
         return "png16" if not arr.size or int(arr.max()) <= 65534 else "tif"
-    if name == "coverage":
-        return "tif"
-    return "exr"
+    return "tif"  # coverage and the float outputs
 
 
 def _save_npy(path: str, arr: np.ndarray) -> None:
