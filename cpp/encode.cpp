@@ -8,6 +8,10 @@
 #include <memory>
 #include <stdexcept>
 
+#if defined(__SSE2__) && !defined(SR_ENCODE_SCALAR)
+#include <emmintrin.h>
+#endif
+
 #define SR_ENC_INLINE inline __attribute__((always_inline))
 
 namespace sr {
@@ -101,47 +105,63 @@ SR_ENC_INLINE std::size_t run_length(const uint8_t* d, std::size_t i, std::size_
   return j - i;
 }
 
-// The tokens of d[0, n): literals, and runs of the previous byte (a match at distance 1) of
-// kMinRun or more bytes, split into lengths of 3..258. The same walk counts and then writes.
-template <class Sink>
-SR_ENC_INLINE void tokenize(const uint8_t* d, std::size_t n, Sink& sink) {
-  if (n == 0) return;
-  sink.literal(d[0]);
-  std::size_t i = 1;
-  while (i < n) {
-    const uint8_t prev = d[i - 1];
-    if (d[i] != prev) {
-      sink.literal(d[i]);
-      ++i;
-      continue;
-    }
-    std::size_t run = run_length(d, i, n, prev);
-    i += run;
-    if (run < kMinRun) {
-      for (; run; --run) sink.literal(prev);
-      continue;
-    }
-    while (run >= 3) {
-      // 258 at a time, leaving at least 3 (or nothing) for the next match
-      const std::size_t l = run <= 258 ? run : (run - 258 >= 3 ? 258 : run - 3);
-      sink.match(unsigned(l));
-      run -= l;
-    }
-    for (; run; --run) sink.literal(prev);
+// Tokens: 0-255 a literal byte, 256 + l a run of l (3..258) copies of the previous byte (a
+// match at distance 1).
+constexpr int kTokens = 256 + 259;
+
+// The first i in [from, to) with d[i] == d[i - 1] (to if none); from >= 1. Eight bytes at a
+// time: the lowest zero byte of d[i, i + 8) xor d[i - 1, i + 7) is found exactly (borrows
+// only run upwards).
+SR_ENC_INLINE std::size_t next_repeat(const uint8_t* d, std::size_t from, std::size_t to) {
+  std::size_t i = from;
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+  for (; i + 8 <= to; i += 8) {
+    uint64_t v, w;
+    std::memcpy(&v, d + i, 8);
+    std::memcpy(&w, d + i - 1, 8);
+    const uint64_t x = v ^ w;
+    const uint64_t zero = (x - 0x0101010101010101ull) & ~x & 0x8080808080808080ull;
+    if (zero) return i + std::size_t(__builtin_ctzll(zero) >> 3);
   }
+#endif
+  for (; i < to; ++i)
+    if (d[i] == d[i - 1]) return i;
+  return to;
 }
 
-struct Counter {
-  uint32_t lit[kLitLenSymbols] = {};
-  uint64_t extra_bits = 0;  // the length codes' extra bits
-  const LengthCodes& codes = length_codes();
-  SR_ENC_INLINE void literal(uint8_t b) { ++lit[b]; }
-  SR_ENC_INLINE void match(unsigned l) {
-    const int c = codes.symbol[l];
-    ++lit[257 + c];
-    extra_bits += kLengthExtra[c];
+// The tokens of d[0, n) into tok (n entries at most), counted by token: literals, and runs of
+// the previous byte of kMinRun or more bytes, split into lengths of 3..258. Returns the number
+// of tokens.
+std::size_t tokenize(const uint8_t* d, std::size_t n, uint16_t* tok, uint32_t* count) {
+  if (n == 0) return 0;
+  uint16_t* t = tok;
+  ++count[d[0]];
+  *t++ = d[0];
+  std::size_t i = 1;
+  while (i < n) {
+    const std::size_t j = next_repeat(d, i, n);
+    for (; i < j; ++i) {  // literals up to the next repeated byte
+      ++count[d[i]];
+      *t++ = d[i];
+    }
+    if (i == n) break;
+    const uint8_t prev = d[i - 1];
+    std::size_t run = run_length(d, i, n, prev);
+    i += run;
+    if (run >= kMinRun) {
+      while (run >= 3) {
+        // 258 at a time, leaving at least 3 (or nothing) for the next match
+        const std::size_t l = run <= 258 ? run : (run - 258 >= 3 ? 258 : run - 3);
+        ++count[256 + l];
+        *t++ = uint16_t(256 + l);
+        run -= l;
+      }
+    }
+    count[prev] += uint32_t(run);
+    for (; run; --run) *t++ = prev;
   }
-};
+  return std::size_t(t - tok);
+}
 
 // Code lengths (at most max_bits) of a Huffman code for freq[0, n): symbols with frequency 0 get
 // none, and at least two symbols get a code (a complete code: strict decoders refuse others).
@@ -237,15 +257,6 @@ struct BitWriter {
   }
 };
 
-struct Writer {
-  BitWriter bits;
-  uint32_t lit_code[256];
-  uint8_t lit_len[256];
-  uint32_t match_code[259];  // length code, its extra bits and the distance code, one put
-  uint8_t match_len[259];
-  SR_ENC_INLINE void literal(uint8_t b) { bits.put(lit_code[b], lit_len[b]); }
-  SR_ENC_INLINE void match(unsigned l) { bits.put(match_code[l], match_len[l]); }
-};
 
 // The code-length sequence of the dynamic block header, run-length coded (symbols 16, 17, 18).
 struct HeaderToken {
@@ -337,6 +348,10 @@ void filter_row(const uint8_t* raw, const uint8_t* prev, std::size_t n, std::siz
     row[i] = u;
     cost_up += magnitude(u);
   }
+  if (cost_up == 0) {  // the row repeats the one above: nothing beats Up
+    out[0] = 2;
+    return;
+  }
   for (std::size_t i = 0; i < head; ++i) {
     scratch[i] = row[i];  // Paeth's prediction is Up's in the first pixel
     cost_paeth += magnitude(row[i]);
@@ -399,33 +414,53 @@ uint32_t crc32(const uint8_t* p, std::size_t n, uint32_t crc) {
 }
 
 uint32_t adler32(const uint8_t* p, std::size_t n, uint32_t adler) {
-  // In blocks of R rows of 16 bytes: with S[i] the sum of lane i and T[i] the sum of its
-  // running sums, a grows by sum(S) and b by 16 R a + 16 sum(T) - sum(i S[i]) (vectorised).
-  uint64_t a = adler & 0xFFFF, b = adler >> 16;
-  constexpr std::size_t kRows = 5552 / 16;  // T stays below 2^32: 347^2 / 2 * 255
+  // Blocks of up to 5552 bytes (b stays below 2^32), 16 bytes at a time: a grows by the sum of
+  // the 16 bytes, b by 16 a + the bytes weighted 16, 15, ..., 1.
+  uint32_t a = adler & 0xFFFF, b = adler >> 16;
   while (n >= 16) {
-    const std::size_t rows = std::min(n / 16, kRows);
-    uint32_t S[16] = {}, T[16] = {};
-    for (std::size_t r = 0; r < rows; ++r, p += 16)
-      for (int i = 0; i < 16; ++i) {
-        S[i] += p[i];
-        T[i] += S[i];
-      }
-    uint64_t sum_s = 0, sum_t = 0, sum_is = 0;
-    for (int i = 0; i < 16; ++i) {
-      sum_s += S[i];
-      sum_t += T[i];
-      sum_is += uint64_t(i) * S[i];
+    std::size_t blocks = std::min<std::size_t>(n / 16, 5552 / 16);
+    n -= 16 * blocks;
+#if defined(__SSE2__) && !defined(SR_ENCODE_SCALAR)
+    // SSE2 (every x86-64): psadbw sums bytes, pmaddwd weights them; a's running sums are kept
+    // in s1_sum and multiplied by 16 at the end of the block
+    const __m128i zero = _mm_setzero_si128();
+    const __m128i w_hi = _mm_setr_epi16(16, 15, 14, 13, 12, 11, 10, 9);
+    const __m128i w_lo = _mm_setr_epi16(8, 7, 6, 5, 4, 3, 2, 1);
+    __m128i s1 = _mm_cvtsi32_si128(int(a)), s2 = _mm_cvtsi32_si128(int(b));
+    __m128i s1_sum = zero;
+    for (; blocks; --blocks, p += 16) {
+      const __m128i v = _mm_loadu_si128(reinterpret_cast<const __m128i*>(p));
+      s1_sum = _mm_add_epi32(s1_sum, s1);
+      s1 = _mm_add_epi32(s1, _mm_sad_epu8(v, zero));
+      s2 = _mm_add_epi32(s2, _mm_madd_epi16(_mm_unpacklo_epi8(v, zero), w_hi));
+      s2 = _mm_add_epi32(s2, _mm_madd_epi16(_mm_unpackhi_epi8(v, zero), w_lo));
     }
-    b = (b + 16 * rows * a + 16 * sum_t - sum_is) % 65521;
-    a = (a + sum_s) % 65521;
-    n -= 16 * rows;
+    s2 = _mm_add_epi32(s2, _mm_slli_epi32(s1_sum, 4));
+    uint32_t l1[4], l2[4];
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(l1), s1);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(l2), s2);
+    a = (l1[0] + l1[2]) % 65521;  // psadbw's two sums are in lanes 0 and 2
+    b = uint32_t((uint64_t(l2[0]) + l2[1] + l2[2] + l2[3]) % 65521);  // each lane < 2^32
+#else
+    uint64_t a64 = a, b64 = b;
+    for (; blocks; --blocks, p += 16) {
+      uint32_t sum = 0, weighted = 0;
+      for (int i = 0; i < 16; ++i) {
+        sum += p[i];
+        weighted += uint32_t(16 - i) * p[i];
+      }
+      b64 += 16 * a64 + weighted;
+      a64 += sum;
+    }
+    a = uint32_t(a64 % 65521);
+    b = uint32_t(b64 % 65521);
+#endif
   }
   for (; n; --n) {
     a += *p++;
     b += a;
   }
-  return uint32_t(b % 65521) << 16 | uint32_t(a % 65521);
+  return (b % 65521) << 16 | (a % 65521);
 }
 
 void zlib_compress(const uint8_t* data, std::size_t n, std::vector<uint8_t>& out) {
@@ -433,11 +468,23 @@ void zlib_compress(const uint8_t* data, std::size_t n, std::vector<uint8_t>& out
   out.push_back(0x78);  // deflate, 32 KiB window
   out.push_back(0x01);  // no dictionary, "fastest" (with the check bits: 0x7801 % 31 == 0)
 
-  Counter count;
-  tokenize(data, n, count);
-  count.lit[256] = 1;  // end of block
+  // the tokens, counted, kept in a buffer of this thread's for the writing pass
+  thread_local std::vector<uint16_t> token_buffer;
+  if (token_buffer.size() < n || token_buffer.size() > std::max<std::size_t>(n, 1) * 8)
+    token_buffer = std::vector<uint16_t>(std::max<std::size_t>(n, 1));  // grown, or shrunk
+  uint32_t token_count[kTokens] = {};
+  const std::size_t num_tokens = tokenize(data, n, token_buffer.data(), token_count);
+  uint32_t lit[kLitLenSymbols] = {};
+  uint64_t extra_bits = 0;
+  const LengthCodes& lc = length_codes();
+  for (int b = 0; b < 256; ++b) lit[b] = token_count[b];
+  for (int l = 3; l <= 258; ++l) {
+    lit[257 + lc.symbol[l]] += token_count[256 + l];
+    extra_bits += uint64_t(token_count[256 + l]) * kLengthExtra[lc.symbol[l]];
+  }
+  lit[256] = 1;  // end of block
   uint8_t lens[kLitLenSymbols + kDistSymbols];
-  huffman_lengths(count.lit, kLitLenSymbols, kMaxCodeBits, lens);
+  huffman_lengths(lit, kLitLenSymbols, kMaxCodeBits, lens);
   uint8_t* dist_lens = lens + kLitLenSymbols;
   dist_lens[0] = dist_lens[1] = 1;
   int hlit = kLitLenSymbols;
@@ -458,10 +505,10 @@ void zlib_compress(const uint8_t* data, std::size_t n, std::vector<uint8_t>& out
   while (hclen > 4 && cl_lens[kCodeLengthOrder[hclen - 1]] == 0) --hclen;
 
   // the block's exact size in bits, to allocate once (and to fall back to stored blocks)
-  uint64_t bits = 3 + 5 + 5 + 4 + 3 * uint64_t(hclen) + count.extra_bits;
+  uint64_t bits = 3 + 5 + 5 + 4 + 3 * uint64_t(hclen) + extra_bits;
   for (const HeaderToken& t : tokens) bits += cl_lens[t.symbol] + kHeaderExtraBits[t.symbol];
-  for (int s = 0; s < kLitLenSymbols; ++s) bits += uint64_t(count.lit[s]) * lens[s];
-  for (int s = 257; s < kLitLenSymbols; ++s) bits += uint64_t(count.lit[s]) * dist_lens[0];
+  for (int s = 0; s < kLitLenSymbols; ++s) bits += uint64_t(lit[s]) * lens[s];
+  for (int s = 257; s < kLitLenSymbols; ++s) bits += uint64_t(lit[s]) * dist_lens[0];
   const uint64_t stored_bytes = n + 5 * std::max<std::size_t>(1, (n + 65534) / 65535);
   if ((bits + 7) / 8 >= stored_bytes) {
     stored(data, n, out);
@@ -471,32 +518,36 @@ void zlib_compress(const uint8_t* data, std::size_t n, std::vector<uint8_t>& out
     canonical_codes(dist_lens, kDistSymbols, codes + kLitLenSymbols);
     const std::size_t at = out.size();
     out.resize(at + std::size_t((bits + 7) / 8) + 8);  // + 8: the writer stores 4 bytes at a time
-    Writer w{BitWriter(out.data() + at), {}, {}, {}, {}};
-    w.bits.put(1 | 2 << 1, 3);  // final block, dynamic Huffman codes
-    w.bits.put(uint32_t(hlit - 257), 5);
-    w.bits.put(uint32_t(kDistSymbols - 1), 5);
-    w.bits.put(uint32_t(hclen - 4), 4);
-    for (int k = 0; k < hclen; ++k) w.bits.put(cl_lens[kCodeLengthOrder[k]], 3);
+    BitWriter w(out.data() + at);
+    w.put(1 | 2 << 1, 3);  // final block, dynamic Huffman codes
+    w.put(uint32_t(hlit - 257), 5);
+    w.put(uint32_t(kDistSymbols - 1), 5);
+    w.put(uint32_t(hclen - 4), 4);
+    for (int k = 0; k < hclen; ++k) w.put(cl_lens[kCodeLengthOrder[k]], 3);
     for (const HeaderToken& t : tokens) {
-      w.bits.put(cl_codes[t.symbol], cl_lens[t.symbol]);
-      if (kHeaderExtraBits[t.symbol]) w.bits.put(t.extra, kHeaderExtraBits[t.symbol]);
+      w.put(cl_codes[t.symbol], cl_lens[t.symbol]);
+      if (kHeaderExtraBits[t.symbol]) w.put(t.extra, kHeaderExtraBits[t.symbol]);
     }
+    // each token's bits in one put: a literal's code, or a length code with its extra bits and
+    // the distance code (at most 15 + 5 + 1 bits)
+    uint32_t token_code[kTokens] = {};
+    uint8_t token_len[kTokens] = {};
     for (int b = 0; b < 256; ++b) {
-      w.lit_code[b] = codes[b];
-      w.lit_len[b] = lens[b];
+      token_code[b] = codes[b];
+      token_len[b] = lens[b];
     }
-    const LengthCodes& lc = length_codes();
     for (int l = 3; l <= 258; ++l) {
-      const int c = lc.symbol[l], s = 257 + c;
+      const int c = lc.symbol[l], sym = 257 + c;
       const int extra = kLengthExtra[c];
-      uint32_t code = codes[s] | uint32_t(l - kLengthBase[c]) << lens[s];
-      code |= uint32_t(codes[kLitLenSymbols]) << (lens[s] + extra);  // distance 1
-      w.match_code[l] = code;
-      w.match_len[l] = uint8_t(lens[s] + extra + dist_lens[0]);
+      uint32_t code = codes[sym] | uint32_t(l - kLengthBase[c]) << lens[sym];
+      code |= uint32_t(codes[kLitLenSymbols]) << (lens[sym] + extra);  // distance 1
+      token_code[256 + l] = code;
+      token_len[256 + l] = uint8_t(lens[sym] + extra + dist_lens[0]);
     }
-    tokenize(data, n, w);
-    w.bits.put(codes[256], lens[256]);
-    uint8_t* end = w.bits.finish();
+    const uint16_t* tok = token_buffer.data();
+    for (std::size_t k = 0; k < num_tokens; ++k) w.put(token_code[tok[k]], token_len[tok[k]]);
+    w.put(codes[256], lens[256]);
+    uint8_t* end = w.finish();
     out.resize(std::size_t(end - out.data()));
   }
   uint8_t tail[4];
@@ -538,6 +589,30 @@ std::vector<uint8_t> png(const Image& im) {
     put_chunk(out, "IDAT", z.data() + i, std::min(kMaxChunk, z.size() - i));
   put_chunk(out, "IEND", nullptr, 0);
   return out;
+}
+
+std::vector<uint8_t> png_ids(const Image& ids) {
+  check_image(ids);
+  if (ids.channels != 1 || ids.bytes_per_sample != 4) throw std::invalid_argument("png_ids: ids must be int32");
+  std::vector<uint16_t> plus_one(std::size_t(ids.width) * std::size_t(ids.height));
+  uint32_t out_of_range = 0;
+  for (int r = 0; r < ids.height; ++r) {
+    const uint8_t* src = ids.pixels + std::ptrdiff_t(r) * ids.row_stride;
+    uint16_t* dst = plus_one.data() + std::size_t(r) * std::size_t(ids.width);
+    for (int x = 0; x < ids.width; ++x) {
+      int32_t v;
+      std::memcpy(&v, src + 4 * std::size_t(x), 4);
+      const uint32_t u = uint32_t(v) + 1u;  // -1..65534 -> 0..65535
+      out_of_range |= u >> 16;
+      dst[x] = uint16_t(u);
+    }
+  }
+  if (out_of_range) throw std::out_of_range("png_ids: an id is outside -1..65534");
+  Image im = ids;
+  im.pixels = reinterpret_cast<const uint8_t*>(plus_one.data());
+  im.bytes_per_sample = 2;
+  im.row_stride = std::ptrdiff_t(2 * std::size_t(ids.width));
+  return png(im);
 }
 
 std::vector<uint8_t> tiff(const Image& im, TiffSample sample, bool compress, TiffPredictor predictor) {

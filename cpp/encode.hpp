@@ -35,6 +35,10 @@ void zlib_compress(const uint8_t* data, std::size_t n, std::vector<uint8_t>& out
 // other by Up or Paeth, whichever has the smaller sum of absolute residuals.
 std::vector<uint8_t> png(const Image& image);
 
+// A 16-bit grey PNG of int32 ids stored as id + 1 (0: background, -1); std::out_of_range if an
+// id is outside -1..65534 (nothing is written).
+std::vector<uint8_t> png_ids(const Image& ids);
+
 // Sample formats of a TIFF (its SampleFormat tag).
 enum class TiffSample { Unsigned = 1, Signed = 2, Float = 3 };
 

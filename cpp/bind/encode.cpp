@@ -6,6 +6,7 @@
 
 #include "../encode.hpp"
 
+#include <stdexcept>
 #include <utility>
 
 namespace sr {
@@ -63,6 +64,19 @@ void bind_encode(py::module_& m) {
       "image"_a,
       "PNG file bytes of a uint8 or uint16 (h, w) or (h, w, 1-4) array (any row stride): a "
       "filter per row, one deflate block of literals and runs. The GIL is released.");
+  m.def(
+      "encode_png_ids",
+      [](const py::array_t<int32_t, 0>& ids) {
+        const encode::Image im = image_of(ids, "encode_png_ids");
+        try {
+          return to_bytes(without_gil([&] { return encode::png_ids(im); }));
+        } catch (const std::out_of_range&) {
+          throw py::value_error("ids over 65534 do not fit a 16-bit PNG (as id + 1)");
+        }
+      },
+      "ids"_a,
+      "16-bit grey PNG file bytes of (h, w) int32 ids stored as id + 1 (0 = background, -1); "
+      "ValueError if an id is outside -1..65534. The GIL is released.");
   m.def(
       "encode_tiff",
       [](const py::array& image, int sample_format, bool compress, int predictor) {

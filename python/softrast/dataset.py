@@ -230,7 +230,7 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
         # the files a view's save writes (ids fall back to .tif only when they do not fit in png16)
         out = {}
         for name in names:
-            fmt = formats.get(name) or _default_format(name, np.zeros(0))
+            fmt = formats.get(name) or _default_format(name)
             ext = "png" if fmt in ("png16", "png16mm") else fmt
             out[name] = os.path.join(directory, f"{stem}_{name}.{ext}")
         return out

@@ -218,6 +218,14 @@ def _rows_contiguous(array: np.ndarray) -> np.ndarray:
 _OWN_ENCODER = {".png": encode_png, ".tif": encode_tiff, ".tiff": encode_tiff}
 
 
+def _write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
+    """An encoded file's bytes to ``path``, atomically (as imwrite writes)."""
+    directory, name = os.path.split(os.path.abspath(os.fspath(path)))
+    if not os.path.isdir(directory):
+        raise FileNotFoundError(errno.ENOENT, "directory does not exist", directory)
+    _write_atomic(os.fspath(path), directory, name, os.path.splitext(name)[1].lower(), data)
+
+
 def _write_atomic(path_str: str, directory: str, name: str, ext: str, data: bytes) -> None:
     """``data`` to ``path_str`` under a temporary name in its directory, then renamed into place."""
     tmp_path = os.path.join(directory, f".{name}.{os.getpid()}-{uuid.uuid4().hex[:12]}.tmp{ext}")

@@ -77,7 +77,7 @@ class Frame:
         png16mm gives the output back exactly (``Frame.load``), and the same frame gives the
         same bytes (files are reproducible). Each file is written atomically.
         """
-        from .io import imwrite
+        from .io import _write_bytes, imwrite
 
         if not isinstance(stem, str) or not stem or os.sep in stem:
             raise ValueError(f"stem must be a non-empty file name part, got {stem!r:.80}")
@@ -92,15 +92,21 @@ class Frame:
         written = {}
         for name in self.outputs:
             arr = getattr(self, name)
-            fmt = formats.get(name) or _default_format(name, arr)
+            fmt = formats.get(name) or _default_format(name)
             path = os.path.join(directory, f"{stem}_{name}.{fmt if fmt not in ('png16', 'png16mm') else 'png'}")
             if fmt == "npy":
                 _save_npy(path, arr)
             elif fmt == "png16" and name in ("triangle_id", "instance_id"):
-                if arr.size and int(arr.max()) > 65534:
-                    raise ValueError(f"formats: {name} has ids over 65534, which png16 cannot store "
-                                     "(id + 1): use 'tif' or 'npy'")
-                imwrite(path, (arr + 1).astype(np.uint16))
+                try:
+                    data = _core.encode_png_ids(arr)  # id + 1, checked to fit, in one pass
+                except ValueError:
+                    if name in formats:
+                        raise ValueError(f"formats: {name} has ids over 65534, which png16 cannot "
+                                         "store (id + 1): use 'tif' or 'npy'") from None
+                    path = os.path.splitext(path)[0] + ".tif"  # the default's fallback: the ids
+                    imwrite(path, arr)
+                else:
+                    _write_bytes(path, data)
             elif fmt == "png16":  # coverage
                 if arr.size and int(arr.max()) > 65535:
                     raise ValueError(f"formats: {name} has values over 65535: use 'tif' or 'npy'")
@@ -244,13 +250,14 @@ def _read_output(path: str, name: str) -> np.ndarray:
     return arr
 
 
-def _default_format(name: str, arr: np.ndarray) -> str:
+def _default_format(name: str) -> str:
     """Save's format for output ``name`` (benchmarks/RESULTS.md, "Issue 37", has the table of
-    encoders this was chosen from): the fastest exact file that the common readers open."""
+    encoders this was chosen from): the fastest exact file that the common readers open. (Ids
+    over 65534 fall back to "tif" when saved.)"""
     if name in ("color", "mask"):
         return "png"
     if name in ("triangle_id", "instance_id"):
-        return "png16" if not arr.size or int(arr.max()) <= 65534 else "tif"
+        return "png16"
     return "tif"  # coverage and the float outputs
 
 
