@@ -210,7 +210,8 @@ def _rows_contiguous(array: np.ndarray) -> np.ndarray:
     a = np.asarray(array)
     if a.ndim == 3 and a.shape[2] == 1:
         a = a[:, :, 0]
-    if a.strides[-1] != a.itemsize or (a.ndim == 3 and a.strides[1] != a.itemsize * a.shape[2]):
+    if a.strides[-1] != a.itemsize or a.strides[0] < 0 or \
+            (a.ndim == 3 and a.strides[1] != a.itemsize * a.shape[2]):
         a = np.ascontiguousarray(a)
     return a
 
