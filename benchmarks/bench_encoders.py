@@ -11,7 +11,7 @@ instance ids 1-3, each on an orbit of cameras, 640x480) and, for each output kin
 times every candidate encoder to bytes in memory (ms per frame: the median over frames x rounds,
 and the minimum; one thread, candidates interleaved frame by frame), and reports bytes per frame,
 whether the bytes decode bit-exactly with the same library, whether two threads encode ~2x as
-fast as one for the main candidates (``main=True``, today's defaults, softrast's own, and CPython's
+fast as one for the main candidates (``main=True``, softrast's defaults, and CPython's
 zlib as the control, which shows what the machine's load leaves of a second core), whether the
 codec holds the GIL (how late a sleeping thread wakes while one thread encodes: independent of
 the load; every candidate), and which readers open the file bit-exactly (same dtype and values;
@@ -76,9 +76,14 @@ class Candidate:
     needs: tuple[str, ...] = ()  # modules ("imagecodecs") or codecs ("imagecodecs.JPEGXL")
     stored: str = "native"  # "native" or "id+1 uint16": what the file holds (converted in the clock)
     floor: bool = False  # a bandwidth floor, not a file format
-    default: bool = False  # what softrast's Frame.save writes today
+    default: bool = False  # what softrast's Frame.save writes by default
     main: bool = False  # timed on 1 thread against 2 (with the default, softrast's own, the control)
     note: str = ""
+    convert: bool = True  # False: the encoder takes the output itself and stores it as `stored`
+
+    def input(self, a: np.ndarray) -> np.ndarray:
+        """What the encoder is given for output array ``a`` (converted in the clock)."""
+        return STORED[self.stored](a) if self.convert else a
 
 
 CANDIDATES: list[Candidate] = []
@@ -357,20 +362,22 @@ def register_candidates() -> None:
     """Every candidate, one line each. ADD NEW ENCODERS HERE: candidate(kind, name, encode,
     decode, ext); softrast's own encoders join automatically once softrast.io has them."""
     png_any = _via_file(read_oiio, "png")
-    # softrast's own encoders (issue 37, part 2), when softrast.io has them
+    # softrast's own encoders (issue 37, part 2): what Frame.save writes by default
     if hasattr(sio, "encode_png"):
-        dec = getattr(sio, "decode_png", None) or png_any
-        candidate("color", "softrast.io.encode_png", sio.encode_png, dec, "png")
-        candidate("instance_id", "softrast.io.encode_png (PNG16, id+1)", sio.encode_png, dec, "png",
-                  stored="id+1 uint16")
+        candidate("color", "softrast.io.encode_png", sio.encode_png, png_any, "png", default=True,
+                  main=True)
     if hasattr(sio, "encode_tiff"):
-        dec = getattr(sio, "decode_tiff", None) or _via_file(read_oiio, "tif")
         for kind in KINDS:
-            candidate(kind, "softrast.io.encode_tiff", sio.encode_tiff, dec, "tif")
+            candidate(kind, "softrast.io.encode_tiff (deflate; integers: predictor 2)", sio.encode_tiff,
+                      _via_file(read_oiio, "tif"), "tif", default=kind in ("depth", "normal"), main=True)
+    if hasattr(sio._core, "encode_png_ids"):
+        candidate("instance_id", "softrast _core.encode_png_ids (PNG16 of id + 1, in C++)",
+                  sio._core.encode_png_ids, png_any, "png", stored="id+1 uint16", default=True,
+                  convert=False)
 
     # colour: (h, w, 3) uint8
     c = "color"
-    candidate(c, "OIIO PNG zlib 1 (softrast.io.imwrite: today)", oiio("png"), png_any, "png", default=True)
+    candidate(c, "OIIO PNG zlib 1 (softrast before issue 37)", oiio("png", 1), png_any, "png")
     candidate(c, "cv2 PNG level 1", cv2_enc(".png", lambda cv2: [cv2.IMWRITE_PNG_COMPRESSION, 1]), cv2_dec,
               "png", needs=("cv2",))
     candidate(c, "imagecodecs png (libpng) level 1", codec("png", level=1), codec_dec("png"), "png",
@@ -390,8 +397,8 @@ def register_candidates() -> None:
 
     # ids: PNG16 of id + 1, or int32 TIFF of the id itself
     c, u16 = "instance_id", "id+1 uint16"
-    candidate(c, "OIIO PNG16 zlib 1 (softrast.io.imwrite: today)", oiio("png"), png_any, "png",
-              stored=u16, default=True)
+    candidate(c, "OIIO PNG16 zlib 1 (softrast before issue 37)", oiio("png", 1), png_any, "png",
+              stored=u16)
     candidate(c, "cv2 PNG16 level 1", cv2_enc(".png", lambda cv2: [cv2.IMWRITE_PNG_COMPRESSION, 1]), cv2_dec,
               "png", needs=("cv2",), stored=u16)
     candidate(c, "imagecodecs png16 (libpng) level 1", codec("png", level=1), codec_dec("png"), "png",
@@ -403,7 +410,7 @@ def register_candidates() -> None:
     # int32 ids and float32 depth / normal: TIFF, EXR (floats)
     for c in ("instance_id", "depth", "normal"):
         tif_any = _via_file(read_oiio, "tif")
-        candidate(c, "OIIO TIFF zip (imwrite default)", oiio("tif"), tif_any, "tif")
+        candidate(c, "OIIO TIFF zip", oiio("tif", "zip"), tif_any, "tif")
         candidate(c, "OIIO TIFF none", oiio("tif", "none"), tif_any, "tif")
         candidate(c, "tifffile none", tiff(), tiff_dec, "tif", needs=("tifffile",))
         candidate(c, "tifffile zlib 1", tiff("zlib", 1), tiff_dec, "tif", needs=("tifffile",),
@@ -427,8 +434,8 @@ def register_candidates() -> None:
                   needs=("cv2",))
         exr_any = _via_file(read_oiio, "exr")
         for comp in ("none", "zip", "zips", "piz", "rle"):
-            candidate(c, f"OIIO EXR {comp}" + (" (softrast.io.imwrite: today)" if comp == "zip" else ""),
-                      oiio("exr", comp), exr_any, "exr", default=comp == "zip")
+            candidate(c, f"OIIO EXR {comp}" + (" (softrast before issue 37)" if comp == "zip" else ""),
+                      oiio("exr", comp), exr_any, "exr")
         for comp in ("NO", "ZIP"):
             candidate(c, f"OpenEXR bindings {comp.lower() if comp == 'ZIP' else 'none'}",
                       openexr(f"{comp}_COMPRESSION"), openexr_dec, "exr", needs=("OpenEXR",), main=comp == "ZIP")
@@ -608,7 +615,7 @@ def main() -> None:
             continue
         arrays = [f[c.kind] for f in frames]
         try:  # warm up (and find what is missing or fails)
-            out = _bytes(c.encode(STORED[c.stored](arrays[0])))
+            out = _bytes(c.encode(c.input(arrays[0])))
         except ImportError as e:
             results[c].status = f"not installed ({e.name})"
             continue
@@ -629,7 +636,7 @@ def main() -> None:
                     res = results[c]
                     a = stored[c][fi]
                     t0 = time.perf_counter()
-                    out = c.encode(STORED[c.stored](a))
+                    out = c.encode(c.input(a))
                     dt = time.perf_counter() - t0
                     res.times.append(dt)
                     if rnd == 0:
@@ -653,7 +660,7 @@ def main() -> None:
         if not res.exact:
             res.exact = "yes" + (" (Pillow)" if "fpng" in c.name else "")
 
-    # Two threads against one: the main candidates (today's default, the two chosen in
+    # Two threads against one: the main candidates (softrast's defaults, the ones chosen in
     # register_candidates, softrast's own) and the control, CPython's zlib, which releases the GIL
     chosen = [c for c in live if c.main or c.default or c.name.startswith("softrast.io.encode")]
     ex1 = concurrent.futures.ThreadPoolExecutor(1)
@@ -664,8 +671,7 @@ def main() -> None:
         for _ in range(thread_rounds):
             for c in chosen:
                 batch = [stored[c][k % n] for k in range(args.thread_frames)]
-                conv = STORED[c.stored]
-                job = lambda a, c=c, conv=conv: c.encode(conv(a))  # noqa: E731
+                job = lambda a, c=c: c.encode(c.input(a))  # noqa: E731
                 for ex, dest in ((ex1, t1s), (ex2, t2s)):
                     t0 = time.perf_counter()
                     for _out in ex.map(job, batch):
@@ -684,12 +690,12 @@ def main() -> None:
         idle = []
         for c in live:
             idle.append(wake_delay(lambda: time.sleep(0.05)))
-            conv, arrays = STORED[c.stored], stored[c]
+            arrays = stored[c]
 
-            def run(c: Candidate = c, conv: Callable = conv, arrays: list = arrays) -> None:
+            def run(c: Candidate = c, arrays: list = arrays) -> None:
                 end, k = time.perf_counter() + gil_seconds, 0
                 while time.perf_counter() < end:
-                    c.encode(conv(arrays[k % n]))
+                    c.encode(c.input(arrays[k % n]))
                     k += 1
             results[c].gil_delay = wake_delay(run)
     finally:
@@ -750,7 +756,7 @@ def report(frames: list[dict[str, np.ndarray]], results: dict[Candidate, Result]
             notes.append("the PNG16 rows include the id+1 -> uint16 conversion in their time")
         if kind in ("color", "normal"):
             notes.append("the cv2 rows include the RGB -> BGR flip in their time")
-        print("\n" + "; ".join(["* = what softrast writes today"] + notes) + ".")
+        print("\n" + "; ".join(["* = what softrast writes by default"] + notes) + ".")
 
 
 if __name__ == "__main__":
