@@ -92,7 +92,7 @@ def test_missing_mesh_and_version(tmp_path, capsys):
     assert main(["batch", "--help"]) == 0
     help_text = capsys.readouterr().out
     for option in ("--views", "--orbit", "--sphere", "--poses", "--intrinsics", "--outputs", "--formats",
-                   "--workers", "--no-resume"):
+                   "--workers", "--no-resume", "--store"):
         assert option in help_text
 
 

@@ -19,16 +19,28 @@ store"). Unwritten views read as the fill value, which no render gives where one
 possible pixel), so a view is written if and only if its chunk file is there; ``cameras.json``
 is written last, once every view is.
 
-The arrays' metadata is written here, as the zarr v2 spec gives it, and so are the chunks: the
-writer threads encode each view (numcodecs' Blosc releases the GIL, and outside the main thread
-runs blosc's context API with one internal thread, so the writer threads are the parallelism)
-and write each chunk atomically (a hidden temporary name in its array's folder, then
-``os.replace``), so an interrupted run, even a killed one, leaves no partial chunk; the
-temporaries a killed run leaves are removed by the next run (only its own views', so shards of
-one job never touch each other's). Resume: a view is skipped when every output's chunk is there
-and decodes (its Blosc header gives the file's size and the view's bytes, and it decompresses);
-a missing, truncated or undecodable chunk renders the view again. Arrays grow to hold more
-views but never shrink; an array of another image size, dtype or codec is refused.
+Why format 2: every zarr reader reads it (zarr-python 2, still pinned by many environments,
+reads no format 3), xarray finds its dimension names in ``_ARRAY_DIMENSIONS`` and its
+consolidated metadata in ``.zmetadata`` (no warning, one read), and nothing here needs format
+3's features (one view a chunk: no sharding). xarray's default decoding masks fill values
+(ids then read as float64 with NaN for unwritten views; ``mask_and_scale=False`` keeps the
+stored dtypes); colour and mask, having no fill value, are never masked.
+
+The arrays' metadata is written here, as the zarr v2 spec gives it, and so are the chunks, not
+through zarr-python: its LocalStore writes atomically only from zarr 3.1.3 (earlier 3.x write
+in place), and its synchronous API runs the codecs on its own event loop's threads, not on the
+writer threads. The writer threads encode each view (numcodecs' Blosc releases the GIL, and
+outside the main thread runs blosc's context API with one internal thread, so the writer
+threads are the parallelism) and write each chunk atomically (a hidden temporary name in its
+array's folder, then ``os.replace``), so an interrupted run, even a killed one, leaves no
+partial chunk; the temporaries a killed run leaves are removed by the next run (only its own
+views', so shards of one job never touch each other's). The chunks are the bytes zarr-python
+writes for the same views (tested). Resume: a view is skipped when every output's chunk is
+there and decodes (its Blosc header gives the file's size and the view's bytes, and it
+decompresses); a missing, truncated or undecodable chunk renders the view again (Blosc 1 has no
+checksum: flipped bits inside a chunk may decode unseen, as in the files store's raw data).
+Arrays grow to hold more views but never shrink; an array of another image size, dtype or codec
+is refused (ValueError naming it).
 """
 from __future__ import annotations
 
