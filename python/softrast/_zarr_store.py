@@ -13,11 +13,12 @@ Layout, zarr format 2 (read by zarr-python 2 and 3, ``xarray.open_zarr``,
 
 Each output keeps its own dtype and channels (``softrast.OUTPUT_TABLE``): mask bool, ids int32,
 coverage uint32, float outputs float32. Chunks are Blosc (LZ4, level 5; byte shuffle for float
-outputs, none for the others), chosen by measuring real frames (benchmarks/RESULTS.md, "zarr
-store"). Unwritten views read as the fill value, which no render gives where one exists: NaN
-(float outputs), -2**31 (ids), 2**32 - 1 (coverage). Colour and mask have none (every value is a
-possible pixel), so a view is written if and only if its chunk file is there; ``cameras.json``
-is written last, once every view is.
+outputs, none for the others), chosen by measuring real frames (``bench_dataset.py --codecs``;
+benchmarks/RESULTS.md, "Issue 37"). Unwritten views read as the fill value, which no render
+gives where one exists: NaN (float outputs), -2**31 (ids), 2**32 - 1 (coverage). Colour and mask
+have none (every value is a possible pixel: no fill value, null in .zarray), so a view is
+written if and only if its chunk file is there; ``cameras.json`` is written last, once every
+view is.
 
 Why format 2: every zarr reader reads it (zarr-python 2, still pinned by many environments,
 reads no format 3), xarray finds its dimension names in ``_ARRAY_DIMENSIONS`` and its
