@@ -155,11 +155,12 @@ def test_resume_skips_complete_views_and_renders_damaged_ones(written, tmp_path)
     data[4:8] = (12345).to_bytes(4, "little")                               # a wrong header
     (arrays / "normal" / "5.0.0.0").write_bytes(bytes(data))
     # a killed run's temporaries: this run's views' and metadata's are removed, others' are not
-    stale = [arrays / "uv" / ".2.0.0.0.4242-0123456789ab.tmp", arrays / "uv" / "..zarray.4242-0123456789ab.tmp",
-             arrays / "..zmetadata.4242-0123456789ab.tmp", d / "cameras.json.4242.tmp"]
+    tag = "4242-0123456789ab.tmp"
+    stale = [arrays / "uv" / f".2.0.0.0.{tag}", arrays / "uv" / f"..zarray.{tag}",
+             arrays / f"..zmetadata.{tag}", d / "cameras.json.4242.tmp"]
     for p in stale:
         p.write_bytes(b"partial")
-    other = arrays / "uv" / ".6.0.0.0.4242-0123456789ab.tmp"  # view 6: not this run's
+    other = arrays / "uv" / f".6.0.0.0.{tag}"  # view 6: not this run's
     other.write_bytes(b"partial")
     again = sr.write_dataset(scene, cams, d, outputs=OUTPUTS, store="zarr")
     assert (again.rendered, again.skipped) == (4, len(cams) - 4)

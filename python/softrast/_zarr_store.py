@@ -9,7 +9,8 @@ Layout, zarr format 2 (read by zarr-python 2 and 3, ``xarray.open_zarr``,
         color/12.0.0.0                view 12, Blosc-compressed
         depth/12.0.0                  (n_views, h, w) float32
         ...
-    <directory>/cameras.json          as for files; each frame's "files": {"color": "views.zarr/color[12]", ...}
+    <directory>/cameras.json          as for files, but each frame's "files" says where its views
+                                      are: {"color": "views.zarr/color[12]", ...}
 
 Each output keeps its own dtype and channels (``softrast.OUTPUT_TABLE``): mask bool, ids int32,
 coverage uint32, float outputs float32. Chunks are Blosc (LZ4, level 5; byte shuffle for float
