@@ -341,7 +341,9 @@ def _write_cameras_json(directory: str, cams: Sequence[Camera], stems: Sequence[
 def _relative(path: str, directory: str) -> str:
     """``path`` (a file of the dataset, or a zarr store's ``views.zarr/color[12]``) relative to
     the dataset directory, with / between its parts, as cameras.json names it."""
-    return os.path.relpath(path, directory).replace(os.sep, "/")
+    head = os.path.join(directory, "")
+    rel = path[len(head):] if path.startswith(head) else os.path.relpath(path, directory)
+    return rel.replace(os.sep, "/")
 
 
 _STORES = ("files", "zarr")
