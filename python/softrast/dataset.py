@@ -28,8 +28,9 @@ seen at K (R X + t) / z with [R | t] the inverse of ``pose_opencv``.
 zarr array (zarr format 2, read by zarr-python 2 and 3, xarray and ``dask.array.from_zarr``)
 instead of files, in ``directory/views.zarr``: shape (n_views, h, w[, c]) in the output's own
 dtype (``softrast.OUTPUT_TABLE``), one view a chunk, Blosc-compressed (LZ4, byte shuffle for
-the float outputs), consolidated metadata; ``zarr.open_group(directory + "/views.zarr")["depth"][12]``
-is view 12's depth. The same cameras.json is written beside it, each frame's ``files`` naming
+the float outputs), consolidated metadata;
+``zarr.open_group(os.path.join(directory, "views.zarr"))["depth"][12]`` is view 12's depth.
+The same cameras.json is written beside it, each frame's ``files`` naming
 where its views are, as ``{"color": "views.zarr/color[12]", ...}`` (array ``color`` of the
 group, index 12 along its first axis). Chunks are written atomically and resume works as for
 files (a view is skipped when each of its chunks is there and decodes). A view never written
