@@ -9,9 +9,13 @@
 in interleaved rounds; frames per second, and ratios measured in the same run. Rendering only
 (no files written).
 
-    python3 benchmarks/bench_dataset.py [--views 200] [--rounds 3] [--no-pyrender] [--write]
+    python3 benchmarks/bench_dataset.py [--views 200] [--rounds 3] [--no-pyrender] [--write | --codecs]
 
-``--write`` times written datasets instead: ``write_dataset`` against the encoders alone.
+``--write`` times written datasets instead: render_many alone (nothing written), the file
+encoders alone, ``write_dataset`` with the file store and with ``store="zarr"``, and a loop of
+render + save, each cell's frames/s and its ratio to render_many. ``--codecs`` measures the
+Blosc choices for the zarr store on real frames (20 views): encode and decode time, one thread,
+and size per output, for LZ4 and Zstd at a few levels with no, byte and bit shuffle.
 """
 from __future__ import annotations
 
@@ -40,7 +44,8 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--no-pyrender", action="store_true")
     ap.add_argument("--write", action="store_true",
-                    help="instead: written datasets (default formats) against the encoders alone")
+                    help="instead: written datasets (files, zarr) against render_many and the encoders")
+    ap.add_argument("--codecs", action="store_true", help="instead: the zarr store's Blosc choices")
     args = ap.parse_args()
 
     tm = trimesh.load(os.path.join(ROOT, "assets", "meshes", "spot.obj"), force="mesh", process=False)
@@ -58,6 +63,8 @@ def main() -> None:
     r = sr.Renderer(W, H, threads=2)
     if args.write:
         return bench_write(scene, cams, r, args)
+    if args.codecs:
+        return bench_codecs(scene, cams, r)
     for cam in cams[:5]:
         r.render(scene, cam, outputs=OUTPUTS)
     list(r.render_many(scene, cams[:5], outputs=OUTPUTS))
@@ -111,8 +118,9 @@ def main() -> None:
 
 def bench_write(scene, cams, r, args) -> None:
     """Frames/s of a written dataset (write_dataset: render_many + two writer threads, default
-    formats: colour PNG level 1, depth EXR zip, ids PNG16) against the same encoders alone (the
-    same frames, pre-rendered, saved by two threads) and a one-thread loop of render + save."""
+    formats: colour PNG level 1, depth EXR zip, ids PNG16; and store="zarr": Blosc LZ4 chunks)
+    against render_many writing nothing, the file encoders alone (the same frames,
+    pre-rendered, saved by two threads) and a one-thread loop of render + save."""
     import concurrent.futures
     import shutil
     import tempfile
@@ -134,28 +142,91 @@ def bench_write(scene, cams, r, args) -> None:
     def dataset():
         sr.write_dataset(scene, cams, fresh("ds"), outputs=OUTPUTS, renderer=r, resume=False)
 
+    def zarr_dataset():
+        sr.write_dataset(scene, cams, fresh("zarr"), outputs=OUTPUTS, renderer=r, resume=False,
+                         store="zarr")
+
+    def many():
+        for _ in r.render_many(scene, cams, outputs=OUTPUTS):
+            pass
+
     def loop():
         d = fresh("loop")
         for k, c in enumerate(cams):
             r.render(scene, c, outputs=OUTPUTS).save(d, f"{k:06d}")
 
-    cells = {"encoders alone (2 threads, pre-rendered)": encoders, "write_dataset": dataset,
-             "loop: render + save (1 thread)": loop}
+    cells = {"render_many (nothing written)": many,
+             "encoders alone (2 threads, pre-rendered)": encoders, "write_dataset": dataset,
+             "write_dataset(store='zarr')": zarr_dataset, "loop: render + save (1 thread)": loop}
     times = {k: [] for k in cells}
+    sizes = {}
     try:
         for _ in range(args.rounds):
             for name, fn in cells.items():
                 t = time.perf_counter()
                 fn()
                 times[name].append(time.perf_counter() - t)
+        for name in ("ds", "zarr"):
+            sizes[name] = sum(os.path.getsize(os.path.join(dp, f)) for dp, _, fs in
+                              os.walk(os.path.join(root, name)) for f in fs)
     finally:
         shutil.rmtree(root, ignore_errors=True)
     rate = {k: args.views / statistics.median(v) for k, v in times.items()}
     print(f"{args.views} views of Spot at {W}x{H}, {', '.join(OUTPUTS)}, default formats, written to "
-          f"/tmp; median of {args.rounds} interleaved rounds")
+          f"/tmp; median of {args.rounds} interleaved rounds; {os.cpu_count()} cores")
+    base = rate["render_many (nothing written)"]
     for name, fps in rate.items():
-        print(f"{name:<44}{fps:>9.1f} frames/s")
+        print(f"{name:<44}{fps:>9.1f} frames/s{fps / base:>7.2f}x render_many")
     print(f"write_dataset / encoders alone: {rate['write_dataset'] / rate['encoders alone (2 threads, pre-rendered)']:.2f}")
+    print(f"bytes a view: files {sizes['ds'] / args.views / 1e3:.1f} kB, zarr "
+          f"{sizes['zarr'] / args.views / 1e3:.1f} kB (raw {OUTPUT_BYTES * W * H / 1e3:.1f} kB)")
+
+
+OUTPUT_BYTES = sum(row["bytes_per_pixel"] for row in sr.OUTPUT_TABLE if row["name"] in OUTPUTS)
+
+
+def bench_codecs(scene, cams, r) -> None:
+    """The zarr store's codec, measured: each Blosc setting on 20 real frames, encode and
+    decode ms a frame in one (non-main) thread, as a writer thread runs them (blosc's context
+    API, one internal thread), and compressed kB a frame, per output and in all."""
+    import concurrent.futures
+
+    from numcodecs import blosc
+
+    frames = [r.render(scene, c, outputs=OUTPUTS) for c in cams[:20]]
+    settings = [(c, lv, sh) for c, levels in (("lz4", (1, 5, 9)), ("zstd", (1, 3, 5)))
+                for lv in levels for sh in (0, 1, 2)]
+
+    def measure():
+        rows = []
+        for cname, level, shuffle in settings:
+            row = {}
+            for name in OUTPUTS:
+                arrs = [np.ascontiguousarray(getattr(f, name)) for f in frames]
+                enc, dec = [], []
+                for _ in range(3):
+                    t = time.perf_counter()
+                    data = [blosc.compress(a, cname.encode(), level, shuffle, 0) for a in arrs]
+                    enc.append((time.perf_counter() - t) / len(arrs))
+                    t = time.perf_counter()
+                    for d in data:
+                        blosc.decompress(d)
+                    dec.append((time.perf_counter() - t) / len(arrs))
+                row[name] = (min(enc) * 1e3, min(dec) * 1e3, sum(map(len, data)) / len(data) / 1e3)
+            rows.append(((cname, level, shuffle), row))
+        return rows
+
+    with concurrent.futures.ThreadPoolExecutor(1) as pool:  # not the main thread: as the writers
+        rows = pool.submit(measure).result()
+    raw = OUTPUT_BYTES * W * H / 1e3
+    print(f"Blosc on 20 views of Spot at {W}x{H} ({raw:.0f} kB raw a frame); ms and kB a frame, "
+          "best of 3, one thread")
+    print(f"{'cname level shuffle':<22}{'enc ms':>8}{'dec ms':>8}{'kB':>8}{'ratio':>7}   " +
+          "".join(f"{n + ' enc ms/kB':>22}" for n in OUTPUTS))
+    for (cname, level, shuffle), row in rows:
+        e, d, kb = (sum(v[i] for v in row.values()) for i in range(3))
+        print(f"{cname} {level} {('none', 'byte', 'bit')[shuffle]:<13}{e:8.2f}{d:8.2f}{kb:8.1f}"
+              f"{raw / kb:7.1f}   " + "".join(f"{row[n][0]:>13.2f} /{row[n][2]:>6.1f}" for n in OUTPUTS))
 
 
 if __name__ == "__main__":

@@ -92,7 +92,7 @@ def test_missing_mesh_and_version(tmp_path, capsys):
     assert main(["batch", "--help"]) == 0
     help_text = capsys.readouterr().out
     for option in ("--views", "--orbit", "--sphere", "--poses", "--intrinsics", "--outputs", "--formats",
-                   "--workers", "--no-resume"):
+                   "--workers", "--no-resume", "--store"):
         assert option in help_text
 
 
@@ -126,8 +126,8 @@ def test_a_resumed_run_counts_skipped_views_apart(tmp_path, capsys, monkeypatch)
     monkeypatch.setattr(dataset, "time", clock, raising=False)
     assert main(args) == 0
     out = capsys.readouterr()
-    # rendering the 2 views took 1 (fake) second, the run 3: 2.0 views/s, not 5 / 3 = 1.7
-    assert out.out.strip() == (f"softrast batch: rendered 2 views of 1 mesh(es) in 1.0 s (2.0 views/s), "
+    # rendering the 2 views took 1 (fake) second, the run 3: 2.0 frames/s, not 5 / 3 = 1.7
+    assert out.out.strip() == (f"softrast batch: rendered 2 views of 1 mesh(es) in 1.0 s (2.0 frames/s), "
                                f"skipped 3 already on disk; 3.0 s in all -> {tmp_path}")
     assert "5/5" in out.err and "skipped 3" in out.err  # the bar starts at the skipped views
     assert (d / "000001_depth.tif").exists() and (d / "000003_depth.tif").exists()
@@ -135,17 +135,17 @@ def test_a_resumed_run_counts_skipped_views_apart(tmp_path, capsys, monkeypatch)
     assert main(args) == 0
     out = capsys.readouterr().out.strip()
     assert out.startswith("softrast batch: rendered 0 views of 1 mesh(es), skipped 5 already on disk; ")
-    assert "views/s" not in out
+    assert "frames/s" not in out
 
 
 def test_batch_summary_wording():
     from softrast.cli import batch_summary
 
     assert batch_summary(3, 7, 1, 1.2, 1.5, "ds") == (
-        "softrast batch: rendered 3 views of 1 mesh(es) in 1.2 s (2.5 views/s), skipped 7 already "
+        "softrast batch: rendered 3 views of 1 mesh(es) in 1.2 s (2.5 frames/s), skipped 7 already "
         "on disk; 1.5 s in all -> ds")
     assert batch_summary(1, 0, 2, 0.5, 0.6, "ds") == (
-        "softrast batch: rendered 1 view of 2 mesh(es) in 0.5 s (2.0 views/s); 0.6 s in all -> ds")
+        "softrast batch: rendered 1 view of 2 mesh(es) in 0.5 s (2.0 frames/s); 0.6 s in all -> ds")
 
 
 def test_resume_after_an_interruption_gives_the_clean_result(tmp_path):

@@ -1,6 +1,7 @@
 """DatasetJob / render_dataset (issue 22): a job's shards (mesh x camera runs) on any
 concurrent.futures executor give the same files, byte for byte, as the local run: a process
-pool and a two-worker dask.distributed LocalCluster."""
+pool and a two-worker dask.distributed LocalCluster; with store="zarr" (issue 37) too, every
+chunk file of the arrays the job makes before its shards run."""
 from __future__ import annotations
 
 import concurrent.futures
@@ -17,7 +18,7 @@ import softrast as sr
 ASSETS = pathlib.Path(__file__).resolve().parents[1] / "assets" / "meshes"
 
 
-def _job(out_dir, **kw):
+def _job(out_dir, store="files", **kw):
     cams = []
     for pose in sr.orbit((0.0, 0.2, 0.0), 3.0, 7, elevation=15.0):
         cam = sr.PerspectiveCamera(fov_y=45.0, width=48, height=36, near=0.05, far=20.0)
@@ -28,7 +29,8 @@ def _job(out_dir, **kw):
         trimesh.creation.icosphere(subdivisions=3).export(ball)
     meshes = [ASSETS / "spot.obj", ball]
     return sr.DatasetJob(meshes, cams, outputs=("color", "depth", "instance_id", "uv"), out_dir=out_dir,
-                         formats={"depth": "npy"}, shard_size=3, **kw)
+                         formats={"depth": "npy"} if store == "files" else None, shard_size=3,
+                         store=store, **kw)
 
 
 def _tree(d: pathlib.Path) -> dict[str, bytes]:
@@ -48,12 +50,21 @@ def test_process_pool_equals_local_run(tmp_path):
 
 
 def test_dask_local_cluster_equals_local_run(tmp_path):
+    zarr = pytest.importorskip("zarr")
     sr.render_dataset(_job(tmp_path / "local"))
+    sr.render_dataset(_job(tmp_path / "local_zarr", store="zarr"))
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   dashboard_address="127.0.0.1:0") as cluster, distributed.Client(cluster) as client:
         paths = sr.render_dataset(_job(tmp_path / "dask"), client.get_executor())
+        zarr_paths = sr.render_dataset(_job(tmp_path / "dask_zarr", store="zarr"), client.get_executor())
     assert _tree(tmp_path / "local") == _tree(tmp_path / "dask")
     assert all(p.startswith(str(tmp_path / "dask")) for per in paths for view in per for p in view.values())
+    local, dask = _tree(tmp_path / "local_zarr"), _tree(tmp_path / "dask_zarr")
+    chunks = [n for n in local if n.split("/")[-1][0].isdigit()]
+    assert len(chunks) == 2 * 7 * 4 and local == dask  # every chunk file, metadata, cameras.json
+    assert zarr_paths[1][5]["uv"] == str(tmp_path / "dask_zarr" / "ball" / "views.zarr/uv[5]")
+    views = zarr.open_group(str(tmp_path / "dask_zarr" / "spot" / "views.zarr"), mode="r")
+    assert views["depth"].shape == (7, 36, 48) and (views["depth"][:] > 0).any()
 
 
 def test_job_checks_its_arguments(tmp_path):

@@ -9,6 +9,7 @@
     softrast batch MESH [MESH ...] --out DIR [--views 24] [--orbit ELEVATION | --sphere |
                    --poses POSES.npy|.json] [--intrinsics K.npy] [--outputs color,depth,instance_id]
                    [--formats depth=npy,...] [--size 640x480] [--fov 45] [--workers W] [--no-resume]
+                   [--store files|zarr]
 
     softrast report --out DIR [--quick]
 
@@ -16,9 +17,10 @@
 
 Without --eye the camera frames the whole mesh from the front (+z) and slightly above (+y).
 ``batch`` writes each mesh's views to DIR/<mesh file stem>/ with ``softrast.write_dataset``
-(files, cameras.json), showing progress, and ends with a summary line; a rerun skips complete
-views, and the summary counts them apart ("rendered 3 views of 1 mesh(es) in 1.2 s (2.5 views/s),
-skipped 7 already on disk; 1.4 s in all -> DIR": the rate over the rendered views alone).
+(files, or with --store zarr one compressed array per output in views.zarr; cameras.json),
+showing progress, and ends with a summary line; a rerun skips complete views, and the summary
+counts them apart ("rendered 3 views of 1 mesh(es) in 1.2 s (2.5 frames/s), skipped 7 already
+on disk; 1.4 s in all -> DIR": the rate over the rendered views alone).
 Every argument, and every mesh file (each is loaded and checked first), is checked before
 anything is written (the output folder included). A run holds about 8 KB a view (its camera and
 file records) until its mesh is done, so --views (or --poses's count) is refused above the memory
@@ -163,8 +165,9 @@ def build_parser() -> argparse.ArgumentParser:
     b = sub.add_parser("batch", help="render many views of mesh files into a dataset",
                        description="Render views of each mesh file into DIR/<mesh stem>/: one file "
                        "per output and view ({view:06d}_{output}.{ext}, as Frame.save writes) and a "
-                       "cameras.json (K in OpenCV's convention, poses in OpenCV and OpenGL axes). "
-                       "A rerun skips the views whose files are all there.")
+                       "cameras.json (K in OpenCV's convention, poses in OpenCV and OpenGL axes); "
+                       "with --store zarr, one compressed array per output in views.zarr instead "
+                       "of the files. A rerun skips the views whose files are all there.")
     b.add_argument("meshes", nargs="+", metavar="MESH", help="mesh files (OBJ, PLY, GLB, ...)")
     b.add_argument("--out", required=True, metavar="DIR", help="dataset directory (created if missing)")
     b.add_argument("--views", type=_count, default=24, metavar="N", help="views per mesh (default 24)")
@@ -183,6 +186,10 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--fov", type=float, default=45.0, help="vertical field of view in degrees (default 45)")
     b.add_argument("--workers", type=_threads, default=0, help="render threads, 0 = one per core (default)")
     b.add_argument("--no-resume", action="store_true", help="render every view, even those already written")
+    b.add_argument("--store", choices=("files", "zarr"), default="files",
+                   help="files: a file per output and view (default); zarr: one chunked, "
+                   "compressed array per output in DIR/<mesh stem>/views.zarr, a view a chunk "
+                   "(pip install softrast[zarr])")
     b.add_argument("--up-axis", choices=("y", "z"), default="y", help="the files' up axis (default y)")
 
     rp = sub.add_parser("report", help="measure error against run time for each quality knob",
@@ -315,7 +322,7 @@ def batch_summary(rendered: int, skipped: int, meshes: int, render_seconds: floa
     line = (f"softrast batch: rendered {rendered} view{'s' if rendered != 1 else ''} of {meshes} "
             f"mesh(es)")
     if rendered:
-        line += f" in {render_seconds:.1f} s ({rendered / max(render_seconds, 1e-9):.1f} views/s)"
+        line += f" in {render_seconds:.1f} s ({rendered / max(render_seconds, 1e-9):.1f} frames/s)"
     if skipped:
         line += f", skipped {skipped} already on disk"
     return f"{line}; {total_seconds:.1f} s in all -> {out}"
@@ -418,6 +425,15 @@ def _batch(args: argparse.Namespace) -> None:
     stems = [os.path.splitext(os.path.basename(p))[0] for p in args.meshes]
     if len(set(stems)) != len(stems):
         raise CliError("two mesh files have the same name: their datasets would share a directory")
+    if args.store == "zarr" and args.formats:
+        raise CliError("--formats: for --store files only (zarr keeps each output in its own dtype)")
+    if args.store == "zarr":
+        from ._zarr_store import _blosc
+
+        try:
+            _blosc()
+        except ImportError as e:
+            raise CliError(f"--store zarr: {e}") from None
     for name, fmt in args.formats.items():
         if name not in args.outputs:
             raise CliError(f"--formats: {name} is not in --outputs ({','.join(args.outputs)})")
@@ -498,7 +514,8 @@ def _batch(args: argparse.Namespace) -> None:
         directory = os.path.join(args.out, stem)
         os.makedirs(directory, exist_ok=True)
         written = write_dataset(scene, cams, directory, outputs=args.outputs, formats=args.formats,
-                                renderer=renderer, progress=True, resume=not args.no_resume)
+                                renderer=renderer, progress=True, resume=not args.no_resume,
+                                store=args.store)
         del scene, cams
         rendered, skipped = rendered + written.rendered, skipped + written.skipped
         render_seconds += written.seconds

@@ -23,6 +23,20 @@ truncated, empty or corrupt file is rendered again).
 
 K follows OpenCV: the centre of pixel (row i, col j) is at (u, v) = (j, i); a world point X is
 seen at K (R X + t) / z with [R | t] the inverse of ``pose_opencv``.
+
+``write_dataset(..., store="zarr")`` (``pip install softrast[zarr]``) writes each output as one
+zarr array (zarr format 2, read by zarr-python 2 and 3, xarray and ``dask.array.from_zarr``)
+instead of files, in ``directory/views.zarr``: shape (n_views, h, w[, c]) in the output's own
+dtype (``softrast.OUTPUT_TABLE``), one view a chunk, Blosc-compressed (LZ4, byte shuffle for
+the float outputs), consolidated metadata;
+``zarr.open_group(os.path.join(directory, "views.zarr"))["depth"][12]`` is view 12's depth.
+The same cameras.json is written beside it, each frame's ``files`` naming
+where its views are, as ``{"color": "views.zarr/color[12]", ...}`` (array ``color`` of the
+group, index 12 along its first axis). Chunks are written atomically and resume works as for
+files (a view is skipped when each of its chunks is there and decodes). A view never written
+reads as NaN (float outputs), -2**31 (ids) or 2**32 - 1 (coverage), values no render gives;
+colour and mask have no such value (no fill value: tell by the chunk file, or by cameras.json,
+written once every view is). ``softrast._zarr_store`` has the details.
 """
 from __future__ import annotations
 
@@ -176,7 +190,8 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
                   outputs: Sequence[str] = ("color", "depth", "instance_id"),
                   formats: dict[str, str] | None = None, renderer: Renderer | None = None,
                   writers: int | None = None, progress: bool = False, resume: bool = True,
-                  first: int = 0, cameras_json: bool = True, **options: Any) -> WrittenViews:
+                  first: int = 0, cameras_json: bool = True, store: str = "files",
+                  **options: Any) -> WrittenViews:
     """Render ``scene`` from every camera and write each frame as ``Frame.save`` does
     (``{stem}_{output}.{ext}``, stems 000000, 000001, ...), plus ``cameras.json``; returns each
     frame's {output: path}, in ``softrast.OUTPUTS`` order (as ``files`` in cameras.json: a
@@ -199,8 +214,14 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
         rate counts only the views rendered.
     first : the index of the first camera's view (its stem); for a shard of a larger job.
     cameras_json : write cameras.json (False for a shard: ``render_dataset`` writes it whole).
+    store : "files" (each output of each view a file, as above) or "zarr": each output one
+        chunked, Blosc-compressed array, a view a chunk, in ``directory/views.zarr`` (zarr
+        format 2; needs ``pip install softrast[zarr]``; ``formats`` does not apply); each
+        view's {output: path} is then ``directory/views.zarr/{output}[{view}]`` (the module
+        docstring has the layout). Atomic chunks and resume as for files.
     options : passed to ``render`` (shading=, cull=, background=, ...).
     """
+    _check_store(store)
     cams = list(cameras)
     if not cams:
         raise ValueError("cameras: at least one camera is needed")
@@ -224,6 +245,11 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
     if n_writers < 1:
         raise ValueError(f"writers must be >= 1, got {writers!r}")
     formats = dict(formats or {})
+    if store == "zarr":  # one array per output in directory/views.zarr (_zarr_store.py)
+        from ._zarr_store import write_views
+
+        return write_views(scene, cams, directory, names, r, n_writers, progress, resume, first,
+                           cameras_json, formats, options)
     stems = [f"{first + k:06d}" for k in range(len(cams))]
 
     def expected(stem: str) -> dict[str, str]:
@@ -307,9 +333,26 @@ def _write_cameras_json(directory: str, cams: Sequence[Camera], stems: Sequence[
                         paths: Sequence[dict[str, str]]) -> None:
     doc = {"format": _FORMAT, "conventions": _CONVENTIONS,
            "frames": [dict(camera_record(c), stem=stem,
-                           files={n: os.path.basename(p) for n, p in _in_output_order(files).items()})
+                           files={n: _relative(p, directory)
+                                  for n, p in _in_output_order(files).items()})
                       for c, stem, files in zip(cams, stems, paths)]}
     _atomic_json(os.path.join(directory, "cameras.json"), doc)
+
+
+def _relative(path: str, directory: str) -> str:
+    """``path`` (a file of the dataset, or a zarr store's ``views.zarr/color[12]``) relative to
+    the dataset directory, with / between its parts, as cameras.json names it."""
+    head = os.path.join(directory, "")
+    rel = path[len(head):] if path.startswith(head) else os.path.relpath(path, directory)
+    return rel.replace(os.sep, "/")
+
+
+_STORES = ("files", "zarr")
+
+
+def _check_store(store: Any) -> None:
+    if not isinstance(store, str) or store not in _STORES:
+        raise ValueError(f"store must be one of {_STORES}, got {store!r:.80}")
 
 
 @dataclass(frozen=True)
@@ -321,6 +364,8 @@ class DatasetJob:
     cameras : posed cameras, each with its image size (one size for all).
     outputs : output names; formats : {output: format} as ``Frame.save`` takes.
     shard_size : views per shard (a shard is one mesh x a run of cameras).
+    store : "files" or "zarr" (``write_dataset``'s): with "zarr", ``render_dataset`` makes each
+        mesh's arrays, for all the cameras, before the shards write their views into them.
     options : ``render`` options (shading=, cull=, ...).
     """
 
@@ -331,11 +376,12 @@ class DatasetJob:
     formats: dict = field(default_factory=dict)
     shard_size: int = 16
     options: dict = field(default_factory=dict)
+    store: str = "files"
 
     def __init__(self, meshes: Sequence[str | os.PathLike[str]], cameras: Sequence[Camera],
                  outputs: Sequence[str] = ("color", "depth", "instance_id"),
                  out_dir: str | os.PathLike[str] = ".", formats: dict[str, str] | None = None,
-                 shard_size: int = 16, **options: Any) -> None:
+                 shard_size: int = 16, store: str = "files", **options: Any) -> None:
         s = object.__setattr__
         s(self, "meshes", tuple(os.fspath(m) for m in meshes))
         s(self, "cameras", tuple(cameras))
@@ -344,6 +390,11 @@ class DatasetJob:
         s(self, "formats", dict(formats or {}))
         s(self, "shard_size", int(shard_size))
         s(self, "options", dict(options))
+        _check_store(store)
+        s(self, "store", store)
+        if store == "zarr" and self.formats:
+            raise ValueError("formats: for store='files' only (store='zarr' keeps each output in "
+                             "its own dtype, Blosc-compressed)")
         if not self.meshes or not self.cameras:
             raise ValueError("DatasetJob needs at least one mesh and one camera")
         if self.shard_size < 1:
@@ -373,7 +424,8 @@ def _render_shard(job: DatasetJob, shard: tuple[int, int, int]) -> list[dict[str
     cams = job.cameras[a:b]
     renderer = Renderer(cams[0].width, cams[0].height, threads=1)
     return write_dataset(scene, cams, directory, outputs=job.outputs, formats=job.formats,
-                         renderer=renderer, first=a, cameras_json=False, **job.options)
+                         renderer=renderer, first=a, cameras_json=False, store=job.store,
+                         **job.options)
 
 
 def render_dataset(job: DatasetJob, executor: concurrent.futures.Executor | None = None
@@ -381,8 +433,14 @@ def render_dataset(job: DatasetJob, executor: concurrent.futures.Executor | None
     """Run ``job``'s shards on ``executor`` (any ``concurrent.futures.Executor``: a
     ``ProcessPoolExecutor``, or a Dask cluster's ``client.get_executor()``; None: one process,
     here), then write each mesh's ``cameras.json``. Returns, per mesh, each view's
-    {output: path}. The files are the same, byte for byte, whichever executor runs it."""
+    {output: path}. The files are the same, byte for byte, whichever executor runs it (with
+    ``store="zarr"`` too: each mesh's arrays are made here, then each shard writes its views'
+    chunks)."""
     os.makedirs(job.out_dir, exist_ok=True)
+    if job.store == "zarr":
+        from ._zarr_store import prepare_job
+
+        prepare_job(job)
     shards = job.shards()
     if executor is None:
         results = [_render_shard(job, s) for s in shards]
