@@ -19,6 +19,7 @@ namespace {
 // An (h, w) or (h, w, c) array whose pixels are contiguous within each row (rows may be apart).
 encode::Image image_of(const py::array& a, const char* what) {
   if (a.ndim() != 2 && a.ndim() != 3) throw py::value_error(std::string(what) + ": array must be (h, w) or (h, w, c)");
+  if (a.size() == 0) throw py::value_error(std::string(what) + ": array is empty");
   encode::Image im;
   im.height = int(a.shape(0));
   im.width = int(a.shape(1));
@@ -58,6 +59,9 @@ void bind_encode(py::module_& m) {
   m.def(
       "encode_png",
       [](const py::array& image) {
+        const char kind = image.dtype().kind();
+        if (kind != 'u' || (image.itemsize() != 1 && image.itemsize() != 2))
+          throw py::type_error("encode_png: array must be uint8 or uint16");
         const encode::Image im = image_of(image, "encode_png");
         return to_bytes(without_gil([&] { return encode::png(im); }));
       },
@@ -71,7 +75,7 @@ void bind_encode(py::module_& m) {
         try {
           return to_bytes(without_gil([&] { return encode::png_ids(im); }));
         } catch (const std::out_of_range&) {
-          throw py::value_error("ids over 65534 do not fit a 16-bit PNG (as id + 1)");
+          throw py::value_error("ids outside -1..65534 do not fit a 16-bit PNG (as id + 1)");
         }
       },
       "ids"_a,
@@ -82,6 +86,10 @@ void bind_encode(py::module_& m) {
       [](const py::array& image, int sample_format, bool compress, int predictor) {
         const encode::Image im = image_of(image, "encode_tiff");
         if (sample_format < 1 || sample_format > 3) throw py::value_error("encode_tiff: sample_format must be 1, 2 or 3");
+        const char kind = image.dtype().kind(), want = "uif"[sample_format - 1];
+        if (kind != want || (kind == 'f' && image.itemsize() != 4))
+          throw py::type_error("encode_tiff: the array's dtype does not match sample_format (1: "
+                               "unsigned, 2: signed, 3: float32)");
         if (predictor < 1 || predictor > 3) throw py::value_error("encode_tiff: predictor must be 1, 2 or 3");
         return to_bytes(without_gil([&] {
           return encode::tiff(im, encode::TiffSample(sample_format), compress, encode::TiffPredictor(predictor));
@@ -95,7 +103,7 @@ void bind_encode(py::module_& m) {
       "zlib_compress",
       [](const py::buffer& data) {
         const py::buffer_info info = data.request();
-        if (info.itemsize * info.size < 0) throw py::value_error("zlib_compress: bad buffer");
+        if (!PyBuffer_IsContiguous(info.view(), 'C')) throw py::value_error("zlib_compress: the buffer must be C-contiguous");
         const auto* p = static_cast<const uint8_t*>(info.ptr);
         const std::size_t n = std::size_t(info.itemsize * info.size);
         return to_bytes(without_gil([&] {

@@ -201,6 +201,8 @@ def encode_tiff(array: np.ndarray, compress: bool = True) -> bytes:
     horizontal predictor (which every TIFF reader undoes), float samples without a predictor
     (tifffile needs imagecodecs for the floating-point one, so scikit-image may not read it)."""
     arr = _rows_contiguous(array)
+    if arr.dtype not in _TIFF_SAMPLE:
+        raise TypeError(f"array dtype must be uint8, uint16, uint32, int32 or float32, got {arr.dtype}")
     predictor = 2 if compress and arr.dtype != _F32 else 1
     return _core.encode_tiff(arr, _TIFF_SAMPLE[arr.dtype], bool(compress), predictor)
 

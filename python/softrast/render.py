@@ -101,8 +101,8 @@ class Frame:
                     data = _core.encode_png_ids(arr)  # id + 1, checked to fit, in one pass
                 except ValueError:
                     if name in formats:
-                        raise ValueError(f"formats: {name} has ids over 65534, which png16 cannot "
-                                         "store (id + 1): use 'tif' or 'npy'") from None
+                        raise ValueError(f"formats: {name} has ids outside -1..65534, which png16 "
+                                         "cannot store (id + 1): use 'tif' or 'npy'") from None
                     path = os.path.splitext(path)[0] + ".tif"  # the default's fallback: the ids
                     imwrite(path, arr)
                 else:
