@@ -46,14 +46,25 @@ def main() -> None:
     ap.add_argument("--write", action="store_true",
                     help="instead: written datasets (files, zarr) against render_many and the encoders")
     ap.add_argument("--codecs", action="store_true", help="instead: the zarr store's Blosc choices")
+    ap.add_argument("--mesh", choices=("spot", "fuze"), default="spot",
+                    help="Spot (untextured, the default) or pyrender's Fuze bottle (textured, MTL)")
+    ap.add_argument("--dir", default=None,
+                    help="--write: where the datasets go (default: a new folder in the system's "
+                         "temporary directory)")
     args = ap.parse_args()
 
-    tm = trimesh.load(os.path.join(ROOT, "assets", "meshes", "spot.obj"), force="mesh", process=False)
-    mesh = sr.Mesh(tm.vertices, tm.faces, normals=tm.vertex_normals)
-    scene = sr.Scene()
-    scene.add(mesh, instance_id=1)
+    if args.mesh == "spot":
+        tm = trimesh.load(os.path.join(ROOT, "assets", "meshes", "spot.obj"), force="mesh", process=False)
+        mesh = sr.Mesh(tm.vertices, tm.faces, normals=tm.vertex_normals)
+        scene = sr.Scene()
+        scene.add(mesh, instance_id=1)
+        radius = float(np.linalg.norm(tm.extents)) * 1.3
+    else:
+        path = os.path.join(ROOT, "assets", "meshes", "fuze", "fuze.obj")
+        tm = trimesh.load(path, force="mesh")
+        scene = sr.load_scene(path)
+        radius = float(np.linalg.norm(tm.extents)) * 0.9
     centre = tm.bounds.mean(axis=0)
-    radius = float(np.linalg.norm(tm.extents)) * 1.3
     poses = sr.orbit(centre, radius, args.views, elevation=20.0)
     cams = []
     for pose in poses:
@@ -118,15 +129,16 @@ def main() -> None:
 
 def bench_write(scene, cams, r, args) -> None:
     """Frames/s of a written dataset (write_dataset: render_many + two writer threads, default
-    formats: colour PNG level 1, depth EXR zip, ids PNG16; and store="zarr": Blosc LZ4 chunks)
-    against render_many writing nothing, the file encoders alone (the same frames,
-    pre-rendered, saved by two threads) and a one-thread loop of render + save."""
+    formats: colour PNG, depth float32 TIFF, ids PNG16 of id + 1, all by softrast's encoder; and
+    store="zarr": Blosc LZ4 chunks) against render_many writing nothing, the file encoders alone
+    (the same frames, pre-rendered, saved by one and by two threads) and a one-thread loop of
+    render + save."""
     import concurrent.futures
     import shutil
     import tempfile
 
     pre = [r.render(scene, c, outputs=OUTPUTS) for c in cams[:20]]
-    root = tempfile.mkdtemp(prefix="sr_bench_")
+    root = tempfile.mkdtemp(prefix="sr_bench_", dir=args.dir)
 
     def fresh(name):
         d = os.path.join(root, name)
@@ -134,10 +146,12 @@ def bench_write(scene, cams, r, args) -> None:
         os.makedirs(d)
         return d
 
-    def encoders():
-        d = fresh("enc")
-        with concurrent.futures.ThreadPoolExecutor(2) as pool:
-            list(pool.map(lambda k: pre[k % len(pre)].save(d, f"{k:06d}"), range(len(cams))))
+    def encoders(threads):
+        def run():
+            d = fresh(f"enc{threads}")
+            with concurrent.futures.ThreadPoolExecutor(threads) as pool:
+                list(pool.map(lambda k: pre[k % len(pre)].save(d, f"{k:06d}"), range(len(cams))))
+        return run
 
     def dataset():
         sr.write_dataset(scene, cams, fresh("ds"), outputs=OUTPUTS, renderer=r, resume=False)
@@ -156,7 +170,8 @@ def bench_write(scene, cams, r, args) -> None:
             r.render(scene, c, outputs=OUTPUTS).save(d, f"{k:06d}")
 
     cells = {"render_many (nothing written)": many,
-             "encoders alone (2 threads, pre-rendered)": encoders, "write_dataset": dataset,
+             "encoders alone (1 thread, pre-rendered)": encoders(1),
+             "encoders alone (2 threads, pre-rendered)": encoders(2), "write_dataset": dataset,
              "write_dataset(store='zarr')": zarr_dataset, "loop: render + save (1 thread)": loop}
     times = {k: [] for k in cells}
     sizes = {}
@@ -172,12 +187,15 @@ def bench_write(scene, cams, r, args) -> None:
     finally:
         shutil.rmtree(root, ignore_errors=True)
     rate = {k: args.views / statistics.median(v) for k, v in times.items()}
-    print(f"{args.views} views of Spot at {W}x{H}, {', '.join(OUTPUTS)}, default formats, written to "
-          f"/tmp; median of {args.rounds} interleaved rounds; {os.cpu_count()} cores")
+    print(f"{args.views} views of {args.mesh} at {W}x{H}, {', '.join(OUTPUTS)}, default formats, "
+          f"written to {os.path.dirname(root)}; median of {args.rounds} interleaved rounds; "
+          f"{os.cpu_count()} cores")
     base = rate["render_many (nothing written)"]
     for name, fps in rate.items():
         print(f"{name:<44}{fps:>9.1f} frames/s{fps / base:>7.2f}x render_many")
-    print(f"write_dataset / encoders alone: {rate['write_dataset'] / rate['encoders alone (2 threads, pre-rendered)']:.2f}")
+    enc1, enc2 = rate["encoders alone (1 thread, pre-rendered)"], rate["encoders alone (2 threads, pre-rendered)"]
+    print(f"encoders: 2 threads / 1 thread: {enc2 / enc1:.2f}; write_dataset / encoders alone "
+          f"(2 threads): {rate['write_dataset'] / enc2:.2f}")
     print(f"bytes a view: files {sizes['ds'] / args.views / 1e3:.1f} kB, zarr "
           f"{sizes['zarr'] / args.views / 1e3:.1f} kB (raw {OUTPUT_BYTES * W * H / 1e3:.1f} kB)")
 

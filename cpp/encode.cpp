@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 
 #if defined(__SSE2__) && !defined(SR_ENCODE_SCALAR)
@@ -56,6 +57,21 @@ SR_ENC_INLINE void store_be32(uint8_t* p, uint32_t v) {
   p[2] = uint8_t(v >> 8);
   p[3] = uint8_t(v);
 }
+
+// A buffer of this thread's for scratch `Slot`, reused from call to call: a frame's scratch is
+// then not fresh memory that the kernel maps and zeroes on every call (about 0.2 ms a MB, as
+// much as encoding it). Shrunk when a call needs less than an eighth of it.
+template <typename T, int Slot>
+T* thread_scratch(std::size_t n) {
+  thread_local std::vector<T> buffer;
+  n = std::max<std::size_t>(n, 1);
+  if (buffer.size() < n || buffer.size() / 8 > n) {
+    buffer = std::vector<T>();
+    buffer.resize(n);
+  }
+  return buffer.data();
+}
+enum ScratchSlot { kTokenSlot, kFilteredSlot, kStripSlot, kIdsSlot, kRowsSlot, kDeflatedSlot };
 
 // --- deflate ------------------------------------------------------------------------------------
 
@@ -130,23 +146,36 @@ SR_ENC_INLINE std::size_t next_repeat(const uint8_t* d, std::size_t from, std::s
 }
 
 // The tokens of d[0, n) into tok (n entries at most), counted by token: literals, and runs of
-// the previous byte of kMinRun or more bytes, split into lengths of 3..258. Returns the number
-// of tokens.
-std::size_t tokenize(const uint8_t* d, std::size_t n, uint16_t* tok, uint32_t* count) {
+// the previous byte of kMinRun or more bytes, split into lengths of 3..258. prev is the byte
+// before d[0] in the stream (-1 at its start): a run may continue across blocks. Returns the
+// number of tokens.
+std::size_t tokenize(const uint8_t* d, std::size_t n, int prev, uint16_t* tok, uint32_t* count) {
   if (n == 0) return 0;
   uint16_t* t = tok;
-  ++count[d[0]];
-  *t++ = d[0];
-  std::size_t i = 1;
-  while (i < n) {
-    const std::size_t j = next_repeat(d, i, n);
-    for (; i < j; ++i) {  // literals up to the next repeated byte
-      ++count[d[i]];
-      *t++ = d[i];
+  std::size_t i = 0;
+  for (;;) {
+    std::size_t run = 0;
+    uint8_t b = 0;
+    if (i == 0) {
+      if (prev >= 0 && d[0] == prev) {
+        b = uint8_t(prev);
+        run = run_length(d, 0, n, b);
+      } else {
+        ++count[d[0]];
+        *t++ = d[0];
+        i = 1;
+        continue;
+      }
+    } else {
+      const std::size_t j = next_repeat(d, i, n);
+      for (; i < j; ++i) {  // literals up to the next repeated byte
+        ++count[d[i]];
+        *t++ = d[i];
+      }
+      if (i == n) break;
+      b = d[i - 1];
+      run = run_length(d, i, n, b);
     }
-    if (i == n) break;
-    const uint8_t prev = d[i - 1];
-    std::size_t run = run_length(d, i, n, prev);
     i += run;
     if (run >= kMinRun) {
       while (run >= 3) {
@@ -157,8 +186,9 @@ std::size_t tokenize(const uint8_t* d, std::size_t n, uint16_t* tok, uint32_t* c
         run -= l;
       }
     }
-    count[prev] += uint32_t(run);
-    for (; run; --run) *t++ = prev;
+    count[b] += uint32_t(run);
+    for (; run; --run) *t++ = b;
+    if (i == n) break;
   }
   return std::size_t(t - tok);
 }
@@ -234,11 +264,20 @@ void canonical_codes(const uint8_t* lengths, int n, uint16_t* codes) {
   }
 }
 
+// Bits into a byte vector, least significant first, across blocks: put() stores four bytes at
+// a time at out[at], so room for the block's bits and 8 bytes more is made first (reserve).
 struct BitWriter {
-  uint8_t* out;
+  std::vector<uint8_t>& bytes;
+  uint8_t* out = nullptr;
   uint64_t buffer = 0;
   int count = 0;
-  explicit BitWriter(uint8_t* o) : out(o) {}
+  BitWriter(std::vector<uint8_t>& b, uint64_t pending, int pending_count)
+      : bytes(b), out(b.data() + b.size()), buffer(pending), count(pending_count) {}
+  void reserve(uint64_t bits) {
+    const std::size_t at = std::size_t(out - bytes.data());
+    bytes.resize(at + std::size_t(bits / 8) + 16);
+    out = bytes.data() + at;
+  }
   // len <= 32
   SR_ENC_INLINE void put(uint32_t bits, int len) {
     buffer |= uint64_t(bits) << count;
@@ -250,13 +289,15 @@ struct BitWriter {
       count -= 32;
     }
   }
-  uint8_t* finish() {
+  // to the next byte boundary (zero bits), written out (after reserve)
+  void align() {
     for (; count > 0; count -= 8, buffer >>= 8) *out++ = uint8_t(buffer);
     count = 0;
-    return out;
+    buffer = 0;
   }
+  // the vector cut to the bytes written (the bits still in buffer are not)
+  void close() { bytes.resize(std::size_t(out - bytes.data())); }
 };
-
 
 // The code-length sequence of the dynamic block header, run-length coded (symbols 16, 17, 18).
 struct HeaderToken {
@@ -295,17 +336,21 @@ void header_tokens(const uint8_t* lens, int n, std::vector<HeaderToken>& out) {
 constexpr uint8_t kCodeLengthOrder[19] = {16, 17, 18, 0, 8, 7, 9, 6, 10, 5, 11, 4, 12, 3, 13, 2, 14, 1, 15};
 constexpr uint8_t kHeaderExtraBits[19] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 2, 3, 7};
 
-void stored(const uint8_t* data, std::size_t n, std::vector<uint8_t>& out) {
+// Stored blocks of data[0, n) (at most 65535 bytes each), the last final if `last`.
+void stored(const uint8_t* data, std::size_t n, bool last, BitWriter& w) {
   std::size_t i = 0;
   do {
     const std::size_t len = std::min<std::size_t>(n - i, 65535);
-    const bool last = i + len == n;
-    out.push_back(last ? 1 : 0);
-    out.push_back(uint8_t(len));
-    out.push_back(uint8_t(len >> 8));
-    out.push_back(uint8_t(~len));
-    out.push_back(uint8_t(~len >> 8));
-    out.insert(out.end(), data + i, data + i + len);
+    w.reserve(3 + 7 + 32 + 8 * uint64_t(len));
+    w.put(last && i + len == n ? 1 : 0, 3);  // BFINAL, BTYPE 00
+    w.align();
+    uint8_t* o = w.out;
+    o[0] = uint8_t(len);
+    o[1] = uint8_t(len >> 8);
+    o[2] = uint8_t(~len);
+    o[3] = uint8_t(~len >> 8);
+    if (len) std::memcpy(o + 4, data + i, len);
+    w.out = o + 4 + len;
     i += len;
   } while (i < n);
 }
@@ -463,17 +508,19 @@ uint32_t adler32(const uint8_t* p, std::size_t n, uint32_t adler) {
   return (b % 65521) << 16 | (a % 65521);
 }
 
-void zlib_compress(const uint8_t* data, std::size_t n, std::vector<uint8_t>& out) {
-  const std::size_t start = out.size();
-  out.push_back(0x78);  // deflate, 32 KiB window
-  out.push_back(0x01);  // no dictionary, "fastest" (with the check bits: 0x7801 % 31 == 0)
+Deflater::Deflater(std::vector<uint8_t>& out) : out_(out) {
+  out_.push_back(0x78);  // deflate, 32 KiB window
+  out_.push_back(0x01);  // no dictionary, "fastest" (with the check bits: 0x7801 % 31 == 0)
+}
 
+void Deflater::block(const uint8_t* data, std::size_t n, bool last) {
+  BitWriter w(out_, bit_buffer_, bit_count_);
+  adler_ = adler32(data, n, adler_);
   // the tokens, counted, kept in a buffer of this thread's for the writing pass
-  thread_local std::vector<uint16_t> token_buffer;
-  if (token_buffer.size() < n || token_buffer.size() > std::max<std::size_t>(n, 1) * 8)
-    token_buffer = std::vector<uint16_t>(std::max<std::size_t>(n, 1));  // grown, or shrunk
+  uint16_t* const token_buffer = thread_scratch<uint16_t, kTokenSlot>(n);
   uint32_t token_count[kTokens] = {};
-  const std::size_t num_tokens = tokenize(data, n, token_buffer.data(), token_count);
+  const std::size_t num_tokens = tokenize(data, n, prev_, token_buffer, token_count);
+  if (n) prev_ = data[n - 1];
   uint32_t lit[kLitLenSymbols] = {};
   uint64_t extra_bits = 0;
   const LengthCodes& lc = length_codes();
@@ -504,56 +551,75 @@ void zlib_compress(const uint8_t* data, std::size_t n, std::vector<uint8_t>& out
   int hclen = 19;
   while (hclen > 4 && cl_lens[kCodeLengthOrder[hclen - 1]] == 0) --hclen;
 
-  // the block's exact size in bits, to allocate once (and to fall back to stored blocks)
+  // the block's exact size in bits, to make room once (and to fall back to stored blocks)
   uint64_t bits = 3 + 5 + 5 + 4 + 3 * uint64_t(hclen) + extra_bits;
   for (const HeaderToken& t : tokens) bits += cl_lens[t.symbol] + kHeaderExtraBits[t.symbol];
   for (int s = 0; s < kLitLenSymbols; ++s) bits += uint64_t(lit[s]) * lens[s];
   for (int s = 257; s < kLitLenSymbols; ++s) bits += uint64_t(lit[s]) * dist_lens[0];
-  const uint64_t stored_bytes = n + 5 * std::max<std::size_t>(1, (n + 65534) / 65535);
-  if ((bits + 7) / 8 >= stored_bytes) {
-    stored(data, n, out);
-  } else {
-    uint16_t codes[kLitLenSymbols + kDistSymbols];
-    canonical_codes(lens, kLitLenSymbols, codes);
-    canonical_codes(dist_lens, kDistSymbols, codes + kLitLenSymbols);
-    const std::size_t at = out.size();
-    out.resize(at + std::size_t((bits + 7) / 8) + 8);  // + 8: the writer stores 4 bytes at a time
-    BitWriter w(out.data() + at);
-    w.put(1 | 2 << 1, 3);  // final block, dynamic Huffman codes
-    w.put(uint32_t(hlit - 257), 5);
-    w.put(uint32_t(kDistSymbols - 1), 5);
-    w.put(uint32_t(hclen - 4), 4);
-    for (int k = 0; k < hclen; ++k) w.put(cl_lens[kCodeLengthOrder[k]], 3);
-    for (const HeaderToken& t : tokens) {
-      w.put(cl_codes[t.symbol], cl_lens[t.symbol]);
-      if (kHeaderExtraBits[t.symbol]) w.put(t.extra, kHeaderExtraBits[t.symbol]);
-    }
-    // each token's bits in one put: a literal's code, or a length code with its extra bits and
-    // the distance code (at most 15 + 5 + 1 bits)
-    uint32_t token_code[kTokens] = {};
-    uint8_t token_len[kTokens] = {};
-    for (int b = 0; b < 256; ++b) {
-      token_code[b] = codes[b];
-      token_len[b] = lens[b];
-    }
-    for (int l = 3; l <= 258; ++l) {
-      const int c = lc.symbol[l], sym = 257 + c;
-      const int extra = kLengthExtra[c];
-      uint32_t code = codes[sym] | uint32_t(l - kLengthBase[c]) << lens[sym];
-      code |= uint32_t(codes[kLitLenSymbols]) << (lens[sym] + extra);  // distance 1
-      token_code[256 + l] = code;
-      token_len[256 + l] = uint8_t(lens[sym] + extra + dist_lens[0]);
-    }
-    const uint16_t* tok = token_buffer.data();
-    for (std::size_t k = 0; k < num_tokens; ++k) w.put(token_code[tok[k]], token_len[tok[k]]);
-    w.put(codes[256], lens[256]);
-    uint8_t* end = w.finish();
-    out.resize(std::size_t(end - out.data()));
+  const uint64_t stored_bits = 8 * (n + 5 * std::max<std::size_t>(1, (n + 65534) / 65535)) + 7;
+  if (bits >= stored_bits) {
+    stored(data, n, last, w);
+    w.close();
+    bit_buffer_ = w.buffer;
+    bit_count_ = w.count;
+    return;
   }
+  uint16_t codes[kLitLenSymbols + kDistSymbols];
+  canonical_codes(lens, kLitLenSymbols, codes);
+  canonical_codes(dist_lens, kDistSymbols, codes + kLitLenSymbols);
+  w.reserve(bits);
+  w.put((last ? 1 : 0) | 2 << 1, 3);  // BFINAL, dynamic Huffman codes
+  w.put(uint32_t(hlit - 257), 5);
+  w.put(uint32_t(kDistSymbols - 1), 5);
+  w.put(uint32_t(hclen - 4), 4);
+  for (int k = 0; k < hclen; ++k) w.put(cl_lens[kCodeLengthOrder[k]], 3);
+  for (const HeaderToken& t : tokens) {
+    w.put(cl_codes[t.symbol], cl_lens[t.symbol]);
+    if (kHeaderExtraBits[t.symbol]) w.put(t.extra, kHeaderExtraBits[t.symbol]);
+  }
+  // each token's bits in one put: a literal's code, or a length code with its extra bits and
+  // the distance code (at most 15 + 5 + 1 bits)
+  uint32_t token_code[kTokens] = {};
+  uint8_t token_len[kTokens] = {};
+  for (int b = 0; b < 256; ++b) {
+    token_code[b] = codes[b];
+    token_len[b] = lens[b];
+  }
+  for (int l = 3; l <= 258; ++l) {
+    const int c = lc.symbol[l], sym = 257 + c;
+    const int extra = kLengthExtra[c];
+    uint32_t code = codes[sym] | uint32_t(l - kLengthBase[c]) << lens[sym];
+    code |= uint32_t(codes[kLitLenSymbols]) << (lens[sym] + extra);  // distance 1
+    token_code[256 + l] = code;
+    token_len[256 + l] = uint8_t(lens[sym] + extra + dist_lens[0]);
+  }
+  const uint16_t* tok = token_buffer;
+  for (std::size_t k = 0; k < num_tokens; ++k) w.put(token_code[tok[k]], token_len[tok[k]]);
+  w.put(codes[256], lens[256]);
+  w.close();
+  bit_buffer_ = w.buffer;
+  bit_count_ = w.count;
+}
+
+void Deflater::finish() {
+  BitWriter w(out_, bit_buffer_, bit_count_);
+  w.reserve(0);
+  w.align();
+  w.close();
   uint8_t tail[4];
-  store_be32(tail, adler32(data, n));
-  out.insert(out.end(), tail, tail + 4);
-  (void)start;
+  store_be32(tail, adler_);
+  out_.insert(out_.end(), tail, tail + 4);
+}
+
+void zlib_compress(const uint8_t* data, std::size_t n, std::vector<uint8_t>& out) {
+  Deflater z(out);
+  std::size_t i = 0;
+  do {
+    const std::size_t len = std::min(n - i, kDeflateBlock);
+    z.block(data + i, len, i + len == n);
+    i += len;
+  } while (i < n);
+  z.finish();
 }
 
 std::vector<uint8_t> png(const Image& im) {
@@ -561,15 +627,27 @@ std::vector<uint8_t> png(const Image& im) {
   if (im.bytes_per_sample > 2) throw std::invalid_argument("png: samples must be 8 or 16 bits");
   const std::size_t n = im.row_bytes(), bpp = std::size_t(im.channels) * im.bytes_per_sample;
   const std::size_t stride = n + 1;
-  std::unique_ptr<uint8_t[]> filtered(new uint8_t[stride * std::size_t(im.height)]);  // all written
-  std::vector<uint8_t> scratch(n), rows(im.bytes_per_sample > 1 ? 2 * n : 0);
+  // rows filtered into a block of about kDeflateBlock bytes, deflated, and the next
+  std::vector<uint8_t> z;
+  z.reserve(stride * std::size_t(im.height) / 16 + 1024);
+  Deflater deflater(z);
+  const std::size_t rows_per_block = std::max<std::size_t>(1, kDeflateBlock / stride);
+  uint8_t* const block = thread_scratch<uint8_t, kFilteredSlot>(rows_per_block * stride);
+  uint8_t* const rows = thread_scratch<uint8_t, kRowsSlot>(3 * n);  // 2 swapped rows, Paeth's
   const uint8_t* prev = nullptr;
+  std::size_t used = 0;
   for (int r = 0; r < im.height; ++r) {
-    uint8_t* swapped = rows.empty() ? nullptr : rows.data() + (r & 1) * n;
+    uint8_t* swapped = im.bytes_per_sample > 1 ? rows + (r & 1) * n : nullptr;
     const uint8_t* raw = png_row(im, r, swapped);
-    filter_row(raw, prev, n, bpp, filtered.get() + std::size_t(r) * stride, scratch.data());
+    filter_row(raw, prev, n, bpp, block + used, rows + 2 * n);
     prev = raw;
+    used += stride;
+    if (used == rows_per_block * stride || r + 1 == im.height) {
+      deflater.block(block, used, r + 1 == im.height);
+      used = 0;
+    }
   }
+  deflater.finish();
   std::vector<uint8_t> out = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
   uint8_t ihdr[13];
   store_be32(ihdr, uint32_t(im.width));
@@ -579,10 +657,6 @@ std::vector<uint8_t> png(const Image& im) {
   ihdr[9] = kColourType[im.channels];
   ihdr[10] = ihdr[11] = ihdr[12] = 0;  // deflate, adaptive filters, not interlaced
   put_chunk(out, "IHDR", ihdr, 13);
-  std::vector<uint8_t> z;
-  z.reserve(stride * std::size_t(im.height) / 8 + 1024);
-  zlib_compress(filtered.get(), stride * std::size_t(im.height), z);
-  filtered.reset();
   constexpr std::size_t kMaxChunk = std::size_t(1) << 30;  // PNG chunks hold < 2^31 bytes
   out.reserve(out.size() + z.size() + 12 * (z.size() / kMaxChunk + 2));
   for (std::size_t i = 0; i < z.size() || i == 0; i += kMaxChunk)
@@ -594,11 +668,11 @@ std::vector<uint8_t> png(const Image& im) {
 std::vector<uint8_t> png_ids(const Image& ids) {
   check_image(ids);
   if (ids.channels != 1 || ids.bytes_per_sample != 4) throw std::invalid_argument("png_ids: ids must be int32");
-  std::vector<uint16_t> plus_one(std::size_t(ids.width) * std::size_t(ids.height));
+  uint16_t* const plus_one = thread_scratch<uint16_t, kIdsSlot>(std::size_t(ids.width) * std::size_t(ids.height));
   uint32_t out_of_range = 0;
   for (int r = 0; r < ids.height; ++r) {
     const uint8_t* src = ids.pixels + std::ptrdiff_t(r) * ids.row_stride;
-    uint16_t* dst = plus_one.data() + std::size_t(r) * std::size_t(ids.width);
+    uint16_t* dst = plus_one + std::size_t(r) * std::size_t(ids.width);
     for (int x = 0; x < ids.width; ++x) {
       int32_t v;
       std::memcpy(&v, src + 4 * std::size_t(x), 4);
@@ -609,7 +683,7 @@ std::vector<uint8_t> png_ids(const Image& ids) {
   }
   if (out_of_range) throw std::out_of_range("png_ids: an id is outside -1..65534");
   Image im = ids;
-  im.pixels = reinterpret_cast<const uint8_t*>(plus_one.data());
+  im.pixels = reinterpret_cast<const uint8_t*>(plus_one);
   im.bytes_per_sample = 2;
   im.row_stride = std::ptrdiff_t(2 * std::size_t(ids.width));
   return png(im);
@@ -626,11 +700,19 @@ std::vector<uint8_t> tiff(const Image& im, TiffSample sample, bool compress, Tif
     throw std::invalid_argument("tiff: the horizontal predictor is for integer samples");
   if (sample == TiffSample::Float && bps != 4) throw std::invalid_argument("tiff: float samples are 32-bit");
 
-  // the strip: rows as stored (little-endian samples), after the predictor
-  std::unique_ptr<uint8_t[]> strip(new uint8_t[n * h]);  // all written
+  // the strip: rows as stored (little-endian samples), after the predictor, in blocks of about
+  // kDeflateBlock bytes, each deflated (or copied) before the next
+  std::vector<uint8_t> out(8);
+  if (compress) out.reserve(n * h / 16 + 1024);
+  else out.reserve(8 + n * h + 256);
+  std::optional<Deflater> deflater;
+  if (compress) deflater.emplace(out);
+  const std::size_t rows_per_block = std::max<std::size_t>(1, kDeflateBlock / n);
+  uint8_t* const strip = thread_scratch<uint8_t, kStripSlot>(rows_per_block * n);  // all written
+  std::size_t used = 0;
   for (std::size_t r = 0; r < h; ++r) {
+    uint8_t* dst = strip + used;
     const uint8_t* src = im.pixels + std::ptrdiff_t(r) * im.row_stride;
-    uint8_t* dst = strip.get() + r * n;
     if (predictor == TiffPredictor::Float) {
       // byte planes, most significant first (libtiff's fpDiff), then differences of bytes
       // spp apart along the whole row
@@ -664,16 +746,15 @@ std::vector<uint8_t> tiff(const Image& im, TiffSample sample, bool compress, Tif
       for (std::size_t i = 0; i < n; i += std::size_t(bps)) std::reverse(dst + i, dst + i + bps);
 #endif
     }
+    used += n;
+    if (used == rows_per_block * n || r + 1 == h) {
+      if (compress) deflater->block(strip, used, r + 1 == h);
+      else out.insert(out.end(), strip, strip + used);
+      used = 0;
+    }
   }
-  std::vector<uint8_t> out(8);
-  if (compress) {
-    out.reserve(n * h / 8 + 1024);
-    zlib_compress(strip.get(), n * h, out);
-  } else {
-    out.insert(out.end(), strip.get(), strip.get() + n * h);
-  }
+  if (compress) deflater->finish();
   const std::size_t data_bytes = out.size() - 8;
-  strip.reset();
   if (out.size() % 2) out.push_back(0);  // the IFD starts on a word boundary
 
   // the IFD, its entries in tag order; arrays of more than two shorts go after it

@@ -26,8 +26,25 @@ struct Image {
   std::size_t row_bytes() const { return std::size_t(width) * channels * bytes_per_sample; }
 };
 
-// The zlib stream (RFC 1950) of data[0, n): one dynamic Huffman block of literals and runs, or
-// stored blocks when that would be smaller.
+// A zlib stream (RFC 1950) appended to `out`, given in pieces: each piece is a deflate block of
+// literals and runs (matches at distance 1, a run continuing across pieces) with Huffman codes
+// fitted to it, or stored blocks when that is smaller. Pieces of about kDeflateBlock bytes keep
+// a block's data and tokens in the core's cache; each costs a code table (~50-100 bytes).
+class Deflater {
+ public:
+  explicit Deflater(std::vector<uint8_t>& out);
+  void block(const uint8_t* data, std::size_t n, bool last);  // `last`: the final block
+  void finish();  // after the last block: the checksum
+ private:
+  std::vector<uint8_t>& out_;
+  uint64_t bit_buffer_ = 0;  // bits not yet written to out_
+  int bit_count_ = 0;
+  uint32_t adler_ = 1;
+  int prev_ = -1;  // the last byte given, -1 before any
+};
+constexpr std::size_t kDeflateBlock = 2 * 65535;  // (stored blocks hold 65535 bytes at most)
+
+// The zlib stream of data[0, n), in blocks of kDeflateBlock bytes.
 void zlib_compress(const uint8_t* data, std::size_t n, std::vector<uint8_t>& out);
 
 // A PNG file of an 8- or 16-bit image (1: grey, 2: grey + alpha, 3: RGB, 4: RGBA); 16-bit
