@@ -14,6 +14,13 @@
 #endif
 
 #define SR_ENC_INLINE inline __attribute__((always_inline))
+// The PNG filters in 32-byte lanes where the machine has AVX2, chosen once at load time
+// (integer code: the same bytes either way). Not under the sanitizers (ifuncs and ASan).
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__)
+#define SR_ENC_TARGET_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define SR_ENC_TARGET_CLONES
+#endif
 
 namespace sr {
 namespace encode {
@@ -377,8 +384,8 @@ SR_ENC_INLINE uint32_t magnitude(uint8_t v) {
 // filter type) and out[1, 1 + n): the first row by Sub (1), the others by Up (2) or Paeth (4),
 // whichever has the smaller sum of absolute residuals (ties to Up). Sub rarely wins on rendered
 // images (flat backgrounds repeat down the image) and is not tried. `scratch` holds n bytes.
-void filter_row(const uint8_t* raw, const uint8_t* prev, std::size_t n, std::size_t bpp,
-                uint8_t* out, uint8_t* scratch) {
+SR_ENC_TARGET_CLONES void filter_row(const uint8_t* raw, const uint8_t* prev, std::size_t n,
+                                     std::size_t bpp, uint8_t* out, uint8_t* scratch) {
   uint8_t* row = out + 1;
   const std::size_t head = std::min(bpp, n);
   if (!prev) {
