@@ -19,7 +19,7 @@ camera.look_at(eye=(1.7, 0.9, -2.3), target=(0.0, 0.05, 0.15), up=(0, 1, 0))
 
 frame = sr.Renderer(640, 480).render(scene, camera, outputs=("color", "depth", "mask"))
 sr.imwrite(out / "02_spot.png", frame.color)        # (480, 640, 3) uint8
-sr.imwrite(out / "02_spot_depth.exr", frame.depth)  # (480, 640) float32, 0 = background
+sr.imwrite(out / "02_spot_depth.tif", frame.depth)  # (480, 640) float32, 0 = background
 sr.imwrite(out / "02_spot_mask.png", frame.mask)    # bool -> 0 / 255
 hit = frame.depth[frame.mask]
 print(f"covered {frame.mask.mean():.1%} of the image, depth {hit.min():.3f}..{hit.max():.3f}")

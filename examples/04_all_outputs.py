@@ -23,7 +23,7 @@ camera.look_at(eye=(2.0, 2.0, 5.0), target=(0.5, 0.0, -0.3))
 frame = sr.Renderer(400, 300).render(scene, camera, outputs=sr.OUTPUTS)
 
 sr.imwrite(out / "04_color.png", frame.color)
-sr.imwrite(out / "04_depth.exr", frame.depth)
+sr.imwrite(out / "04_depth.tif", frame.depth)
 sr.imwrite(out / "04_normal.png", ((frame.normal * 0.5 + 0.5) * 255).astype(np.uint8))
 sr.imwrite(out / "04_instance_id.png", (frame.instance_id * 100 + 50).clip(0, 255).astype(np.uint8))
 for name in frame.outputs:

@@ -26,7 +26,7 @@ for pose in sr.orbit(target=(0.0, 0.1, 0.2), radius=3.0, n=8, elevation=20.0):
 
 outputs = ("color", "depth", "instance_id", "position", "uv")
 for i, frame in enumerate(renderer.render_many(scene, cameras, outputs=outputs)):
-    # view_000_color.png, view_000_depth.exr, view_000_instance_id.png (id + 1), ..._uv.exr;
+    # view_000_color.png, view_000_depth.tif, view_000_instance_id.png (id + 1), ..._uv.tif;
     # sr.Frame.load(out, "view_000") reads them back exactly.
     frame.save(out, f"view_{i:03d}", formats={"position": "npy"})
 # K in OpenCV's convention (pixel (row i, col j) centred at (u, v) = (j, i)) and the poses

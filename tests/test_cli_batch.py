@@ -149,8 +149,8 @@ def test_batch_summary_wording():
 
 
 def test_resume_after_an_interruption_gives_the_clean_result(tmp_path):
-    """Interrupted (SIGINT) mid-run, then rerun: the same files, byte for byte, as one clean run,
-    and no temporary left behind."""
+    """Interrupted (SIGINT) mid-run, resumed and killed (SIGKILL), then rerun: the same files,
+    byte for byte, as one clean run, and no temporary left behind."""
     args = [sys.executable, "-m", "softrast", "batch", str(SPOT), "--views", "400", "--size", "96x72",
             "--workers", "1"]
     clean = subprocess.run(args + ["--out", str(tmp_path / "clean")], capture_output=True, text=True,
@@ -167,10 +167,21 @@ def test_resume_after_an_interruption_gives_the_clean_result(tmp_path):
     assert proc.returncode == 130 and "interrupted" in err, (proc.returncode, err[-500:])
     assert not (d / "cameras.json").exists()
     assert not [n for n in os.listdir(d) if n.startswith(".")]  # no temporaries
-    assert 30 < len(os.listdir(d)) < 3 * 400
+    done = len(os.listdir(d))
+    assert 30 < done < 3 * 400
+    # resumed, then killed outright (SIGKILL: no handler runs; a write may be cut mid-file)
+    proc = subprocess.Popen(args + ["--out", str(tmp_path / "cut")], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    deadline = time.time() + 120
+    while time.time() < deadline and len(os.listdir(d)) < done + 30:
+        time.sleep(0.01)
+    proc.kill()
+    proc.wait(timeout=60)
+    assert not (d / "cameras.json").exists()
     rerun = subprocess.run(args + ["--out", str(tmp_path / "cut")], capture_output=True, text=True,
                            timeout=300)
     assert rerun.returncode == 0, rerun.stderr
+    assert not [n for n in os.listdir(d) if n.startswith(".")]  # the killed run's temporaries went
     assert _files(d) == _files(tmp_path / "clean" / "spot")
 
 
