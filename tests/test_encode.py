@@ -24,9 +24,7 @@ import hashlib
 import heapq
 import io as pyio
 import struct
-import sys
 import threading
-import time
 import zlib
 
 import cv2
@@ -42,6 +40,7 @@ from PIL import Image
 import softrast as sr
 from softrast import _core
 from softrast.io import encode_png, encode_tiff
+from gil_probe import calls_that_let_python_run
 
 # --- helpers --------------------------------------------------------------------------------
 
@@ -858,40 +857,10 @@ def test_concurrent_encodes_give_the_same_bytes():
 
 @pytest.mark.parametrize("encode", ["encode_png", "encode_tiff"])
 def test_gil_is_released_while_encoding(encode):
-    # As tests/test_threads.py test_gil_is_released_while_rendering: with a switch interval far
-    # longer than the call, the interpreter never takes the GIL from this thread during it, so
-    # the counting thread's count can move only if the encoder released the GIL. Repeated: on a
-    # loaded machine the counter may not be scheduled during a given call. Observed by the
-    # count, not by a clock.
+    # Observed by a counting thread (tests/gil_probe.py), not by a clock.
     y, x = np.mgrid[0:2048, 0:2048]
     img = np.stack([x % 256, y % 256, (x * y) % 256], axis=-1).astype(np.uint8)
     call = (lambda: _core.encode_png(img)) if encode == "encode_png" else \
         (lambda: _core.encode_tiff(img, 1, True, 2))
-    count = 0
-    counting, stop = threading.Event(), threading.Event()
-
-    def counter() -> None:
-        nonlocal count
-        while not stop.is_set():
-            count += 1
-            counting.set()
-            time.sleep(0)  # gives the GIL back at once, so the call's end does not wait for it
-
-    interval = sys.getswitchinterval()
-    thread = threading.Thread(target=counter)
-    thread.start()
-    try:
-        counting.wait()
-        sys.setswitchinterval(30.0)
-        progressed = 0
-        for _ in range(50):
-            before = count
-            call()
-            progressed += count > before
-            if progressed >= 3:
-                break
-    finally:
-        sys.setswitchinterval(interval)
-        stop.set()
-        thread.join()
+    progressed = calls_that_let_python_run(call)
     assert progressed >= 3, progressed

@@ -1,7 +1,6 @@
 """Python threads: the GIL is released while rendering, concurrent renders give the same bytes."""
 from __future__ import annotations
 
-import sys
 import threading
 import time
 import weakref
@@ -11,6 +10,7 @@ import pytest
 import trimesh
 
 import softrast as sr
+from gil_probe import calls_that_let_python_run
 from softrast import _core
 from conftest import core_options
 
@@ -85,33 +85,7 @@ def test_gil_is_released_while_rendering():
              for inst in scene]
     spec = core_options(cam.view_matrix(), cam.projection_matrix(512, 512), False, cam.near,
                         cam.far, ["color", "depth", "normal"])  # no lights: the headlight
-    count = 0
-    counting, stop = threading.Event(), threading.Event()
-
-    def counter() -> None:
-        nonlocal count
-        while not stop.is_set():
-            count += 1
-            counting.set()
-            time.sleep(0)  # gives the GIL back at once, so the render's end does not wait for it
-
-    interval = sys.getswitchinterval()
-    thread = threading.Thread(target=counter)
-    thread.start()
-    try:
-        counting.wait()
-        sys.setswitchinterval(30.0)
-        progressed = 0
-        for _ in range(50):
-            before = count
-            renderer._core.render(draws, spec)
-            progressed += count > before
-            if progressed >= 3:
-                break
-    finally:
-        sys.setswitchinterval(interval)
-        stop.set()
-        thread.join()
+    progressed = calls_that_let_python_run(lambda: renderer._core.render(draws, spec))
     assert progressed >= 3, progressed
 
 

@@ -52,12 +52,12 @@ import json
 import os
 import struct
 import time
-import uuid
 from typing import Any, Iterable, NamedTuple, Sequence
 
 import numpy as np
 
 from . import _core
+from .io import _write_bytes
 
 GROUP = "views.zarr"
 _GROUP_ATTRS = {"softrast": "dataset views: <output>[k] is the view of cameras.json's frames[k]"}
@@ -140,19 +140,9 @@ def _read_json(path: str) -> Any:
 
 
 def _atomic_write(path: str, data: bytes) -> None:
-    """``data`` to ``path`` through a hidden temporary in the same folder, then renamed."""
-    folder, base = os.path.split(path)
-    tmp = os.path.join(folder, f".{base}.{os.getpid()}-{uuid.uuid4().hex[:12]}.tmp")
-    try:
-        with open(tmp, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.remove(tmp)
-        except FileNotFoundError:
-            pass
-        raise
+    """``data`` to ``path`` through a hidden temporary in the same folder
+    (``.{name}.{pid}-{id}.tmp``), then renamed."""
+    _write_bytes(path, data, suffix="")
 
 
 def _describe(zarray: dict) -> str:
@@ -284,7 +274,8 @@ def write_views(scene: Any, cams: Sequence[Any], directory: str, outputs: Sequen
                 renderer: Any, n_writers: int, progress: bool, resume: bool, first: int,
                 cameras_json: bool, formats: dict[str, str], options: dict[str, Any]) -> Any:
     """``write_dataset`` for store="zarr" (its arguments checked there)."""
-    from .dataset import WrittenViews, _remove_stale_temporaries, _write_cameras_json
+    from .dataset import (WrittenViews, _progress_bar, _remove_stale_temporaries, _write_cameras_json,
+                          _write_frames)
     from .render import _check_output_names
 
     _blosc()
@@ -323,25 +314,10 @@ def write_views(scene: Any, cams: Sequence[Any], directory: str, outputs: Sequen
                     todo.append(k)
             skipped = len(done)
             start = time.perf_counter()
-            if progress:
-                from tqdm.auto import tqdm
-                bar = tqdm(total=len(cams), initial=skipped, unit="view", desc="write_dataset",
-                           postfix=f"skipped {skipped}" if skipped else None)
-            pending: list[tuple[int, concurrent.futures.Future]] = []
-
-            def drain(limit: int) -> None:
-                while len(pending) > limit:
-                    k, fut = pending.pop(0)
-                    done[k] = fut.result()
-                    if bar is not None:
-                        bar.update(1)
-
+            bar = _progress_bar(len(cams), skipped) if progress else None
             frames = renderer.render_many(scene, [cams[k - first] for k in todo], outputs=names,
                                           **options)
-            for k, frame in zip(todo, frames):
-                pending.append((k, pool.submit(write, frame, k)))
-                drain(2 * n_writers)
-            drain(0)
+            _write_frames(pool, frames, todo, write, done, bar, n_writers)
     finally:
         if bar is not None:
             bar.close()

@@ -292,26 +292,11 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
                     todo.append(k)
             skipped = len(done)
             start = time.perf_counter()
-            if progress:
-                from tqdm.auto import tqdm
-                # tqdm's rate counts from `initial`: only rendered views make it
-                bar = tqdm(total=len(cams), initial=len(done), unit="view", desc="write_dataset",
-                           postfix=f"skipped {len(done)}" if done else None)
-            pending: list[tuple[int, concurrent.futures.Future]] = []
-
-            def drain(limit: int) -> None:
-                while len(pending) > limit:
-                    k, fut = pending.pop(0)
-                    done[k] = fut.result()
-                    if bar is not None:
-                        bar.update(1)
-
+            bar = _progress_bar(len(cams), skipped) if progress else None
             views: Iterable[Frame] = r.render_many(scene, [cams[k] for k in todo], outputs=names,
                                                    **options)
-            for k, frame in zip(todo, views):
-                pending.append((k, pool.submit(frame.save, directory, stems[k], formats)))
-                drain(2 * n_writers)
-            drain(0)
+            _write_frames(pool, views, todo, lambda frame, k: frame.save(directory, stems[k], formats),
+                          done, bar, n_writers)
     finally:
         if bar is not None:
             bar.close()
@@ -321,6 +306,34 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
     if cameras_json:
         _write_cameras_json(directory, cams, stems, paths)
     return paths
+
+
+def _progress_bar(total: int, skipped: int) -> Any:
+    """write_dataset's tqdm bar, starting at the views resume skipped (named in it): tqdm's rate
+    counts from `initial`, so only the views rendered make it."""
+    from tqdm.auto import tqdm
+    return tqdm(total=total, initial=skipped, unit="view", desc="write_dataset",
+                postfix=f"skipped {skipped}" if skipped else None)
+
+
+def _write_frames(pool: concurrent.futures.Executor, frames: Iterable[Any], todo: Sequence[int],
+                  write: Any, done: dict[int, Any], bar: Any, n_writers: int) -> None:
+    """Hands each frame of ``frames`` (those of views ``todo``, in order) to the writers as
+    ``write(frame, k)`` while the next views render, at most 2 frames a writer waiting (so memory
+    stays bounded), and keeps each view's result in ``done[k]``, in order, ticking ``bar``."""
+    pending: list[tuple[int, concurrent.futures.Future]] = []
+
+    def drain(limit: int) -> None:
+        while len(pending) > limit:
+            k, fut = pending.pop(0)
+            done[k] = fut.result()
+            if bar is not None:
+                bar.update(1)
+
+    for k, frame in zip(todo, frames):
+        pending.append((k, pool.submit(write, frame, k)))
+        drain(2 * n_writers)
+    drain(0)
 
 
 def _in_output_order(files: dict[str, str]) -> dict[str, str]:

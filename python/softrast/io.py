@@ -9,10 +9,11 @@ Arrays are (h, w) or (h, w, c), row 0 at the top of the image (the layout of eve
 """
 from __future__ import annotations
 
+import contextlib
 import errno
 import os
 import uuid
-from typing import Any
+from typing import Any, Iterator
 
 import numpy as np
 import numpy.typing as npt
@@ -147,9 +148,7 @@ def imwrite(path: str | os.PathLike[str], array: npt.ArrayLike, compression: str
         raise ValueError(f"a {ext} file cannot store {c} channels (allowed: {sorted(channels)}); "
                          "use .png, .tif or .exr")
     if compression is None and ext in _OWN_ENCODER:
-        if not os.path.isdir(directory):
-            raise FileNotFoundError(errno.ENOENT, "directory does not exist", directory)
-        _write_atomic(path_str, directory, name, ext, _OWN_ENCODER[ext](arr))
+        _write_bytes(path_str, _OWN_ENCODER[ext](arr))
         return
     out = oiio.ImageOutput.create(path_str)
     if out is None:
@@ -159,10 +158,7 @@ def imwrite(path: str | os.PathLike[str], array: npt.ArrayLike, compression: str
         raise FileNotFoundError(errno.ENOENT, "directory does not exist", directory)
 
     arr = np.ascontiguousarray(arr)
-    # Same directory => os.replace is an atomic rename on the same filesystem.
-    # A fresh name rather than mkstemp: the file then gets the usual permissions, not 0600.
-    tmp_path = os.path.join(directory, f".{name}.{os.getpid()}-{uuid.uuid4().hex[:12]}.tmp{ext}")
-    try:
+    with _replacing(path_str, ext) as tmp_path:
         spec = oiio.ImageSpec(w, h, c, _OIIO_TYPE[arr.dtype])
         # Store pixels as given: without this, PNG writers divide colour by alpha (unpremultiply).
         spec.attribute("oiio:UnassociatedAlpha", 1)
@@ -176,7 +172,19 @@ def imwrite(path: str | os.PathLike[str], array: npt.ArrayLike, compression: str
         closed = out.close()
         if not ok or not closed:
             raise OSError(f"could not write {path_str!r}: {err or out.geterror()}")
-        os.replace(tmp_path, path_str)
+
+
+@contextlib.contextmanager
+def _replacing(path: str, suffix: str) -> Iterator[str]:
+    """A temporary name beside ``path`` (``.{name}.{pid}-{id}.tmp{suffix}``) to write to; renamed
+    onto ``path`` when the block ends, removed if it raises, so an interrupted write never leaves
+    a partial file. The same directory: os.replace is then an atomic rename. A fresh name rather
+    than mkstemp: the file gets the usual permissions, not 0600."""
+    directory, name = os.path.split(os.path.abspath(path))
+    tmp_path = os.path.join(directory, f".{name}.{os.getpid()}-{uuid.uuid4().hex[:12]}.tmp{suffix}")
+    try:
+        yield tmp_path
+        os.replace(tmp_path, path)
     except BaseException:
         try:
             os.remove(tmp_path)
@@ -221,19 +229,16 @@ def _rows_contiguous(array: np.ndarray) -> np.ndarray:
 _OWN_ENCODER = {".png": encode_png, ".tif": encode_tiff, ".tiff": encode_tiff}
 
 
-def _write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
-    """An encoded file's bytes to ``path``, atomically (as imwrite writes)."""
-    directory, name = os.path.split(os.path.abspath(os.fspath(path)))
+def _write_bytes(path: str | os.PathLike[str], data: bytes, suffix: str | None = None) -> None:
+    """An encoded file's bytes to ``path``, atomically (as imwrite writes); its temporary ends
+    with ``suffix`` (default: the file's extension)."""
+    path = os.fspath(path)
+    directory = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(directory):
         raise FileNotFoundError(errno.ENOENT, "directory does not exist", directory)
-    _write_atomic(os.fspath(path), directory, name, os.path.splitext(name)[1].lower(), data)
-
-
-def _write_atomic(path_str: str, directory: str, name: str, ext: str, data: bytes) -> None:
-    """``data`` to ``path_str`` under a temporary name in its directory, then renamed into place.
-    (os.open and os.write: no buffered file object, whose set-up costs syscalls per file.)"""
-    tmp_path = os.path.join(directory, f".{name}.{os.getpid()}-{uuid.uuid4().hex[:12]}.tmp{ext}")
-    try:
+    ext = os.path.splitext(path)[1].lower() if suffix is None else suffix
+    with _replacing(path, ext) as tmp_path:
+        # os.open and os.write: no buffered file object, whose set-up costs syscalls per file
         fd = os.open(tmp_path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
         try:
             view = memoryview(data)
@@ -241,13 +246,6 @@ def _write_atomic(path_str: str, directory: str, name: str, ext: str, data: byte
                 view = view[os.write(fd, view):]
         finally:
             os.close(fd)
-        os.replace(tmp_path, path_str)
-    except BaseException:
-        try:
-            os.remove(tmp_path)
-        except FileNotFoundError:
-            pass
-        raise
 
 
 def _check_png_size(path_str: str) -> None:
