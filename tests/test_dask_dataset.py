@@ -12,6 +12,7 @@ import pickle
 import distributed
 import pytest
 import trimesh
+import zarr
 
 import softrast as sr
 
@@ -50,7 +51,6 @@ def test_process_pool_equals_local_run(tmp_path):
 
 
 def test_dask_local_cluster_equals_local_run(tmp_path):
-    zarr = pytest.importorskip("zarr")
     sr.render_dataset(_job(tmp_path / "local"))
     sr.render_dataset(_job(tmp_path / "local_zarr", store="zarr"))
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,

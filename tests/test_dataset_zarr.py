@@ -16,12 +16,12 @@ import time
 
 import numpy as np
 import pytest
+import zarr
 
 import softrast as sr
 import softrast._zarr_store as zs
 from softrast.cli import main
 
-zarr = pytest.importorskip("zarr")
 
 SPOT = pathlib.Path(__file__).resolve().parents[1] / "assets" / "meshes" / "spot.obj"
 W, H = 64, 48
@@ -146,7 +146,14 @@ def test_resume_skips_complete_views_and_renders_damaged_ones(written, tmp_path)
     sr.write_dataset(scene, cams, d, outputs=OUTPUTS, store="zarr")
     assert _tree(d) == want  # reproducible: another run, the same bytes
     arrays = d / "views.zarr"
-    before = {p: p.stat().st_mtime_ns for p in arrays.rglob("*") if p.is_file()}
+    # each file hard-linked aside: a rewritten file (a new inode, renamed in) is no longer the same
+    # file as its link, an untouched one is (and the link keeps the old inode from being reused)
+    links = d.parent / "links"
+    links.mkdir()
+    before = {}
+    for k, p in enumerate(q for q in arrays.rglob("*") if q.is_file()):
+        os.link(p, links / str(k))
+        before[p] = links / str(k)
     (arrays / "depth" / "1.0.0").unlink()                                   # missing
     data = (arrays / "color" / "3.0.0.0").read_bytes()
     (arrays / "color" / "3.0.0.0").write_bytes(data[: len(data) // 2])      # truncated
@@ -167,9 +174,9 @@ def test_resume_skips_complete_views_and_renders_damaged_ones(written, tmp_path)
     assert not any(p.exists() for p in stale) and other.exists()
     other.unlink()
     assert _tree(d) == want
-    for p, mtime in before.items():
+    for p, link in before.items():
         if p.exists() and not p.name.startswith(("1.", "3.", "4.", "5.")):
-            assert p.stat().st_mtime_ns == mtime, p  # complete views and the metadata: untouched
+            assert os.path.samefile(p, link), p  # complete views and the metadata: untouched
     none = sr.write_dataset(scene, cams, d, outputs=OUTPUTS, store="zarr")
     assert (none.rendered, none.skipped) == (0, len(cams))
     assert sr.write_dataset(scene, cams, d, outputs=OUTPUTS, store="zarr", resume=False).rendered == len(cams)
