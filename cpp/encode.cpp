@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cstdlib>
 #include <cstring>
-#include <memory>
 #include <optional>
 #include <stdexcept>
 
@@ -78,7 +77,7 @@ T* thread_scratch(std::size_t n) {
   }
   return buffer.data();
 }
-enum ScratchSlot { kTokenSlot, kFilteredSlot, kStripSlot, kIdsSlot, kRowsSlot, kDeflatedSlot };
+enum ScratchSlot { kTokenSlot, kFilteredSlot, kStripSlot, kIdsSlot, kRowsSlot };
 
 // --- deflate ------------------------------------------------------------------------------------
 
