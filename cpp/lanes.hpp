@@ -76,6 +76,7 @@ SR_INLINE d4 select(l4 mask, d4 a, d4 b) { return d4((l4(a) & mask) | (l4(b) & ~
 SR_INLINE i8 min(i8 a, i8 b) { return a < b ? a : b; }
 SR_INLINE i8 max(i8 a, i8 b) { return a < b ? b : a; }
 SR_INLINE d4 max(d4 a, d4 b) { return select(l4(a < b), b, a); }  // as std::max
+SR_INLINE d4 min(d4 a, d4 b) { return select(l4(b < a), b, a); }  // as std::min
 SR_INLINE d4 abs(d4 v) { return d4(l4(v) & ~broadcast<l4>(int64_t(0x8000000000000000ull))); }
 // Half h (lanes 4h .. 4h + 3) of eight lanes, widened to double (exactly).
 SR_INLINE d4 wide(i8 v, int h) {

@@ -274,6 +274,7 @@ void multisample_tile(const ShadeParams& params, const TileKernels& kernels,
   // The write pass reads the resolved buffer's entries as indices into the (shared) list of the
   // tile's triangles, which every pass built alike: take sample 0's.
   std::swap(ms.resolved.triangles, ms.sample[0]->triangles);
+  ms.resolved.flags = ms.sample[0]->flags;
   const ResolvedSamples samples{ms.representative, &pattern, ms.alpha,
                                 {ms.radiance[0], ms.radiance[1], ms.radiance[2]},
                                 ms.coverage};

@@ -3,10 +3,12 @@
 
 #include "lines.hpp"
 #include "multisample.hpp"
+#include "surface.hpp"
 
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
+#include <vector>
 
 #if SR_X86
 #include <immintrin.h>
@@ -251,25 +253,59 @@ constexpr auto write_rgb_avx2 = write_rgb_generic;
 constexpr auto write_rgb_stream = write_rgb_generic;
 #endif
 
+// The exact surface step's planes of a tile's triangles, computed when a pixel first needs one
+// (index = the triangle's entry in the tile's visibility buffer). Per thread, reused.
+class ExactPlanes {
+ public:
+  void reset(std::size_t n) {
+    ready_.assign(n, 0);
+    if (planes_.size() < n) planes_.resize(n);
+  }
+  const ExactTriangle& get(const ShadeParams& p, const TileScratch& raster, uint32_t v) {
+    if (!ready_[v]) {
+      const TriangleSetup& t = *raster.triangles[v].tri;
+      const ShadeDraw& d = p.draws[t.draw];
+      const ivec3 face = d.mesh->faces[t.prim];
+      const vec3* pos = d.mesh->positions.data();
+      planes_[v] = exact_triangle(d.model_view, pos[face[0]], pos[face[1]], pos[face[2]]);
+      ready_[v] = 1;
+    }
+    return planes_[v];
+  }
+
+ private:
+  std::vector<uint8_t> ready_;
+  std::vector<ExactTriangle> planes_;
+};
+// (Not inlined: the caller keeps the address, instead of asking the TLS for it at each use.)
+[[gnu::noinline]] ExactPlanes* thread_planes() {
+  thread_local ExactPlanes planes;
+  return &planes;
+}
+
+// Window coordinates of pixel x's sample: its representative's under anti-aliasing.
+inline void sample_point(const ShadeParams& p, int px, int y, const int32_t* representative,
+                         const SamplePattern* pattern, int x, double& wx, double& wy) {
+  const int32_t sx = pattern ? pattern->x[representative[x]] : p.sample_x;
+  const int32_t sy = pattern ? pattern->y[representative[x]] : p.sample_y;
+  wx = double(px) + double(sx) * (1.0 / kSubpixelOne);
+  wy = double(y) + double(sy) * (1.0 / kSubpixelOne);
+}
+
 // The visible surface point of each pixel of a row (`n` pixels from column x0 of row y, `visible`
-// their entries in the tile's visibility buffer): the perspective-correct barycentric weights of
-// the visible triangle's mesh face, from the exact edge values at the pixel's sample, in double,
-// and what they interpolate, into each requested surface output (null = not requested).
-// Scalar: surface outputs are for datasets, and a triangle's records are fetched once per run
-// of pixels it owns.
+// their entries in the tile's visibility buffer), into each requested surface output (null = not
+// requested): the exact step (surface.hpp), the pixel's ray in double on its visible face's
+// unsnapped corners. Where the ray misses the face's plane (a face seen edge-on, whose snapped
+// triangle still covers the pixel) the perspective-correct weights of the snapped triangle at the
+// pixel's sample stand in. Scalar: surface outputs are for datasets.
 // With anti-aliasing (`representative` and `pattern` not null), each pixel at its representative
 // sample. A line or point pixel (kPrimitivePixel) has no barycentric weights or uv (0), and its
 // world position from `primitives` (row `row` of the tile).
-void write_surface_row(const ShadeParams& p, const TileScratch& raster, const uint32_t* visible,
-                       int x0, int y, int n, float* bary_out, float* uv_out, float* position_out,
-                       float* ray_depth_out, const int32_t* representative,
-                       const SamplePattern* pattern, const PrimitivePixels* primitives, int row) {
-  uint32_t current = kNoTriangle;
-  const TriangleSetup* t = nullptr;
-  const TriangleShading* a = nullptr;
-  const vec3* clip_weights = nullptr;
-  const ShadeDraw* d = nullptr;
-  ivec3 face(0);
+void write_surface_row(const ShadeParams& p, const TileScratch& raster, ExactPlanes& planes,
+                       const uint32_t* visible, int x0, int y, int n, float* bary_out,
+                       float* uv_out, float* position_out, float* ray_depth_out,
+                       const int32_t* representative, const SamplePattern* pattern,
+                       const PrimitivePixels* primitives, int row) {
   for (int x = 0; x < n; ++x) {
     const uint32_t v = visible[x];
     if (v == kNoTriangle) {
@@ -290,43 +326,90 @@ void write_surface_row(const ShadeParams& p, const TileScratch& raster, const ui
                                           : float(glm::length(world - p.camera_centre));
       continue;
     }
-    if (v != current) {
-      current = v;
-      const VisibleTriangle& vt = raster.triangles[v];
-      t = vt.tri;
-      a = &vt.chunk->shading[std::size_t(t - vt.chunk->records.data())];
-      clip_weights = a->clip_ref == kNoClip ? nullptr
-                                            : &vt.chunk->clip_bary[3 * std::size_t(a->clip_ref)];
-      d = &p.draws[t->draw];
-      face = d->mesh->faces[t->prim];
-    }
-    const int32_t sx = pattern ? pattern->x[representative[x]] : p.sample_x;
-    const int32_t sy = pattern ? pattern->y[representative[x]] : p.sample_y;
-    const EdgeEquations eq = edge_equations_at(*t, x0 + x, y, sx, sy);
-    double b[3], sum = 0.0;
-    for (int k = 0; k < 3; ++k) sum += b[k] = double(eq.origin[k]) * double(a->persp[k]);
-    dvec3 w(0.0);  // weights of the face's corners
-    for (int k = 0; k < 3; ++k) {
-      const double bk = b[k] / sum;
-      if (clip_weights) w += bk * dvec3(clip_weights[k]);
-      else w[k == 0 ? 0 : a->swapped ? 3 - k : k] += bk;
+    const VisibleTriangle& vt = raster.triangles[v];
+    const TriangleSetup& t = *vt.tri;
+    const ShadeDraw& d = p.draws[t.draw];
+    const ivec3 face = d.mesh->faces[t.prim];
+    double wx, wy;
+    sample_point(p, x0 + x, y, representative, pattern, x, wx, wy);
+    ExactHit hit;
+    dvec3 w;       // weights of the face's corners
+    dvec3 world;   // the point
+    double ray_depth;
+    if (exact_hit(p.rays, planes.get(p, raster, v), wx, wy, hit)) {
+      w = dvec3(hit.bary[0], hit.bary[1], hit.bary[2]);
+      if (position_out) world = dvec3(p.view_to_world * dvec4(hit.view, 1.0));
+      // (Orthographic: the depth output's value, bit for bit: the key's unless the triangle
+      // takes the exact step for its depth.)
+      ray_depth = !p.orthographic          ? glm::length(hit.view)
+                  : t.flags & kExactDepth ? -hit.view.z
+                                          : double(depth_from_key(raster.key[&visible[x] - raster.visible], true));
+    } else {  // the snapped triangle's perspective-correct weights at the sample
+      const TriangleShading& a = vt.chunk->shading[std::size_t(&t - vt.chunk->records.data())];
+      const vec3* clip_weights = a.clip_ref == kNoClip ? nullptr
+                                                      : &vt.chunk->clip_bary[3 * std::size_t(a.clip_ref)];
+      const int32_t sx = pattern ? pattern->x[representative[x]] : p.sample_x;
+      const int32_t sy = pattern ? pattern->y[representative[x]] : p.sample_y;
+      const EdgeEquations eq = edge_equations_at(t, x0 + x, y, sx, sy);
+      double b[3], sum = 0.0;
+      for (int k = 0; k < 3; ++k) sum += b[k] = double(eq.origin[k]) * double(a.persp[k]);
+      w = dvec3(0.0);
+      for (int k = 0; k < 3; ++k) {
+        const double bk = b[k] / sum;
+        if (clip_weights) w += bk * dvec3(clip_weights[k]);
+        else w[k == 0 ? 0 : a.swapped ? 3 - k : k] += bk;
+      }
+      dvec3 local(0.0);
+      for (int c = 0; c < 3; ++c) local += w[c] * dvec3(d.mesh->positions[face[c]]);
+      world = dvec3(d.model_to_world * dvec4(local, 1.0));
+      ray_depth = p.orthographic ? double(depth_from_key(raster.key[&visible[x] - raster.visible], true))
+                                 : glm::length(world - p.camera_centre);
     }
     if (bary_out) for (int c = 0; c < 3; ++c) bary_out[3 * x + c] = float(w[c]);
     if (uv_out) {
       glm::dvec2 uv(0.0);
-      if (!d->mesh->uvs.empty())
-        for (int c = 0; c < 3; ++c) uv += w[c] * glm::dvec2(d->mesh->uvs[face[c]]);
+      if (!d.mesh->uvs.empty())
+        for (int c = 0; c < 3; ++c) uv += w[c] * glm::dvec2(d.mesh->uvs[face[c]]);
       uv_out[2 * x] = float(uv.x);
       uv_out[2 * x + 1] = float(uv.y);
     }
-    if (position_out || ray_depth_out) {
-      dvec3 local(0.0);
-      for (int c = 0; c < 3; ++c) local += w[c] * dvec3(d->mesh->positions[face[c]]);
-      const dvec3 world = dvec3(d->model_to_world * dvec4(local, 1.0));
-      if (position_out) for (int c = 0; c < 3; ++c) position_out[3 * x + c] = float(world[c]);
-      if (ray_depth_out)
-        ray_depth_out[x] = p.orthographic ? depth_from_key(raster.key[&visible[x] - raster.visible], true)
-                                          : float(glm::length(world - p.camera_centre));
+    if (position_out) for (int c = 0; c < 3; ++c) position_out[3 * x + c] = float(world[c]);
+    if (ray_depth_out) ray_depth_out[x] = float(ray_depth);
+  }
+}
+
+// The depth of the pixels whose triangle asks for the exact step (kExactDepth: the raster's
+// float32 key may be off there by more than a few units in the last place), from the pixel's ray
+// on the face's unsnapped plane; the others keep the key's depth. Triangle by triangle over its
+// box in the tile, so a tile's other pixels cost nothing. `depth` is the tile's first pixel in
+// the output (row stride `stride`).
+void exact_depth_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
+                      ExactPlanes& planes, const ResolvedSamples* samples, float* depth,
+                      std::size_t stride) {
+  const int32_t* representative = samples ? samples->representative : nullptr;
+  const SamplePattern* pattern = samples ? samples->pattern : nullptr;
+  const uint32_t count = uint32_t(raster.triangles.size());
+  for (uint32_t v = 0; v < count; ++v) {
+    const TriangleSetup& t = *raster.triangles[v].tri;
+    if (!(t.flags & kExactDepth)) continue;
+    const int x0 = std::max(int(t.x0), rect.x0), x1 = std::min(int(t.x1), rect.x1 - 1);
+    const int y0 = std::max(int(t.y0), rect.y0), y1 = std::min(int(t.y1), rect.y1 - 1);
+    bool any = false;
+    for (int y = y0; y <= y1 && !any; ++y) {
+      const uint32_t* visible = raster.visible + (y - rect.y0) * kTileSizePx - rect.x0;
+      for (int x = x0; x <= x1; ++x) any |= visible[x] == v;
+    }
+    if (!any) continue;
+    const ExactTriangle& plane = planes.get(p, raster, v);
+    for (int y = y0; y <= y1; ++y) {
+      const int row = (y - rect.y0) * kTileSizePx - rect.x0;
+      for (int x = x0; x <= x1; ++x) {
+        if (raster.visible[row + x] != v) continue;
+        double wx, wy, d;
+        sample_point(p, x, y, representative ? representative + row : nullptr, pattern, x, wx, wy);
+        if (exact_depth(p.rays, plane, wx, wy, d))
+          depth[std::size_t(y - rect.y0) * stride + std::size_t(x - rect.x0)] = float(d);
+      }
     }
   }
 }
@@ -360,6 +443,11 @@ void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& r
   float* const ray_depth = fb.get<float>(kOutRayDepth);
   float* const alpha = fb.get<float>(kOutAlpha);
   const bool surface = barycentric || uv || position || ray_depth;
+  // The exact step's depth where some triangle of the tile asks for it (kExactDepth).
+  const bool exact_depths = depth && (raster.flags & kExactDepth);
+  ExactPlanes& planes = *thread_planes();
+  if (surface || exact_depths) planes.reset(raster.triangles.size());
+  const bool stream_depth = stream && !exact_depths;  // (not mixed with ordinary stores)
   const auto encode_row = isa == Isa::Avx2 ? encode_row_avx2 : encode_row_generic;
   uint32_t packed[kTileSizePx] = {};  // (encode_row skips groups with nothing visible)
   for (int y = rect.y0; y < rect.y1; ++y) {
@@ -373,7 +461,9 @@ void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& r
       if (samples) std::memcpy(alpha + o, samples->alpha + row, sizeof(float) * n);
       else for (int x = 0; x < n; ++x) alpha[o + x] = visible[x] != kNoTriangle ? 1.0f : 0.0f;
     }
-    if (depth) resolve_depth(raster.key + row, visible, n, p.orthographic, depth + o);
+    if (depth)
+      (stream_depth || !stream ? resolve_depth : resolve_depth_row_avx2)(raster.key + row, visible, n,
+                                                                         p.orthographic, depth + o);
     if (mask)
       for (int x = 0; x < n; ++x) mask[o + x] = visible[x] != kNoTriangle;
     if (triangle_id && !primitives)
@@ -410,7 +500,7 @@ void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& r
       }
     }
     if (surface)
-      write_surface_row(p, raster, visible, rect.x0, y, n, barycentric ? barycentric + 3 * o : nullptr,
+      write_surface_row(p, raster, planes, visible, rect.x0, y, n, barycentric ? barycentric + 3 * o : nullptr,
                         uv ? uv + 2 * o : nullptr, position ? position + 3 * o : nullptr,
                         ray_depth ? ray_depth + o : nullptr,
                         samples ? samples->representative + row : nullptr,
@@ -429,6 +519,9 @@ void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& r
         write_radiance_row(rgb[0], rgb[1], rgb[2], visible, n, radiance + 3 * o);
     }
   }
+  if (exact_depths)
+    exact_depth_tile(p, rect, raster, planes, samples,
+                     depth + std::size_t(rect.y0) * width + std::size_t(rect.x0), width);
 #if SR_X86
   if (stream) _mm_sfence();  // order the non-temporal stores before the tile is done
 #endif

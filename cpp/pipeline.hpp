@@ -210,10 +210,14 @@ struct TriangleSetup {
   int32_t x0, y0, x1, y1;  // inclusive pixel range whose centres lie in the bounding box
   float key_over_area[3];  // depth key at each vertex / area2 (see depth key below)
   uint8_t bias[3];     // 0 for top/left edges, 1 otherwise: covered iff E_k - bias_k >= 0
-  uint8_t unused_;
+  uint8_t flags;           // kExactDepth
   uint32_t prim;           // face index within the mesh
   uint32_t draw;           // index of the draw
 };
+// TriangleSetup::flags. kExactDepth: the depth output takes the exact step (surface.hpp) at this
+// triangle's pixels, because its float32 key may be off by more than a few units in the last place
+// (setup.cpp: slivers, whose keys are not fitted to the true plane).
+constexpr uint8_t kExactDepth = 1;
 // What shading needs of the same triangle to find its attributes without going back to the
 // mesh's faces; a parallel array, written only when colour or normals are requested, or for an
 // alpha-masked draw (alpha_mask.hpp) (a depth-only render writes and reads two thirds of the bytes).

@@ -61,6 +61,7 @@ void TileScratch::clear(bool want_coverage) {
   std::fill(std::begin(visible), std::end(visible), kNoTriangle);
   if (want_coverage) std::fill(std::begin(coverage), std::end(coverage), 0u);
   triangles.clear();
+  flags = 0;
 }
 
 }  // namespace sr

@@ -42,6 +42,7 @@ struct TileScratch {
   uint32_t coverage[kTileScratchPixels]; // fragments before the depth test
   std::vector<VisibleTriangle> triangles;  // binned triangles of this tile, in primitive order
   float tie = kTieFactorPerspective;      // the render's tie factor (above)
+  uint8_t flags = 0;  // TriangleSetup::flags of `triangles`, or-ed (outputs.cpp: kExactDepth)
   // The sample this pass rasterizes, from each pixel's top-left corner (fixed point): the centre,
   // or one sample of a multisample pattern (viewport.hpp, multisample.cpp).
   int32_t sample_x = kSubpixelHalf, sample_y = kSubpixelHalf;
@@ -324,6 +325,7 @@ SR_INLINE void rasterize_all(const TileRect& rect, int tile, const std::vector<S
       VisibleTriangle& vt = s.triangles.emplace_back();
       vt.tri = &t;
       vt.chunk = &chunk;
+      s.flags |= t.flags;
       hook.triangle(vt);
       const int x0 = std::max(int(t.x0), rect.x0), x1 = std::min(int(t.x1), rect.x1 - 1);
       const int y0 = std::max(int(t.y0), rect.y0), y1 = std::min(int(t.y1), rect.y1 - 1);
@@ -441,6 +443,7 @@ SR_INLINE void rasterize_all_samples(const TileRect& rect, int tile,
         vt.tri = &t;
         vt.chunk = &chunk;
       }
+      samples[0]->flags |= t.flags;  // (the write pass reads sample 0's list: multisample.cpp)
       const int x0 = std::max(int(t.x0), rect.x0), x1 = std::min(int(t.x1), rect.x1 - 1);
       const int y0 = std::max(int(t.y0), rect.y0), y1 = std::min(int(t.y1), rect.y1 - 1);
       if (x0 > x1 || y0 > y1) continue;

@@ -403,7 +403,8 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   for (std::size_t d = 0; d < draws.size(); ++d) {
     const MeshData& mesh = *draws[d].mesh;
     ShadeDraw sd{&mesh, transforms[d].normal_to_world, draws[d].color, draws[d].material,
-                 Brdf::Unlit, 0, draws[d].instance_id, nullptr, draws[d].model};
+                 Brdf::Unlit, 0, draws[d].instance_id, nullptr, draws[d].model,
+                 transforms[d].model_view_d};
     shade_draw(plan, options, headlight_lambert, sd);
     defers_light |= plan.color && options.frequency == Frequency::Pixel && is_lit(sd.brdf);
     const KernelKind mine = !(sd.needs & kInline)      ? KernelKind::Lit
@@ -466,6 +467,8 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   shade.framebuffer = framebuffer.get();
   shade.normal_rotation = options.normal_camera ? &options.normal_rotation : nullptr;
   shade.camera_centre = dvec3(camera_to_world[3]);
+  shade.rays = make_view_rays(camera.proj, viewport.width, viewport.height, camera.orthographic);
+  shade.view_to_world = camera_to_world;
   shade.sample_x = viewport.samples.x[0];  // (multisampled tiles: each pixel's representative)
   shade.sample_y = viewport.samples.y[0];
   // The background's linear value, which anti-aliasing mixes into partly covered pixels: the

@@ -21,7 +21,7 @@ inline int32_t first_sample(int32_t lo, int32_t max_offset) {
 inline int32_t last_sample(int32_t hi, int32_t min_offset) { return (hi - min_offset) >> kSubpixelBits; }
 
 // Sets key_over_area from depth keys for the snapped vertices that reproduce the unsnapped
-// triangle's depth plane.
+// triangle's depth plane, and kExactDepth in t.flags.
 //
 // Coverage must use the snapped triangle (exact edge functions => watertight), but its keys need
 // not: snapping moves a vertex by up to 1/512 px, and where depth changes fast across the screen
@@ -69,6 +69,7 @@ void plane_keys_over_area(const ProjectedVertex* const o[3], int64_t positive_ar
       return;
     }
   }
+  t.flags |= kExactDepth;
   const double inv_area2 = 1.0 / area2;
   for (int k = 0; k < 3; ++k) t.key_over_area[k] = float(double(o[k]->key) * inv_area2);
 }
@@ -149,8 +150,8 @@ bool setup_triangle(const ProjectedVertex* const v[3], const SetupParams& params
     t.bias[k] = top_left ? 0 : 1;
   }
   if (!covers_box_samples(t, samples)) return false;
+  t.flags = 0;
   plane_keys_over_area(o, positive_area2, t);
-  t.unused_ = 0;
   t.prim = prim;
   t.draw = params.draw;
   if (params.shade) {
@@ -182,7 +183,9 @@ void clip_and_setup(const ivec3& face, uint8_t planes_mask, const SetupParams& p
   if (n < 3) return;
   ProjectedVertex projected[kMaxClipPoints];
   for (int i = 0; i < n; ++i) {
-    project(poly[i].p_clip, poly[i].depth_view, *params.planes, params.viewport,
+    const ExactClip exact{poly[i].p_clip_d.x, poly[i].p_clip_d.y, poly[i].p_clip_d.w,
+                          poly[i].depth_view_d};
+    project(poly[i].p_clip, poly[i].depth_view, exact, *params.planes, params.viewport,
             params.orthographic, /*snap_outside=*/true, projected[i]);
     if (projected[i].outcode & kInvalidVertex) return;  // Unrepresentable after clipping => drop.
   }

@@ -68,6 +68,7 @@ SR_INLINE void setup_eight(const SetupParams& params, std::size_t f, SetupChunk&
   alignas(32) int32_t lane_x[3][8], lane_y[3][8], lane_box[4][8], lane_bias[3][8];
   alignas(32) float lane_key[3][8], lane_persp[3][8];
   alignas(32) double lane_area2[8];
+  unsigned exact = 0;  // kExactDepth per lane
   if (keep != 0) {
     // Orient: vertices 1 and 2 swap where area2 < 0.
     const i8 swapped = (splat(int32_t(negative)) & i8{1, 2, 4, 8, 16, 32, 64, 128}) != zero;
@@ -154,6 +155,7 @@ SR_INLINE void setup_eight(const SetupParams& params, std::size_t f, SetupChunk&
           well_shaped &= (abs(mu0) <= 0.25) & (abs(mu1) <= 0.25) & (abs(mu2) <= 0.25) &
                          ((fitted[k] > 0.0) == (key > 0.0));
         }
+        exact |= (~mask_bits(well_shaped) & 0xfu) << (4 * h);  // kExactDepth: slivers
         // The plain keys' division only where a surviving lane needs it (slivers are rare).
         d4 inv_t_area2{};
         if (~mask_bits(well_shaped) & keep >> (4 * h) & 0xfu) inv_t_area2 = 1.0 / t_area2;
@@ -190,7 +192,7 @@ SR_INLINE void setup_eight(const SetupParams& params, std::size_t f, SetupChunk&
       t.key_over_area[k] = lane_key[k][j];
       t.bias[k] = uint8_t(lane_bias[k][j]);
     }
-    t.unused_ = 0;
+    t.flags = (exact >> j & 1) ? kExactDepth : 0;
     t.x0 = lane_box[0][j];
     t.y0 = lane_box[1][j];
     t.x1 = lane_box[2][j];

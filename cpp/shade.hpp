@@ -5,6 +5,7 @@
 #include "rasterize.hpp"
 #include "plan.hpp"
 #include "shade_models.hpp"
+#include "surface.hpp"
 
 namespace sr {
 
@@ -22,6 +23,7 @@ struct ShadeDraw {
   int32_t instance_id;
   const vec3* world_normals;  // per vertex (world_normals()), or null: flat face normals
   dmat4 model_to_world;       // for models that read world positions
+  dmat4 model_view;           // model -> view, double: the exact surface step (surface.hpp)
 };
 
 // What each group of a visible triangle's pixels does (shade_kernels.hpp, Prepared::work), decided
@@ -51,6 +53,8 @@ struct ShadeParams {
   // Written outputs only (outputs.cpp):
   const mat3* normal_rotation;   // normals to camera space (normal_space="camera"), or null
   dvec3 camera_centre;           // world space (ray_depth of a perspective camera)
+  ViewRays rays;                 // the exact surface step's rays (surface.hpp)
+  dmat4 view_to_world;
   int32_t sample_x, sample_y;    // the pixels' sample (viewport.hpp): where surfaces are read
 };
 // The most raster passes one call of deferred shading takes (TileKernels::Deferred).

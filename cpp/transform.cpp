@@ -58,6 +58,9 @@ DrawTransform make_draw_transform(const dmat4& model, const CameraParams& camera
   xf.proj = mat4(camera.proj);
   xf.model_view_d = model_view;
   xf.proj_d = camera.proj;
+  xf.model_view_proj_d = camera.proj * model_view;
+  xf.w_is_depth = true;
+  for (int c = 0; c < 4; ++c) xf.w_is_depth &= xf.model_view_proj_d[c][3] == -model_view[c][2];
   const dmat3 m3(model);
   double det = glm::determinant(m3);
   // 0 in double can be an underflow (a mirror scaled by 1e-120: det -1e-360); the scaled

@@ -12,6 +12,9 @@ struct DrawTransform {
   mat4 proj;               // view -> clip
   dmat4 model_view_d;      // the same in double, for the points clipping creates (clip.cpp)
   dmat4 proj_d;
+  dmat4 model_view_proj_d;  // proj_d * model_view_d: the exact window positions and keys (vertex.cpp)
+  bool w_is_depth = false;  // its w row is the negated view z row, bit for bit (a perspective
+                            // projection's (0, 0, -1, 0)): exact_clip's w and depth are equal
   dmat3 normal_to_world;   // inverse-transpose of the model's 3x3 (double: normals may be huge),
                            // its cofactor matrix where that does not exist (transform.cpp)
   bool mirrored = false;   // det(model) < 0: the winding flips, so front/back facing swap too
@@ -45,6 +48,23 @@ struct ClipVertexD {
 inline ClipVertexD transform_point_d(const DrawTransform& xf, const vec3& p) {
   const dvec4 v = xf.model_view_d * dvec4(double(p.x), double(p.y), double(p.z), 1.0);
   return {xf.proj_d * v, -v.z};
+}
+
+// A point's clip x, y, w and view depth in double, for the window position's unsnapped residual
+// and the depth key (vertex.cpp, project): where the float32 transform's rounding (2^-24 of a
+// coordinate) would tilt a steep depth plane by many units in its last place. Each as
+// (c0 x + c1 y) + (c2 z + c3), the order of the vertex pass's lanes, so the same bits.
+struct ExactClip {
+  double x, y, w, depth;
+};
+inline double exact_row(const dmat4& a, int r, double x, double y, double z) {
+  return (a[0][r] * x + a[1][r] * y) + (a[2][r] * z + a[3][r]);
+}
+inline ExactClip exact_clip(const DrawTransform& xf, const vec3& p) {
+  const double x = p.x, y = p.y, z = p.z;
+  const dmat4& c = xf.model_view_proj_d;
+  return {exact_row(c, 0, x, y, z), exact_row(c, 1, x, y, z), exact_row(c, 3, x, y, z),
+          -exact_row(xf.model_view_d, 2, x, y, z)};
 }
 
 }  // namespace sr

@@ -22,9 +22,9 @@ inline int32_t round_to_fixed(double scaled) {
 // output that rounding left a hair outside the plane it was clipped to: the guard band's margin
 // keeps it representable). Writes `v` in place: a returned copy would be read back with wider
 // loads than it was written with, which stalls store-to-load forwarding.
-void project(const vec4& p_clip, float depth_view, const ClipPlanes& planes,
-             const Viewport& viewport, bool orthographic, bool snap_outside,
-             ProjectedVertex& v) {
+void project(const vec4& p_clip, float depth_view, const ExactClip& exact,
+             const ClipPlanes& planes, const Viewport& viewport, bool orthographic,
+             bool snap_outside, ProjectedVertex& v) {
   v = ProjectedVertex{};
   const bool finite = std::isfinite(p_clip.x) && std::isfinite(p_clip.y) &&
                       std::isfinite(p_clip.z) && std::isfinite(p_clip.w) &&
@@ -52,12 +52,20 @@ void project(const vec4& p_clip, float depth_view, const ClipPlanes& planes,
   const double x_scaled = x_window * kSubpixelOne, y_scaled = y_window * kSubpixelOne;
   v.x = round_to_fixed(x_scaled);
   v.y = round_to_fixed(y_scaled);
-  v.dx = float(x_scaled - v.x);  // the subtraction is exact; float keeps 2^-24 of a subpixel
-  v.dy = float(y_scaled - v.y);
-  // 1.0f / d is float(1.0 / double(d)): a double quotient rounded to float is correctly rounded
-  // (53 >= 2 * 24 + 2 bits), so the cheaper float divide gives the same key.
-  v.key = orthographic ? -depth_view : 1.0f / depth_view;
   v.inv_w = float(inv_w);
+  // The residuals and the key from the point in double (project_eight: the same operations).
+  const double inv_w_exact = 1.0 / exact.w;
+  const double xe = (exact.x * inv_w_exact + 1.0) * 0.5 * viewport.width;
+  const double ye = (1.0 - exact.y * inv_w_exact) * 0.5 * viewport.height;
+  if (exact.w > 0.0 && exact.depth > 0.0 && std::fabs(xe) < kLimit && std::fabs(ye) < kLimit) {
+    v.dx = float(xe * kSubpixelOne - v.x);
+    v.dy = float(ye * kSubpixelOne - v.y);
+    v.key = float(orthographic ? -exact.depth : 1.0 / exact.depth);
+  } else {
+    v.dx = float(x_scaled - v.x);  // the subtraction is exact; float keeps 2^-24 of a subpixel
+    v.dy = float(y_scaled - v.y);
+    v.key = orthographic ? -depth_view : 1.0f / depth_view;
+  }
 }
 
 namespace {
@@ -80,6 +88,13 @@ SR_INLINE d4 half_of(f8 v, int h) {
   return __builtin_convertvector(h == 0 ? low_half(v) : high_half(v), d4);
 }
 
+// transform.hpp's exact_row, four lanes at a time.
+SR_INLINE d4 exact_row4(const dmat4& a, int r, d4 x, d4 y, d4 z) {
+  return (broadcast<d4>(a[0][r]) * x + broadcast<d4>(a[1][r]) * y) +
+         (broadcast<d4>(a[2][r]) * z + broadcast<d4>(a[3][r]));
+}
+
+template <bool kWIsDepth>
 SR_INLINE void project_eight(const vec3* positions, const DrawTransform& xf, std::size_t i,
                              const ClipPlanes& planes, const Viewport& viewport, bool orthographic,
                              ProjectedVertex* out) {
@@ -109,7 +124,9 @@ SR_INLINE void project_eight(const vec3* positions, const DrawTransform& xf, std
   const l4 sign = broadcast<l4>(int64_t(0x8000000000000000ull)), half = l4(broadcast<d4>(0.5));
   const double width = double(viewport.width), height = double(viewport.height);
   i4 fixed[2][2];  // [x / y][half]
-  f4 residual[2][2], inv_w_f[2];
+  f4 residual[2][2], inv_w_f[2], key_f[2];
+  const dmat4& c = xf.model_view_proj_d;
+  const dmat4& mv = xf.model_view_d;
   for (int h = 0; h < 2; ++h) {
     const d4 x = half_of(clip[0], h), y = half_of(clip[1], h), w = half_of(clip[3], h),
              d = half_of(depth_view, h);
@@ -120,14 +137,29 @@ SR_INLINE void project_eight(const vec3* positions, const DrawTransform& xf, std
                 (w > 0.0) & (d > 0.0);
     const d4 inv_w = 1.0 / w;
     const d4 window[2] = {(x * inv_w + 1.0) * 0.5 * width, (1.0 - y * inv_w) * 0.5 * height};
+    // The same point in double (transform.hpp, exact_clip): the residuals and the key.
+    const d4 px_d = half_of(px, h), py_d = half_of(py, h), pz_d = half_of(pz, h);
+    const d4 xe = exact_row4(c, 0, px_d, py_d, pz_d), ye = exact_row4(c, 1, px_d, py_d, pz_d);
+    // (With w_is_depth, w and the depth are the same bits, and so are their reciprocals.)
+    const d4 we = exact_row4(c, 3, px_d, py_d, pz_d);
+    d4 de;
+    if constexpr (kWIsDepth) de = we;
+    else de = -exact_row4(mv, 2, px_d, py_d, pz_d);
+    const d4 inv_we = 1.0 / we;
+    const d4 window_e[2] = {(xe * inv_we + 1.0) * 0.5 * width, (1.0 - ye * inv_we) * 0.5 * height};
+    // project()'s test for the double point; a lane that fails it is redone there.
+    inside &= (we > 0.0) & (de > 0.0);
     for (int k = 0; k < 2; ++k) {
       inside &= d4(l4(window[k]) & ~sign) < kLimit;  // |window| < kLimit
+      inside &= d4(l4(window_e[k]) & ~sign) < kLimit;
       // round_to_fixed: + or - 1/2 by the sign bit, then truncate.
       const d4 scaled = window[k] * double(kSubpixelOne);
       fixed[k][h] = __builtin_convertvector(scaled + d4((l4(scaled) & sign) | half), i4);
-      residual[k][h] = __builtin_convertvector(scaled - __builtin_convertvector(fixed[k][h], d4), f4);
+      residual[k][h] = __builtin_convertvector(
+          window_e[k] * double(kSubpixelOne) - __builtin_convertvector(fixed[k][h], d4), f4);
     }
     inv_w_f[h] = __builtin_convertvector(inv_w, f4);
+    key_f[h] = __builtin_convertvector(orthographic ? -de : kWIsDepth ? inv_we : 1.0 / de, f4);
     plain &= mask_bits(inside) << (4 * h) | (0xfu << (4 - 4 * h));
   }
   const auto join = [](auto lo, auto hi) {
@@ -135,7 +167,7 @@ SR_INLINE void project_eight(const vec3* positions, const DrawTransform& xf, std
   };
   const i8 xi = join(fixed[0][0], fixed[0][1]), yi = join(fixed[1][0], fixed[1][1]);
   const f8 dx = join(residual[0][0], residual[0][1]), dy = join(residual[1][0], residual[1][1]);
-  const f8 key = orthographic ? -depth_view : 1.0f / depth_view;
+  const f8 key = join(key_f[0], key_f[1]);
   const f8 inv_w_8 = join(inv_w_f[0], inv_w_f[1]);
 
   // Eight records: an 8x8 transpose of (x, y, dx, dy, key, inv_w, outcode = 0, padding = 0).
@@ -147,7 +179,8 @@ SR_INLINE void project_eight(const vec3* positions, const DrawTransform& xf, std
   for (unsigned redo = ~plain & 0xffu; redo != 0; redo &= redo - 1) {
     const int k = __builtin_ctz(redo);
     const ClipVertex cv = transform_point(xf, positions[i + k]);
-    project(cv.p_clip, cv.depth_view, planes, viewport, orthographic, false, o[k]);
+    project(cv.p_clip, cv.depth_view, exact_clip(xf, positions[i + k]), planes, viewport,
+            orthographic, false, o[k]);
   }
 }
 
@@ -157,10 +190,12 @@ SR_INLINE void project_range(const MeshData& mesh, const DrawTransform& xf, std:
   const vec3* positions = mesh.positions.data();
   std::size_t i = begin;
   for (; i + kLanes <= end; i += kLanes)
-    project_eight(positions, xf, i, planes, viewport, orthographic, out);
+    if (xf.w_is_depth) project_eight<true>(positions, xf, i, planes, viewport, orthographic, out);
+    else project_eight<false>(positions, xf, i, planes, viewport, orthographic, out);
   for (; i < end; ++i) {
     const ClipVertex c = transform_point(xf, positions[i]);
-    project(c.p_clip, c.depth_view, planes, viewport, orthographic, false, out[i]);
+    project(c.p_clip, c.depth_view, exact_clip(xf, positions[i]), planes, viewport, orthographic,
+            false, out[i]);
   }
 }
 

@@ -227,7 +227,8 @@ def test_near_plane_clipping_matches_ray_casting(case: str, camera: str, near: f
         rel = np.abs(f.depth[hit] - t[hit]) / t[hit]
         b = f.barycentric[hit].astype(np.float64)
         assert rel.max() <= 1e-6, rel.max()
-        assert b.min() >= 0.0 and b.max() <= 1.0 and np.abs(b.sum(-1) - 1.0).max() <= 1e-6
+        # the exact hit's weights: outside [0, 1] only by the snap (README, "Surface outputs")
+        assert b.min() >= -1e-3 and b.max() <= 1.0 + 1e-3 and np.abs(b.sum(-1) - 1.0).max() <= 1e-6
         # position: the frame's weights applied to the corners, lying on the pixel's own ray
         pos = f.position[hit].astype(np.float64)
         np.testing.assert_allclose(pos, b @ tri, atol=2e-6 * np.abs(tri).max())
@@ -279,7 +280,7 @@ def test_camera_inside_closed_icosphere(cull: str, expected: int) -> None:
     assert rel.max() <= 1e-6, rel.max()
     np.testing.assert_allclose(f.normal[sure], -n[face[sure]], atol=1e-6)  # the inside is seen
     b = f.barycentric.astype(np.float64)
-    assert b.min() >= 0.0 and np.abs(b.sum(-1) - 1.0).max() <= 1e-6
+    assert b.min() >= -1e-3 and np.abs(b.sum(-1) - 1.0).max() <= 1e-6  # (outside [0, 1]: the snap)
     print(f"inside icosphere, cull={cull}: {w * h} px covered once, {int((~sure).sum())} near an "
           f"edge, depth rel {rel.max():.1e}")
 
@@ -711,7 +712,10 @@ def test_degenerate_vertex_normals(case: str, pose_kind: str) -> None:
     err = np.abs(got - expected).max()
     print(f"{case} ({pose_kind}): {int(f.mask.sum())} px, max error {err:.1e}")
     assert np.abs(np.linalg.norm(got, axis=1) - 1.0).max() <= 1e-6
-    assert err <= 1e-5
+    # The normal is interpolated with the raster's weights (the snapped triangle's); the
+    # barycentric output holds the exact hit's, which differ by the 1/512 px snap over the
+    # triangle's height: up to 1.5e-3 here, where the vertex normals nearly cancel.
+    assert err <= 2e-3
 
 
 def test_normals_cancelling_exactly_give_the_documented_zero_normal() -> None:
@@ -726,7 +730,8 @@ def test_normals_cancelling_exactly_give_the_documented_zero_normal() -> None:
         f = sr.Renderer(w, h).render(_scene(mesh), _pixel_camera(w, h), ("normal", "barycentric", "mask", "radiance"),
                                      cull="none", shading=shading)
         _assert_finite(f)
-        assert f.mask[4, 10] and tuple(f.barycentric[4, 10]) == (0.5, 0.0, 0.5)
+        assert f.mask[4, 10]
+        np.testing.assert_allclose(f.barycentric[4, 10], (0.5, 0.0, 0.5), rtol=0, atol=1e-7)
         assert (f.normal[4, 10] == 0).all()
         lengths = np.linalg.norm(f.normal[f.mask], axis=1)
         assert (np.abs(lengths - 1.0) <= 1e-6).sum() == f.mask.sum() - 1
