@@ -2,33 +2,41 @@
 for ``IntrinsicsCamera(..., dist=)``.
 
 A rasterizer draws straight edges; a distorted lens bends them. So a distorted camera is rendered
-in two steps, each exact where it can be:
+ray by ray where geometry is concerned, and through an ideal pinhole view for colour:
 
 1. Every output pixel's own ray. The centre of pixel (row i, col j) is the distorted point
    (u, v) = (j, i); its ray is the undistorted normalized point (x', y') that OpenCV's model
    maps there, found by Newton's method in float64 (to 1e-12, checked). Pixels the model
    cannot reach (beyond the fold of a strong barrel distortion) see nothing: background.
-2. An ideal pinhole view with the same K, covering every such ray with a margin and
+   The rays are bucketed in a grid of the plane z = 1 (cells one ideal pixel wide), once per
+   camera and image size, and cached.
+2. Geometry, exactly (issue 34 part 2; ``cpp/distortion.cpp``, ``cast_distorted``, on the
+   renderer's threads): every triangle is taken to camera space in float64, clipped to the
+   depth range [near, far], and its box on z = 1 scattered over the grid; each ray in it is
+   tested (three edge planes through the camera centre, then the depth) and keeps its nearest
+   hit, ties to the first triangle in draw and face order. Culling is the pinhole render's
+   (``cull=``, mirroring poses, double-sided materials). A triangle far thinner than a pixel is
+   hit by every pixel ray that meets it, whatever ``oversample`` is
+   (tests/test_distortion_exact.py: needles 1/100 px wide, masks pixel for pixel against a
+   NumPy ray caster). From the hit come ``triangle_id``, ``instance_id``, ``mask``, ``alpha``,
+   ``coverage`` (every triangle the ray meets), ``depth``, ``ray_depth``, ``position`` and
+   ``barycentric`` (the point on the pixel's own ray, so it reprojects through
+   ``cv2.projectPoints`` to its pixel centre), ``uv`` and ``normal`` (the interpolated vertex
+   normal, computed as the pipeline does, in float64).
+3. Colour, through an ideal pinhole view with the same K, covering every ray with a margin and
    ``oversample`` times finer (so ``oversample`` squared times as many pixels), rendered by the
-   ordinary pipeline. Each output pixel then casts its own ray, in float64 (``cpp/distortion.cpp``:
-   Moeller-Trumbore in each instance's model space, on the renderer's threads), at the triangles
-   of the view sample nearest its point and of the four around it, and sees the nearest one it
-   hits. From that sample it takes:
-   - ``depth``, ``ray_depth``, ``position`` and ``barycentric``: the point on the pixel's own
-     ray, so a visible point reprojects through ``cv2.projectPoints`` to its pixel centre (to
-     float32 rounding: tests/test_distortion.py);
-   - every other output but colour (ids, mask, normal, uv, coverage): the sample's value;
-   - ``color`` and ``radiance``: the bilinear interpolation of the four samples around the ray's
-     point (what ``cv2.remap`` with INTER_LINEAR does).
-   A ray that hits none of those triangles (it passes beside a silhouette, or through a triangle
-   smaller than a sample) keeps the nearest sample, at that sample's own point: a silhouette or an
-   id boundary is off by at most half a sample diagonal, 0.71 / oversample ideal pixels
-   (tests/test_distortion.py checks every pixel of a quad against exact rays).
+   ordinary pipeline only when ``color`` or ``radiance`` is asked for: each is the bilinear
+   interpolation of the four samples around the ray's point (what ``cv2.remap`` with
+   INTER_LINEAR does). Shading a hit exactly would need every shading model per ray; the remap
+   is what a distorted photograph's own resampling does, and ``oversample`` sharpens it.
+   Two cases still read the view's samples: alpha-masked materials (the alpha test is the
+   view's: such a triangle is hit where the nearest sample or one of the four around the ray
+   shows it), and ``normal_kind="shading"`` with normal or bump maps (the shaded normal of the
+   sample showing the hit triangle).
 
-Cost: the render of the larger, finer view (at ``oversample=2``, the default, about 4.7 times the
-output's pixels for a strong barrel lens) plus the per-pixel passes; the rays are computed once
-per camera and size, and cached. ``benchmarks/bench_stages.py --sections distortion`` measures it
-(RESULTS.md: colour 5.8x, colour + depth 9.1x a pinhole render at oversample 2).
+Cost (``benchmarks/bench_stages.py --sections distortion``, RESULTS.md "Issue 34, part 2"):
+geometry outputs no longer render the oversampled view, so their cost is the cast alone,
+whatever ``oversample`` is; colour is the view's render plus the remap.
 """
 from __future__ import annotations
 
