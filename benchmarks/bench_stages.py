@@ -28,7 +28,9 @@ table, not across runs):
             from PATH) vs this checkout's python/
   distortion issue 19: a camera with lens distortion (a strong barrel, oversample 1, 2, 4)
             against the same camera without it, ico6 at 640x480: colour only (bilinear gathers),
-            colour+depth and every geometric output (each pixel's ray resolved in float64)
+            colour+depth and every geometric output (each pixel's ray cast in float64). With
+            --ab-old PATH: the same cells, old build (softrast importable from PATH) against this
+            one, a fresh process per build and round, the order alternating (issue 34 part 2)
   overhead  Python cost per call: a 1x1 render of a 1-triangle scene
   memory    peak RSS of rendering the 1.3M-face sphere at 1024x1024 (a fresh subprocess) against
             the mesh's own arrays plus the framebuffers
@@ -537,12 +539,19 @@ class DistortionJob(Job):
         self.frame = self.renderer.render(self.scene, self.cam, **self.kwargs)
 
 
+DISTORTION_BARREL = np.array([-0.3, 0.1, 0.0005, -0.0005, -0.02])
+DISTORTION_OUTPUTS = {"color": ("color",), "c+d": ("color", "depth"),
+                      "geometry": ("depth", "normal", "triangle_id", "instance_id", "position", "barycentric")}
+DISTORTION_CAMERAS = [("pinhole", None, 1), ("dist s=1", DISTORTION_BARREL, 1), ("dist s=2", DISTORTION_BARREL, 2),
+                      ("dist s=4", DISTORTION_BARREL, 4)]
+
+
 def section_distortion(opts):
     print("\n## Lens distortion (issue 19): ico6 640x480, strong barrel (k1 -0.3, k2 0.1), 2 threads, out=")
-    barrel = np.array([-0.3, 0.1, 0.0005, -0.0005, -0.02])
-    outs = {"color": ("color",), "c+d": ("color", "depth"),
-            "geometry": ("depth", "normal", "triangle_id", "instance_id", "position", "barycentric")}
-    cams = [("pinhole", None, 1), ("dist s=1", barrel, 1), ("dist s=2", barrel, 2), ("dist s=4", barrel, 4)]
+    outs = DISTORTION_OUTPUTS
+    cams = DISTORTION_CAMERAS
+    if opts.ab_old:
+        return distortion_ab(opts)
     jobs = [DistortionJob((c, o), d, s, outs[o]) for c, d, s in cams for o in outs]
     run_interleaved(jobs, opts.target, opts.rounds)
     by = {j.key: j for j in jobs}
@@ -550,6 +559,45 @@ def section_distortion(opts):
     for c, _, _ in cams:
         print(f"{c:<12}" + "".join(f"{by[(c, o)].ms:>14.2f}{by[(c, o)].ms / by[('pinhole', o)].ms:>11.1f}"
                                    for o in outs))
+
+
+def distortion_worker(renders: int) -> int:
+    """One round of every distortion cell in this process (softrast as imported): its render
+    times (s) as JSON on stdout."""
+    jobs = [DistortionJob((c, o), d, s, DISTORTION_OUTPUTS[o]) for c, d, s in DISTORTION_CAMERAS
+            for o in DISTORTION_OUTPUTS]
+    out = {}
+    for job in jobs:
+        job()
+        times = []
+        for _ in range(renders):
+            t0 = time.perf_counter()
+            job()
+            times.append(time.perf_counter() - t0)
+        out[" / ".join(job.key)] = times
+    print(json.dumps(out))
+    return 0
+
+
+def distortion_ab(opts):
+    """--ab-old PATH: the distortion cells, old build (softrast importable from PATH) against this one,
+    each round a fresh process per build, the builds' order alternating round by round."""
+    here = os.path.dirname(os.path.dirname(sr.__file__))
+    builds = {"old": opts.ab_old, "new": here}
+    times = {"old": defaultdict(list), "new": defaultdict(list)}
+    rounds = opts.rounds * 2
+    for r in range(rounds):
+        for b in (("old", "new") if r % 2 == 0 else ("new", "old")):
+            env = dict(os.environ, PYTHONPATH=builds[b])
+            res = subprocess.run([sys.executable, os.path.abspath(__file__), "--distortion-worker", "5"],
+                                 capture_output=True, text=True, env=env, check=True)
+            for k, v in json.loads(res.stdout.strip().splitlines()[-1]).items():
+                times[b][k] += v
+    print(f"A/B: old = {builds['old']}, new = {builds['new']}; {rounds} rounds x 5 renders, medians (ms)")
+    print(f"{'cell':<26}{'old ms':>10}{'new ms':>10}{'new/old':>9}")
+    for k in times["new"]:
+        o, n = statistics.median(times["old"][k]) * 1e3, statistics.median(times["new"][k]) * 1e3
+        print(f"{k:<26}{o:>10.2f}{n:>10.2f}{n / o:>9.3f}")
 
 
 class AaJob(Job):
@@ -783,8 +831,12 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="fewer repetitions, no sub 8 / 4096 / 2048 rows")
     ap.add_argument("--sections", default=",".join(SECTIONS), help="comma-separated: " + ",".join(SECTIONS))
     ap.add_argument("--ab-old", default=None, metavar="PATH",
-                    help="litcg: also count the Lambert rows' instructions with the old build importable from PATH")
+                    help="litcg: also count the Lambert rows' instructions with the old build importable from PATH; "
+                         "distortion: time its cells A/B against that build (interleaved processes)")
+    ap.add_argument("--distortion-worker", type=int, default=0, help=argparse.SUPPRESS)
     opts = ap.parse_args(argv)
+    if opts.distortion_worker:
+        return distortion_worker(opts.distortion_worker)
     opts.target, opts.rounds = (0.3, 3) if opts.quick else (1.2, 5)
     sections = opts.sections.split(",")
     for s in sections:

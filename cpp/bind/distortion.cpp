@@ -1,11 +1,14 @@
 // Bindings: lens distortion's per-pixel passes (python/softrast/distortion.py), hence the
 // underscores, and the anti-aliasing patterns' sample positions.
 #include "bind.hpp"
+#include "records.hpp"
 
 #include "../distortion.hpp"
 #include "../multisample.hpp"
+#include "../texture.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace sr {
 namespace bind {
@@ -25,8 +28,7 @@ const T* checked(const py::array& a, const char* name, py::ssize_t rows, py::ssi
 }
 
 DistortionRays distortion_rays(const py::array& valid, const py::array& nearest, const py::array& corner,
-                               const py::array& directions, int64_t view_width, int64_t view_size,
-                               const std::array<double, 4>& sample_to_normalized) {
+                               int64_t view_width, int64_t view_size) {
   DistortionRays rays;
   rays.n = valid.size();
   rays.view_width = view_width;
@@ -36,9 +38,7 @@ DistortionRays distortion_rays(const py::array& valid, const py::array& nearest,
   rays.valid = checked<bool>(valid, "valid", rays.n, 0) ? reinterpret_cast<const uint8_t*>(valid.data()) : nullptr;
   rays.nearest = checked<int64_t>(nearest, "nearest", rays.n, 0);
   rays.corner = checked<int64_t>(corner, "corner", rays.n, 0);
-  rays.directions = checked<double>(directions, "directions", rays.n, 3);
-  std::copy(sample_to_normalized.begin(), sample_to_normalized.end(), rays.sample_to_normalized);
-  bool inside = true;  // every index a gather or the resolve reads is in the view
+  bool inside = true;  // every index a gather or the cast reads is in the view
   for (int64_t p = 0; p < rays.n; ++p)
     inside &= !rays.valid[p] || (rays.nearest[p] >= 0 && rays.nearest[p] < view_size && rays.corner[p] >= 0 &&
                                  rays.corner[p] + view_width + 1 < view_size);
@@ -46,66 +46,141 @@ DistortionRays distortion_rays(const py::array& valid, const py::array& nearest,
   return rays;
 }
 
-py::dict distortion_resolve(const py::array& valid, const py::array& nearest, const py::array& corner,
-                            const py::array& directions, int64_t view_width, int64_t view_size,
-                            const std::array<double, 4>& sample_to_normalized, const py::array& triangle_id,
-                            const py::array& instance_id, const py::list& instances,
-                            const std::array<double, 9>& camera_to_world, const std::array<double, 3>& centre,
-                            bool surface, int threads) {
-  const DistortionRays rays = distortion_rays(valid, nearest, corner, directions, view_width, view_size,
-                                              sample_to_normalized);
-  const int32_t* tri = checked<int32_t>(triangle_id, "triangle_id", view_size / view_width, view_width);
-  const int32_t* inst = checked<int32_t>(instance_id, "instance_id", view_size / view_width, view_width);
-  std::vector<RayInstance> ray_instances;
-  std::vector<std::shared_ptr<MeshData>> keep;
-  for (const py::handle item : instances) {
-    const auto pair = item.cast<py::tuple>();
-    keep.push_back(pair[0].cast<std::shared_ptr<MeshData>>());
-    const auto m = pair[1].cast<std::array<double, 16>>();  // row-major 4x4
-    RayInstance r;
-    r.mesh = keep.back().get();
-    for (int i = 0; i < 4; ++i)
-      for (int j = 0; j < 4; ++j) r.model[j][i] = m[std::size_t(4 * i + j)];  // GLM: [column][row]
-    ray_instances.push_back(r);
+RayGrid ray_grid(const py::array& pixel, const py::array& xy, const py::array& slot, const py::array& cell_start,
+                 int64_t nx, int64_t ny, const std::array<double, 4>& frame) {
+  RayGrid g;
+  g.n = slot.size();
+  g.count = pixel.size();
+  if (nx < 1 || ny < 1 || nx > (int64_t(1) << 24) || ny > (int64_t(1) << 24))
+    throw py::value_error("ray grid: 1 to 2**24 cells a side");
+  g.nx = nx, g.ny = ny;
+  g.pixel = checked<int64_t>(pixel, "pixel", g.count, 0);
+  g.xy = checked<double>(xy, "xy", g.count, 2);
+  g.slot = checked<int64_t>(slot, "slot", g.n, 0);
+  g.cell_start = checked<int64_t>(cell_start, "cell_start", nx * ny + 1, 0);
+  g.x0 = frame[0], g.y0 = frame[1], g.inv_cell_x = frame[2], g.inv_cell_y = frame[3];
+  if (!(std::isfinite(g.x0) && std::isfinite(g.y0) && g.inv_cell_x > 0.0 && g.inv_cell_y > 0.0 &&
+        std::isfinite(g.inv_cell_x) && std::isfinite(g.inv_cell_y)))
+    throw py::value_error("ray grid: a finite origin and positive cell sizes");
+  bool ok = g.cell_start[0] == 0 && g.cell_start[nx * ny] == g.count;
+  for (int64_t c = 0; ok && c < nx * ny; ++c) ok = g.cell_start[c] <= g.cell_start[c + 1];
+  for (int64_t s = 0; ok && s < g.count; ++s)
+    ok = g.pixel[s] >= 0 && g.pixel[s] < g.n && g.slot[g.pixel[s]] == s && std::isfinite(g.xy[2 * s]) &&
+         std::isfinite(g.xy[2 * s + 1]);
+  int64_t with_ray = 0;
+  for (int64_t p = 0; ok && p < g.n; ++p) {
+    ok = g.slot[p] >= -1 && g.slot[p] < g.count;
+    with_ray += g.slot[p] >= 0;
   }
-  dmat3 rot;
+  if (!ok || with_ray != g.count)
+    throw py::value_error("ray grid: pixel / slot / cell_start do not describe one another");
+  return g;
+}
+
+// One camera's rays at one image size (python/softrast/distortion.py's _Rays), checked once: the
+// arrays are kept (and must not be written afterwards: Python marks them read-only).
+struct LensRays {
+  std::vector<py::array> keep;
+  DistortionRays rays;
+  RayGrid grid;
+};
+
+std::shared_ptr<LensRays> make_lens_rays(const py::array& valid, const py::array& nearest, const py::array& corner,
+                                         int64_t view_width, int64_t view_size, const py::array& pixel,
+                                         const py::array& xy, const py::array& slot, const py::array& cell_start,
+                                         int64_t nx, int64_t ny, const std::array<double, 4>& frame) {
+  auto r = std::make_shared<LensRays>();
+  r->keep = {valid, nearest, corner, pixel, xy, slot, cell_start};
+  for (const py::array& a : r->keep)
+    if (a.writeable()) throw py::value_error("lens rays: the arrays must be read-only");
+  r->rays = distortion_rays(valid, nearest, corner, view_width, view_size);
+  r->grid = ray_grid(pixel, xy, slot, cell_start, nx, ny, frame);
+  if (r->rays.n != r->grid.n) throw py::value_error("lens rays: one entry per output pixel");
+  for (int64_t p = 0; p < r->grid.n; ++p)
+    if ((r->grid.slot[p] >= 0) != bool(r->rays.valid[p])) throw py::value_error("lens rays: valid must be slot >= 0");
+  return r;
+}
+
+// Each output's buffer (flat, final dtype) for the names asked for.
+template <typename T>
+T* add_output(py::dict& result, const char* name, py::ssize_t n, py::ssize_t channels) {
+  py::array_t<T> a = channels > 1 ? py::array_t<T>({n, channels}) : py::array_t<T>(n);
+  result[name] = a;
+  return a.mutable_data();
+}
+
+py::dict distortion_cast(const LensRays& lens, const py::list& draw_records, const std::array<double, 9>& camera_to_world,
+                         const std::array<double, 3>& centre, double near, double far, const std::string& cull,
+                         bool cull_double_sided, const std::vector<std::string>& outputs, const py::object& view,
+                         int threads) {
+  const RayGrid& grid = lens.grid;
+  if (!(near > 0.0 && far > near && std::isfinite(far)))
+    throw py::value_error("near, far: 0 < near < far, finite");
+  const Cull cull_mode = parse_name(cull, kCullNames, "cull");
+  std::vector<Draw> keep;  // the records' draws (their meshes alive for the call)
+  keep.reserve(draw_records.size());
+  std::vector<CastDraw> draws;
+  for (const py::handle item : draw_records) {
+    keep.push_back(item.cast<const DrawRecord&>().draw());
+    const Draw& d = keep.back();
+    if (!d.mesh) throw py::value_error("draws: a Draw without a mesh");
+    CastDraw c;
+    c.mesh = d.mesh.get();
+    c.model = d.model;
+    c.cull = d.never_culled && !cull_double_sided ? Cull::None : cull_mode;
+    AlphaTest test;
+    c.alpha = alpha_kind(d, kNoFilterOverride, test);
+    draws.push_back(c);
+  }
+  CastCamera camera;
   for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) rot[j][i] = camera_to_world[std::size_t(3 * i + j)];
-  const py::ssize_t n = rays.n;
-  py::array_t<int64_t> sample(n);
-  py::array_t<bool> covered(n);
-  DistortionHits hits;
-  hits.sample = sample.mutable_data();
-  hits.covered = reinterpret_cast<uint8_t*>(covered.mutable_data());
+    for (int j = 0; j < 3; ++j) camera.camera_to_world[j][i] = camera_to_world[std::size_t(3 * i + j)];
+  camera.centre = dvec3(centre[0], centre[1], centre[2]);
+  camera.near = near, camera.far = far;
+  // The ideal view's ids, if rendered: (triangle_id, instance_id).
+  CastView cast_view;
+  if (!view.is_none()) {
+    const auto t = view.cast<py::tuple>();
+    if (t.size() != 2) throw py::value_error("view: (triangle_id, instance_id)");
+    const DistortionRays& rays = lens.rays;
+    const py::ssize_t rows = rays.view_size / rays.view_width;
+    cast_view.rays = &rays;
+    cast_view.triangle_id = checked<int32_t>(t[0].cast<py::array>(), "triangle_id", rows, rays.view_width);
+    cast_view.instance = checked<int32_t>(t[1].cast<py::array>(), "instance_id", rows, rays.view_width);
+  }
+  const py::ssize_t n = grid.n;
   py::dict result;
-  result["sample"] = sample;
-  result["covered"] = covered;
-  if (surface) {
-    py::array_t<double> depth(n), ray_depth(n), position({n, py::ssize_t(3)}), bary({n, py::ssize_t(3)});
-    hits.depth = depth.mutable_data();
-    hits.ray_depth = ray_depth.mutable_data();
-    hits.position = position.mutable_data();
-    hits.barycentric = bary.mutable_data();
-    result["depth"] = depth;
-    result["ray_depth"] = ray_depth;
-    result["position"] = position;
-    result["barycentric"] = bary;
+  CastOutputs out;
+  for (const std::string& name : outputs) {
+    if (name == "triangle_id") out.triangle_id = add_output<int32_t>(result, "triangle_id", n, 1);
+    else if (name == "instance_id") out.instance = add_output<int32_t>(result, "instance_id", n, 1);
+    else if (name == "mask") out.mask = reinterpret_cast<uint8_t*>(add_output<bool>(result, "mask", n, 1));
+    else if (name == "depth") out.depth = add_output<float>(result, "depth", n, 1);
+    else if (name == "ray_depth") out.ray_depth = add_output<float>(result, "ray_depth", n, 1);
+    else if (name == "position") out.position = add_output<float>(result, "position", n, 3);
+    else if (name == "barycentric") out.barycentric = add_output<float>(result, "barycentric", n, 3);
+    else if (name == "uv") out.uv = add_output<float>(result, "uv", n, 2);
+    else if (name == "normal") out.normal = add_output<float>(result, "normal", n, 3);
+    else if (name == "coverage") out.coverage = add_output<uint32_t>(result, "coverage", n, 1);
+    else if (name == "alpha") out.alpha = add_output<float>(result, "alpha", n, 1);
+    else if (name == "sample") {
+      if (!cast_view.rays) throw py::value_error("outputs: sample needs the view");
+      out.sample = add_output<int64_t>(result, "sample", n, 1);
+    } else {
+      throw py::value_error("outputs: no cast output named '" + name + "'");
+    }
   }
   {
     py::gil_scoped_release release;
-    resolve_distorted(rays, tri, inst, std::move(ray_instances), rot, dvec3(centre[0], centre[1], centre[2]),
-                      hits, threads);
+    cast_distorted(grid, draws, camera, cast_view, out, threads);
   }
   return result;
 }
 
-void distortion_bilinear(const py::array& valid, const py::array& nearest, const py::array& corner,
-                         const py::array& directions, int64_t view_width, int64_t view_size,
-                         const py::array& weights, const py::array& src, py::array& out) {
-  const DistortionRays rays = distortion_rays(valid, nearest, corner, directions, view_width, view_size,
-                                              {0.0, 0.0, 0.0, 0.0});
+void distortion_bilinear(const LensRays& lens, const py::array& weights, const py::array& src, py::array& out) {
+  const DistortionRays& rays = lens.rays;
   const float* w = checked<float>(weights, "weights", 4, rays.n);
-  if (src.ndim() < 2 || src.shape(0) * (src.ndim() == 3 ? src.shape(1) : 1) != view_size)
+  if (src.ndim() < 2 || src.shape(0) * (src.ndim() == 3 ? src.shape(1) : 1) != rays.view_size)
     throw py::value_error("src: the view's (h, w[, c]) output");
   const int channels = src.ndim() == 3 ? int(src.shape(2)) : 1;
   if (!(out.flags() & py::array::c_style) || !out.writeable() || out.size() != rays.n * channels ||
@@ -139,12 +214,15 @@ void bind_distortion(py::module_& m) {
         "msaa"_a, "ssaa"_a,
         "The sample offsets of an anti-aliasing mode, from each pixel's top-left corner in fixed "
         "point (1 / 2**SUBPIXEL_BITS px), in sample order (multisample.hpp).");
-  m.def("_distortion_resolve", &distortion_resolve, "valid"_a, "nearest"_a, "corner"_a, "directions"_a,
-        "view_width"_a, "view_size"_a, "sample_to_normalized"_a, "triangle_id"_a, "instance_id"_a,
-        "instances"_a, "camera_to_world"_a, "centre"_a, "surface"_a, "threads"_a,
-        "Per output pixel: the view sample it takes and, with surface, its point on its own ray.");
-  m.def("_distortion_bilinear", &distortion_bilinear, "valid"_a, "nearest"_a, "corner"_a, "directions"_a,
-        "view_width"_a, "view_size"_a, "weights"_a, "src"_a, "out"_a,
+  py::class_<LensRays, std::shared_ptr<LensRays>>(
+      m, "_LensRays", "One distorted camera's rays at one image size, checked once (distortion.py's _Rays).")
+      .def(py::init(&make_lens_rays), "valid"_a, "nearest"_a, "corner"_a, "view_width"_a, "view_size"_a,
+           "pixel"_a, "xy"_a, "slot"_a, "cell_start"_a, "nx"_a, "ny"_a, "frame"_a);
+  m.def("_distortion_cast", &distortion_cast, "rays"_a, "draws"_a, "camera_to_world"_a, "centre"_a, "near"_a, "far"_a, "cull"_a,
+        "cull_double_sided"_a, "outputs"_a, "view"_a, "threads"_a,
+        "Per output pixel, the nearest hit of its own ray among every triangle of the draws (float64): "
+        "the named outputs, flat.");
+  m.def("_distortion_bilinear", &distortion_bilinear, "rays"_a, "weights"_a, "src"_a, "out"_a,
         "out[p] = the bilinear interpolation of src at pixel p's ray (uint8 rounded half up).");
 
 }

@@ -2,33 +2,41 @@
 for ``IntrinsicsCamera(..., dist=)``.
 
 A rasterizer draws straight edges; a distorted lens bends them. So a distorted camera is rendered
-in two steps, each exact where it can be:
+ray by ray where geometry is concerned, and through an ideal pinhole view for colour:
 
 1. Every output pixel's own ray. The centre of pixel (row i, col j) is the distorted point
    (u, v) = (j, i); its ray is the undistorted normalized point (x', y') that OpenCV's model
    maps there, found by Newton's method in float64 (to 1e-12, checked). Pixels the model
    cannot reach (beyond the fold of a strong barrel distortion) see nothing: background.
-2. An ideal pinhole view with the same K, covering every such ray with a margin and
+   The rays are bucketed in a grid of the plane z = 1 (cells one ideal pixel wide), once per
+   camera and image size, and cached.
+2. Geometry, exactly (issue 34 part 2; ``cpp/distortion.cpp``, ``cast_distorted``, on the
+   renderer's threads): every triangle is taken to camera space in float64, clipped to the
+   depth range [near, far], and its box on z = 1 scattered over the grid; each ray in it is
+   tested (three edge planes through the camera centre, then the depth) and keeps its nearest
+   hit, ties to the first triangle in draw and face order. Culling is the pinhole render's
+   (``cull=``, mirroring poses, double-sided materials). A triangle far thinner than a pixel is
+   hit by every pixel ray that meets it, whatever ``oversample`` is
+   (tests/test_distortion_exact.py: needles 1/100 px wide, masks pixel for pixel against a
+   NumPy ray caster). From the hit come ``triangle_id``, ``instance_id``, ``mask``, ``alpha``,
+   ``coverage`` (every triangle the ray meets), ``depth``, ``ray_depth``, ``position`` and
+   ``barycentric`` (the point on the pixel's own ray, so it reprojects through
+   ``cv2.projectPoints`` to its pixel centre), ``uv`` and ``normal`` (the interpolated vertex
+   normal, computed as the pipeline does, in float64).
+3. Colour, through an ideal pinhole view with the same K, covering every ray with a margin and
    ``oversample`` times finer (so ``oversample`` squared times as many pixels), rendered by the
-   ordinary pipeline. Each output pixel then casts its own ray, in float64 (``cpp/distortion.cpp``:
-   Moeller-Trumbore in each instance's model space, on the renderer's threads), at the triangles
-   of the view sample nearest its point and of the four around it, and sees the nearest one it
-   hits. From that sample it takes:
-   - ``depth``, ``ray_depth``, ``position`` and ``barycentric``: the point on the pixel's own
-     ray, so a visible point reprojects through ``cv2.projectPoints`` to its pixel centre (to
-     float32 rounding: tests/test_distortion.py);
-   - every other output but colour (ids, mask, normal, uv, coverage): the sample's value;
-   - ``color`` and ``radiance``: the bilinear interpolation of the four samples around the ray's
-     point (what ``cv2.remap`` with INTER_LINEAR does).
-   A ray that hits none of those triangles (it passes beside a silhouette, or through a triangle
-   smaller than a sample) keeps the nearest sample, at that sample's own point: a silhouette or an
-   id boundary is off by at most half a sample diagonal, 0.71 / oversample ideal pixels
-   (tests/test_distortion.py checks every pixel of a quad against exact rays).
+   ordinary pipeline only when ``color`` or ``radiance`` is asked for: each is the bilinear
+   interpolation of the four samples around the ray's point (what ``cv2.remap`` with
+   INTER_LINEAR does). Shading a hit exactly would need every shading model per ray; the remap
+   is what a distorted photograph's own resampling does, and ``oversample`` sharpens it.
+   Two cases still read the view's samples: alpha-masked materials (the alpha test is the
+   view's: such a triangle is hit where the nearest sample or one of the four around the ray
+   shows it), and ``normal_kind="shading"`` with normal or bump maps (the shaded normal of the
+   sample showing the hit triangle).
 
-Cost: the render of the larger, finer view (at ``oversample=2``, the default, about 4.7 times the
-output's pixels for a strong barrel lens) plus the per-pixel passes; the rays are computed once
-per camera and size, and cached. ``benchmarks/bench_stages.py --sections distortion`` measures it
-(RESULTS.md: colour 5.8x, colour + depth 9.1x a pinhole render at oversample 2).
+Cost (``benchmarks/bench_stages.py --sections distortion``, RESULTS.md "Issue 34, part 2"):
+geometry outputs no longer render the oversampled view, so their cost is the cast alone,
+whatever ``oversample`` is; colour is the view's render plus the remap.
 """
 from __future__ import annotations
 
@@ -193,13 +201,12 @@ class _Rays:
         # Pixel jj of the ideal view has its centre at u = u0 - 1/2 + (jj + 1/2) / s, so its
         # OpenCV K has fx * s and cx' = s (cx - u0 + 1/2) - 1/2.
         cxs, cys = s * (cx - u0 + 0.5) - 0.5, s * (cy - v0 + 0.5) - 0.5
-        self.sample_to_normalized = (1.0 / (s * fx), -cxs / (s * fx), 1.0 / (s * fy), -cys / (s * fy))
         half = 0.0 if camera.convention == "opencv" else 0.5  # an "opengl" K is measured from the corner
         self.camera = IntrinsicsCamera(fx * s, fy * s, cxs + half, cys + half, self.width, self.height,
                                        near=camera.near, far=camera.far, convention=camera.convention)
         us, vs = s * (u - u0 + 0.5) - 0.5, s * (v - v0 + 0.5) - 0.5  # ray positions in the view
         us, vs = np.where(valid, us, 0.0), np.where(valid, vs, 0.0)
-        # Flat per-pixel arrays for the core's passes (_core._distortion_resolve / _bilinear).
+        # Flat per-pixel arrays for the core's passes (_core._distortion_cast / _bilinear).
         self.valid_flat = np.ascontiguousarray(valid.reshape(-1))
         self.nearest = (np.clip(np.floor(vs + 0.5), 0, self.height - 1).astype(np.int64) * self.width
                         + np.clip(np.floor(us + 0.5), 0, self.width - 1).astype(np.int64)).reshape(-1)
@@ -210,13 +217,34 @@ class _Rays:
         j0 = np.clip(j0, 0, self.width - 2).astype(np.int64)
         i0 = np.clip(i0, 0, self.height - 2).astype(np.int64)
         self.corner = (i0 * self.width + j0).reshape(-1)  # top-left of the bilinear 2x2
-        # Each pixel's ray in OpenCV camera axes, (x', y', 1).
-        self.directions = np.ascontiguousarray(np.stack(
-            [np.where(valid, x, 0.0), np.where(valid, y, 0.0), np.ones_like(x)], axis=-1).reshape(-1, 3))
         self.view_size = self.width * self.height
-
-    def core_args(self) -> tuple[Any, ...]:
-        return (self.valid_flat, self.nearest, self.corner, self.directions, self.width, self.view_size)
+        # The rays (x', y', 1) in OpenCV camera axes, bucketed in a grid of the plane z = 1 with
+        # cells one ideal pixel wide, stored cell by cell (row-major): the exact cast scatters
+        # each triangle's box over it.
+        pixel = np.flatnonzero(self.valid_flat)
+        xs, ys = x.reshape(-1)[pixel], y.reshape(-1)[pixel]
+        x0, y0 = float(xs.min()), float(ys.min())
+        cx = np.floor((xs - x0) * fx).astype(np.int64)
+        cy = np.floor((ys - y0) * fy).astype(np.int64)
+        nx, ny = int(cx.max()) + 1, int(cy.max()) + 1
+        cell = cy * nx + cx
+        order = np.argsort(cell, kind="stable")
+        self.grid_pixel = np.ascontiguousarray(pixel[order])
+        self.grid_xy = np.ascontiguousarray(np.stack([xs[order], ys[order]], axis=-1))
+        self.grid_cell_start = np.zeros(nx * ny + 1, np.int64)
+        np.cumsum(np.bincount(cell, minlength=nx * ny), out=self.grid_cell_start[1:])
+        self.grid_slot = np.full(width * height, -1, np.int64)
+        self.grid_slot[self.grid_pixel] = np.arange(pixel.size, dtype=np.int64)
+        self.grid_shape = (nx, ny)
+        self.grid_frame = (x0, y0, float(fx), float(fy))
+        arrays = (self.valid_flat, self.nearest, self.corner, self.grid_pixel, self.grid_xy, self.grid_slot,
+                  self.grid_cell_start)
+        for a in arrays:
+            a.setflags(write=False)
+        # The core's copy of these, checked once.
+        self.core = _core._LensRays(self.valid_flat, self.nearest, self.corner, self.width, self.view_size,
+                                    self.grid_pixel, self.grid_xy, self.grid_slot, self.grid_cell_start, nx, ny,
+                                    self.grid_frame)
 
 
 def _rays(camera: Any, width: int, height: int) -> _Rays:
@@ -250,9 +278,13 @@ def _shadow_scene(scene: Any) -> Any:
     return scene._cached("distortion_shadow", build)
 
 
-_REFINED = ("depth", "ray_depth", "position", "barycentric")
 _BILINEAR = ("color", "radiance")
 _GL_FROM_CV = np.diag([1.0, -1.0, -1.0, 1.0])
+
+
+def _maps_normal(inst: Any) -> bool:
+    m = inst.material
+    return m is not None and (m.normal_texture is not None or m.bump_texture is not None)
 
 
 def render_distorted(renderer: Any, scene: Any, camera: Any, names: Any, options: dict[str, Any],
@@ -260,65 +292,77 @@ def render_distorted(renderer: Any, scene: Any, camera: Any, names: Any, options
     """``Renderer.render`` for a camera with lens distortion (see this module's docstring)."""
     from . import _core
     from .limits import check_budget
-    from .render import _OUTPUT_BYTES, Frame, Renderer, _out_arrays
+    from .render import _OUTPUT_BYTES, Frame, Renderer, _draws, _out_arrays
 
     w, h = renderer.width, renderer.height
     rays = _rays(camera, w, h)
-    view_renderers = renderer.__dict__.setdefault("_distortion_renderers", {})
-    key = (rays.width, rays.height)
-    big = view_renderers.get(key)
-    if big is None:
-        view_renderers.clear()  # one at a time: a renderer holds its scratch memory
-        big = view_renderers[key] = Renderer(rays.width, rays.height, renderer.threads,
-                                             renderer.isa != "generic")
     wanted = list(names)
-    # Anything but colour and radiance is taken from one sample per pixel, chosen by casting the
-    # pixel's ray at its neighbourhood's triangles: that needs every sample's triangle.
-    resolve = any(n not in _BILINEAR for n in wanted)
-    inner = list(dict.fromkeys(wanted + (["triangle_id", "instance_id"] if resolve else [])))
-    # The ideal view's outputs, checked before its renderer is made or anything is drawn.
-    check_budget(rays.view_size * sum(_OUTPUT_BYTES[n] for n in inner),
-                 f"oversample={camera.oversample}: the undistorted view's outputs {tuple(inner)} at "
-                 f"{rays.width}x{rays.height}")
-    view_scene = _shadow_scene(scene) if resolve else scene  # instance_id = the instance's index
-    rays.camera.pose = camera.pose  # the ideal view shares the camera's pose (set per render)
-    frame = big.render(view_scene, rays.camera, inner, **options)
+    shadow = _shadow_scene(scene)  # instance_id = the instance's index, one snapshot of the scene
+    instances = shadow._instances
+    cast = list(dict.fromkeys(n for n in wanted if n not in _BILINEAR))
+    # The ideal view: colour and radiance; the ids where the cast needs the view's samples (alpha
+    # masked materials: their alpha test; normal_kind="shading" with normal or bump maps: the
+    # shaded normal of the sample showing the hit triangle).
+    mapped = np.array([_maps_normal(i) for i in instances] or [False])
+    shading_normals = "normal" in cast and options["normal_kind"] == "shading" and bool(mapped.any())
+    masked = any(i.material is not None and i.material.alpha_mode == "mask" for i in instances)
+    need_ids = bool(cast) and (masked or shading_normals)
+    inner = [n for n in wanted if n in _BILINEAR] + (["triangle_id", "instance_id"] if need_ids else []) \
+        + (["normal"] if shading_normals else [])
+    frame = None
+    if inner:
+        view_renderers = renderer.__dict__.setdefault("_distortion_renderers", {})
+        key = (rays.width, rays.height)
+        # The ideal view's outputs, checked before its renderer is made or anything is drawn.
+        check_budget(rays.view_size * sum(_OUTPUT_BYTES[n] for n in inner),
+                     f"oversample={camera.oversample}: the undistorted view's outputs {tuple(inner)} at "
+                     f"{rays.width}x{rays.height}")
+        big = view_renderers.get(key)
+        if big is None:
+            view_renderers.clear()  # one at a time: a renderer holds its scratch memory
+            big = view_renderers[key] = Renderer(rays.width, rays.height, renderer.threads,
+                                                 renderer.isa != "generic")
+        rays.camera.pose = camera.pose  # the ideal view shares the camera's pose (set per render)
+        frame = big.render(shadow if need_ids else scene, rays.camera, inner, **options)
 
     valid = rays.valid
-    hits = None
-    if resolve:
-        surface = any(n in _REFINED for n in wanted)
+    hits: dict[str, np.ndarray] = {}
+    if cast:
         pose_cv = camera.pose if camera.convention == "opencv" else camera.pose @ _GL_FROM_CV
-        hits = _core._distortion_resolve(
-            *rays.core_args(), rays.sample_to_normalized, frame.triangle_id, frame.instance_id,
-            # the shadow scene's instances (the ones rendered), not the scene's: another thread
-            # may have edited it since
-            [(inst.mesh._core_data(), tuple(inst.pose.reshape(-1))) for inst in view_scene._instances],
-            tuple(pose_cv[:3, :3].reshape(-1)), tuple(pose_cv[:3, 3]), surface, renderer.threads)
+        view = None
+        if need_ids:
+            view = (frame.triangle_id, frame.instance_id)
+        hits = _core._distortion_cast(
+            rays.core, _draws(shadow), tuple(pose_cv[:3, :3].reshape(-1)), tuple(pose_cv[:3, 3]),
+            float(camera.near), float(camera.far), options["cull"], options["cull_double_sided"],
+            cast + (["instance_id", "sample"] if shading_normals else []), view, renderer.threads)
+    hit_index = hits["instance_id"].copy() if shading_normals else None  # before ids are mapped
     table = {row["name"]: row for row in _core.OUTPUT_TABLE}
     result: dict[str, np.ndarray] = {}
     for name in wanted:
         row = table[name]
         shape = (h, w) + ((row["channels"],) if row["channels"] > 1 else ())
-        src = getattr(frame, name)
         if name in _BILINEAR:
             value = np.empty(shape, row["dtype"])
-            _core._distortion_bilinear(*rays.core_args(), rays.weights, src, value)
-        elif name in _REFINED:
-            value = hits[name].astype(row["dtype"]).reshape(shape)
-            value[~hits["covered"].reshape(h, w)] = 0
+            _core._distortion_bilinear(rays.core, rays.weights, getattr(frame, name), value)
         else:
-            value = np.take(src.reshape(rays.view_size, -1), hits["sample"], axis=0).reshape(shape)
+            value = hits[name].reshape(shape)
         if name == "color":
             bg = np.floor(np.clip(np.asarray(options["background"], np.float32), 0, 1) * np.float32(255.0)
                           + np.float32(0.5)).astype(np.uint8)
             value[~valid] = bg
+        elif name == "radiance":
+            value[~valid] = 0.0
         elif name == "instance_id":
             seen = value >= 0
-            value[seen] = view_scene._source_ids[value[seen]]
-            value[~valid] = -1
-        else:
-            value[~valid] = row["background"]
+            value[seen] = shadow._source_ids[value[seen]]
+        elif name == "normal":
+            if options["normal_space"] != "world":  # the camera's axes, as the pipeline's rotation
+                seen = value.any(axis=-1)
+                value[seen] = (value[seen].astype(np.float64) @ camera.pose[:3, :3]).astype(np.float32)
+            if shading_normals:  # the shaded normal of the view sample showing the hit triangle
+                take = (hit_index >= 0) & mapped[np.maximum(hit_index, 0)]
+                value.reshape(-1, 3)[take] = frame.normal.reshape(-1, 3)[hits["sample"][take]]
         result[name] = value
     out_arrays = _out_arrays(out, wanted)
     if out_arrays:
