@@ -13,7 +13,8 @@ struct DrawTransform {
   dmat4 model_view_d;      // the same in double, for the points clipping creates (clip.cpp)
   dmat4 proj_d;
   dmat3 normal_to_world;   // inverse-transpose of the model's 3x3 (double: normals may be huge),
-                           // its cofactor matrix where that does not exist (transform.cpp)
+                           // its cofactor matrix where that does not exist (transform.cpp);
+                           // times a power of two: largest |entry| in [1, 2) (a direction only)
   bool mirrored = false;   // det(model) < 0: the winding flips, so front/back facing swap too
 };
 
