@@ -27,8 +27,11 @@ inline vec3 flat_normal(const ShadeDraw& d, int32_t c0, int32_t c1, int32_t c2) 
   const dvec3 p0(positions[c0]), p1(positions[c1]), p2(positions[c2]);
   const dvec3 e1 = p1 - p0, e2 = p2 - p0;
   dvec3 n = glm::cross(e1, e2);
-  if (!(glm::dot(n, n) >= 0x1p-60 * (glm::dot(e1, e1) * glm::dot(e2, e2))))
-    n = well_conditioned_cross(p0, p1, p2);
+  // |n|^2 < 2^-60 (e1.e2)^2: the angle at c0 below ~2^-30 (|e1|^2 |e2|^2 = |n|^2 + (e1.e2)^2).
+  // (Written as a product of the dot with itself: one dot product fewer than the edges' lengths.)
+  const double e12 = glm::dot(e1, e2);
+  if (__builtin_expect(!(glm::dot(n, n) >= 0x1p-60 * (e12 * e12)), 0))
+    n = well_conditioned_cross(positions, c0, c1, c2);
   return unit(d.normal_to_world * n);
 }
 

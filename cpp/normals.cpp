@@ -78,7 +78,8 @@ using WorldNormalsFn = void (*)(const MeshData&, const NormalMatrix&, std::size_
 
 }  // namespace
 
-vec3 unit_rescaled(const dvec3& v) {
+vec3 unit_rescaled(double x, double y, double z) {
+  const dvec3 v(x, y, z);
   if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) return vec3(0.0f);
   const double largest = std::max(std::fabs(v.x), std::max(std::fabs(v.y), std::fabs(v.z)));
   if (largest == 0.0) return vec3(0.0f);
@@ -87,8 +88,8 @@ vec3 unit_rescaled(const dvec3& v) {
   return vec3(w / glm::length(w));  // |w| in [1, 2): no over- or underflow
 }
 
-dvec3 well_conditioned_cross(const dvec3& p0, const dvec3& p1, const dvec3& p2) {
-  const dvec3 p[3] = {p0, p1, p2};
+dvec3 well_conditioned_cross(const vec3* positions, int32_t c0, int32_t c1, int32_t c2) {
+  const dvec3 p[3] = {dvec3(positions[c0]), dvec3(positions[c1]), dvec3(positions[c2])};
   // Edge k runs from corner k + 1 to corner k + 2, opposite corner k.
   int corner = 0;
   double longest = -1.0;

@@ -1025,7 +1025,8 @@ def _face_cross(e01: np.ndarray, e02: np.ndarray, e12: np.ndarray) -> np.ndarray
     cross = np.cross(e01, e02)
     dot = lambda a, b: np.einsum("ij,ij->i", a, b)  # noqa: E731
     with np.errstate(over="ignore", invalid="ignore"):
-        bad = ~(dot(cross, cross) >= 2.0**-60 * (dot(e01, e01) * dot(e02, e02)))
+        # |cross|^2 < 2^-60 (e01.e02)^2 (|e01|^2 |e02|^2 = |cross|^2 + (e01.e02)^2): the core's test
+        bad = ~(dot(cross, cross) >= 2.0**-60 * dot(e01, e02) ** 2)
     if bad.any():
         e01, e02, e12 = e01[bad], e02[bad], e12[bad]
         longest = np.argmax(np.stack([dot(e12, e12), dot(e02, e02), dot(e01, e01)]), axis=0)
