@@ -15,12 +15,24 @@ namespace interp {
 
 // The triangle's flat normal in world space: the counter-clockwise face normal of corners
 // c0, c1, c2, in double (a float cross product or a scaled normal can overflow: a triangle 1e20
-// units wide, a pose scaling by 0.1).
+// units wide, a pose scaling by 0.1). Unit for any face of float32 corners that is not
+// degenerate in double: the cross product is at most ~1e78, the normal matrix's largest entry
+// in [1, 2) (make_draw_transform), and unit() rescales a result whose squared length over- or
+// underflows (a pose scaling one axis by 1e-160). Where corner c0's angle is below ~2^-30 rad
+// (c0 1e19 away from the other two: both edges round to the same double, and their cross product
+// is 0) the cross product has cancelled, and is taken again at the corner of the largest angle
+// (well_conditioned_cross); every other face keeps corner c0's, so the same bits as before.
 inline vec3 flat_normal(const ShadeDraw& d, int32_t c0, int32_t c1, int32_t c2) {
   const vec3* positions = d.mesh->positions.data();
-  const dvec3 p0(positions[c0]);
-  return unit(d.normal_to_world *
-              glm::cross(dvec3(positions[c1]) - p0, dvec3(positions[c2]) - p0));
+  const dvec3 p0(positions[c0]), p1(positions[c1]), p2(positions[c2]);
+  const dvec3 e1 = p1 - p0, e2 = p2 - p0;
+  dvec3 n = glm::cross(e1, e2);
+  // |n|^2 < 2^-60 (e1.e2)^2: the angle at c0 below ~2^-30 (|e1|^2 |e2|^2 = |n|^2 + (e1.e2)^2).
+  // (Written as a product of the dot with itself: one dot product fewer than the edges' lengths.)
+  const double e12 = glm::dot(e1, e2);
+  if (__builtin_expect(!(glm::dot(n, n) >= 0x1p-60 * (e12 * e12)), 0))
+    n = well_conditioned_cross(positions, c0, c1, c2);
+  return unit(d.normal_to_world * n);
 }
 
 // A mesh vertex in world space (models that read positions).

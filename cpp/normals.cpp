@@ -78,6 +78,30 @@ using WorldNormalsFn = void (*)(const MeshData&, const NormalMatrix&, std::size_
 
 }  // namespace
 
+vec3 unit_rescaled(double x, double y, double z) {
+  const dvec3 v(x, y, z);
+  if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) return vec3(0.0f);
+  const double largest = std::max(std::fabs(v.x), std::max(std::fabs(v.y), std::fabs(v.z)));
+  if (largest == 0.0) return vec3(0.0f);
+  const int e = std::ilogb(largest);  // largest in [2^e, 2^(e+1)), subnormals included
+  const dvec3 w(std::ldexp(v.x, -e), std::ldexp(v.y, -e), std::ldexp(v.z, -e));
+  return vec3(w / glm::length(w));  // |w| in [1, 2): no over- or underflow
+}
+
+dvec3 well_conditioned_cross(const vec3* positions, int32_t c0, int32_t c1, int32_t c2) {
+  const dvec3 p[3] = {dvec3(positions[c0]), dvec3(positions[c1]), dvec3(positions[c2])};
+  // Edge k runs from corner k + 1 to corner k + 2, opposite corner k.
+  int corner = 0;
+  double longest = -1.0;
+  for (int k = 0; k < 3; ++k) {
+    const dvec3 e = p[(k + 2) % 3] - p[(k + 1) % 3];
+    const double len2 = glm::dot(e, e);
+    if (len2 > longest) longest = len2, corner = k;
+  }
+  const dvec3& a = p[corner];
+  return glm::cross(p[(corner + 1) % 3] - a, p[(corner + 2) % 3] - a);
+}
+
 void world_normals(const MeshData& mesh, const dmat3& normal_to_world, std::size_t begin,
                    std::size_t end, Isa isa, vec3* out) {
   const NormalMatrix nm(normal_to_world);

@@ -49,6 +49,25 @@ dmat3 cofactor_matrix(const dmat3& a) {
   return cof;
 }
 
+// m times a power of two that brings its largest |entry| into [1, 2) (m unchanged if zero). Only
+// the direction of normal_to_world * n is ever used, and a power of two scales exactly: the same
+// unit normals, bit for bit, for every pose whose products stay in double's normal range (a
+// rotation, or any pose of scale 1e-30..1e30: the factor is 1 for a largest entry in [1, 2)), and
+// no overflow where they would not (a pose scaling an axis by 1e-160: entries 1e160, on face
+// normals up to 1e78, squared 1e476).
+dmat3 power_of_two_scaled(const dmat3& m) {
+  double largest = 0.0;
+  for (int c = 0; c < 3; ++c)
+    for (int r = 0; r < 3; ++r) largest = std::max(largest, std::fabs(m[c][r]));
+  if (!(largest > 0.0) || !std::isfinite(largest)) return m;
+  const int e = std::ilogb(largest);
+  if (e == 0) return m;
+  dmat3 out;
+  for (int c = 0; c < 3; ++c)
+    for (int r = 0; r < 3; ++r) out[c][r] = std::ldexp(m[c][r], -e);
+  return out;
+}
+
 }  // namespace
 
 DrawTransform make_draw_transform(const dmat4& model, const CameraParams& camera) {
@@ -76,6 +95,7 @@ DrawTransform make_draw_transform(const dmat4& model, const CameraParams& camera
     xf.normal_to_world = cofactor_matrix(unit_scaled(m3));
     if (xf.mirrored) xf.normal_to_world = -xf.normal_to_world;
   }
+  xf.normal_to_world = power_of_two_scaled(xf.normal_to_world);
   return xf;
 }
 

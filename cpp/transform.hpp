@@ -16,7 +16,8 @@ struct DrawTransform {
   bool w_is_depth = false;  // its w row is the negated view z row, bit for bit (a perspective
                             // projection's (0, 0, -1, 0)): exact_clip's w and depth are equal
   dmat3 normal_to_world;   // inverse-transpose of the model's 3x3 (double: normals may be huge),
-                           // its cofactor matrix where that does not exist (transform.cpp)
+                           // its cofactor matrix where that does not exist (transform.cpp);
+                           // times a power of two: largest |entry| in [1, 2) (a direction only)
   bool mirrored = false;   // det(model) < 0: the winding flips, so front/back facing swap too
 };
 

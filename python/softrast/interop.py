@@ -146,6 +146,7 @@ import numpy as np
 
 from .camera import _GL_FROM_CV, Camera, IntrinsicsCamera, OrthographicCamera, PerspectiveCamera
 from .light import DirectionalLight, Light, PointLight, SpotLight
+from .loaders import face_normals, unit_rows
 from .loaders import _gltf_alpha
 from .material import Material
 from .mesh import Mesh
@@ -641,7 +642,7 @@ def _pr_primitive(pyrender: Any, mesh: Mesh, material: Any, bake: np.ndarray | N
             faces = faces[:, ::-1]
     if normals is None:  # softrast's flat face normals: unshare the vertices, one normal per face
         corners = positions[faces]  # (m, 3, 3)
-        n = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        n, _ = face_normals(positions, faces)  # unit at any scale (corners scaled, float64)
         positions = corners.reshape(-1, 3)
         normals = np.repeat(n, 3, axis=0)
         uvs = None if uvs is None else uvs[faces].reshape(-1, 2)
@@ -650,8 +651,7 @@ def _pr_primitive(pyrender: Any, mesh: Mesh, material: Any, bake: np.ndarray | N
     if len(positions) > 2**24:
         notes.append(f"{label}: {len(positions)} vertices: pyrender 0.1.45 stores indices as "
                      "float32, which rounds those above 2**24 (16,777,216): the mesh is drawn wrong")
-    lengths = np.linalg.norm(normals, axis=1, keepdims=True)
-    normals = np.divide(normals, lengths, out=np.zeros_like(normals), where=lengths > 0.0)
+    normals = unit_rows(normals)  # (a NaN row from a singular bake's pinv: 0)
     return pyrender.Primitive(positions=positions.astype(np.float32),
                               normals=normals.astype(np.float32),
                               texcoord_0=None if uvs is None else np.array(uvs, np.float32),

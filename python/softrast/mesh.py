@@ -434,7 +434,10 @@ class Mesh:
         smooth : per-vertex normals: the file's own where it carries them, else True or "area"
             (default): each vertex's adjacent face normals weighted by face area (the course
             notes' rule), "angle": weighted by the face's corner angle (trimesh's
-            ``vertex_normals``); False: flat face normals (faceted shading).
+            ``vertex_normals``, recomputed in float64 where trimesh drops a face: a mesh below
+            ~1e-5 units, a corner 1e19 away from unit ones); False: flat face normals (faceted
+            shading). Either weighting gives every vertex of a non-degenerate face a unit
+            normal for coordinates anywhere from 1e-30 to 3e38 (``softrast.loaders.vertex_normals``).
         color : base RGBA; None => the material's base colour, else the default grey. With a
             material, ``color`` replaces its base colour.
         srgb_colors : True => trimesh's 8-bit vertex / face colours are sRGB-encoded (as PLY,
