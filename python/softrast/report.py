@@ -805,7 +805,7 @@ _CHECKER_SWEEPS = (_sweep_filter, _sweep_anisotropy)
 
 def _feature_costs(s: Settings) -> list[dict[str, Any]]:
     """Time of the sphere scene with each feature off, then on, in groups: the outputs asked for,
-    a texture, lights, the normal output, anti-aliasing. Rows: group, setting, time_ms, time_spread_ms,
+    a texture, lights, the normal output, the exact surface step, anti-aliasing. Rows: group, setting, time_ms, time_spread_ms,
     delta_ms (against the group's first row)."""
     from .light import PointLight
     from .material import Material
@@ -842,6 +842,11 @@ def _feature_costs(s: Settings) -> list[dict[str, Any]]:
                     ("4 point lights", scene_with(lights=4), colour_depth)]),
         ("normal output", [("color + depth", plain, colour_depth),
                            ("color + depth + normal", plain, colour_depth + ("normal",))]),
+        # the exact surface step (cpp/surface.cpp): each pixel's ray on its face, in double
+        ("exact surface step", [("depth + ids", plain, ("depth", "triangle_id", "instance_id")),
+                                ("+ barycentric, uv, position, ray_depth (each pixel's exact hit)", plain,
+                                 ("depth", "triangle_id", "instance_id", "barycentric", "uv", "position",
+                                  "ray_depth"))]),
         ("anti-aliasing", [("off", plain, colour_depth), ("msaa=4", plain, colour_depth, {"msaa": 4}),
                            ("ssaa=2 (4 samples, each shaded)", plain, colour_depth, {"ssaa": 2})]),
     ]
