@@ -64,15 +64,17 @@ inline constexpr OutputLayout kOutputLayouts[kNumOutputs] = {
      "(h, w, 3) float32: shaded linear RGB radiance, unclamped, 0 = background (the colour "
      "output is this, clamped and encoded)"},
     {kOutBarycentric, "barycentric", DType::F32, 3, 4, 0.0, OutputPass::Surface,
-     "(h, w, 3) float32: perspective-correct barycentric weights of the visible point in its "
-     "mesh face (weights of the face's corners faces[triangle_id] in order; of the whole face "
-     "where clipping cut it), each in [0, 1], summing to 1; 0 = background"},
+     "(h, w, 3) float32: barycentric weights of the visible point in its mesh face, where the "
+     "pixel's own ray meets the face (weights of the face's corners faces[triangle_id] in order; "
+     "of the whole face where clipping cut it), summing to 1, in [0, 1] but for the raster's "
+     "1/512 px snap over the triangle's height; 0 = background"},
     {kOutUv, "uv", DType::F32, 2, 4, 0.0, OutputPass::Surface,
      "(h, w, 2) float32: the mesh's uvs interpolated at the visible point (perspective-correct; "
      "0 where the mesh has none), 0 = background"},
     {kOutPosition, "position", DType::F32, 3, 4, 0.0, OutputPass::Surface,
-     "(h, w, 3) float32: world-space position of the visible point (the barycentric weights "
-     "applied to its face's posed corners), 0 = background"},
+     "(h, w, 3) float32: world-space position of the visible point, where the pixel's own ray "
+     "meets its face (the barycentric weights applied to the face's posed corners), 0 = "
+     "background"},
     {kOutRayDepth, "ray_depth", DType::F32, 1, 4, 0.0, OutputPass::Surface,
      "(h, w) float32: Euclidean distance from the camera centre to the visible point in scene "
      "units (orthographic cameras: from the image plane along the rays, = depth), 0 = "

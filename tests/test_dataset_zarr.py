@@ -272,3 +272,46 @@ def test_cli_store_zarr_interrupted_then_killed_resumes_to_the_same_bytes(tmp_pa
     assert main(["batch", str(SPOT), "--out", str(tmp_path / "x"), "--store", "zarr",
                  "--formats", "depth=npy"]) == 2
     assert "--formats" in capsys.readouterr().err and not (tmp_path / "x").exists()
+
+
+_SIGINT_STORM = r"""
+import os, signal, sys, threading, time
+import numpy as np, trimesh, softrast as sr
+store = sys.argv[1]
+tm = trimesh.creation.icosphere(subdivisions=2)
+scene = sr.Scene(); scene.add(sr.Mesh(tm.vertices, tm.faces))
+cams = []
+for pose in sr.orbit(target=(0, 0, 0), radius=3.0, n=200):
+    c = sr.PerspectiveCamera(fov_y=40.0, width=16, height=12); c.pose = pose; cams.append(c)
+def storm():  # Ctrl-C again and again, landing anywhere in the main thread
+    time.sleep(0.3)
+    for _ in range(300):
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.001)
+threading.Thread(target=storm, daemon=True).start()
+try:
+    sr.write_dataset(scene, cams, sys.argv[2], outputs=("color", "depth"), store=store)
+except KeyboardInterrupt:
+    print("interrupted")
+    sys.exit(130)
+print("finished")
+"""
+
+
+@pytest.mark.parametrize("store", ["zarr"])
+def test_ctrl_c_storm_never_hangs_the_writer(tmp_path, store: str) -> None:
+    """Ctrl-C arriving at any moment, hundreds of times, ends write_dataset with
+    KeyboardInterrupt in bounded time. A KeyboardInterrupt raised inside the writer pool's own
+    locks used to leave one held, and the pool's shutdown then waited forever: a
+    `softrast batch --store zarr` hung after Ctrl-C under load (seen once, in a full suite
+    run; gdb showed the main thread in ThreadPoolExecutor.shutdown and a writer blocked in its
+    idle semaphore). Now Ctrl-C is taken between views (dataset._interrupt_between_views). This
+    storm did not reproduce that race in three runs on the old code: it guards the mechanism
+    (interrupted or finished, never hung), not the rare timing."""
+    script = tmp_path / "storm.py"
+    script.write_text(_SIGINT_STORM)
+    (tmp_path / "out").mkdir()
+    proc = subprocess.run([sys.executable, str(script), store, str(tmp_path / "out")],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode in (0, 130), proc.stderr[-2000:]
+    assert ("interrupted" if proc.returncode == 130 else "finished") in proc.stdout

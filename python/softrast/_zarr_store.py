@@ -274,8 +274,8 @@ def write_views(scene: Any, cams: Sequence[Any], directory: str, outputs: Sequen
                 renderer: Any, n_writers: int, progress: bool, resume: bool, first: int,
                 cameras_json: bool, formats: dict[str, str], options: dict[str, Any]) -> Any:
     """``write_dataset`` for store="zarr" (its arguments checked there)."""
-    from .dataset import (WrittenViews, _progress_bar, _remove_stale_temporaries, _write_cameras_json,
-                          _write_frames)
+    from .dataset import (WrittenViews, _interrupt_between_views, _progress_bar,
+                          _remove_stale_temporaries, _write_cameras_json, _write_frames)
     from .render import _check_output_names
 
     _blosc()
@@ -305,9 +305,11 @@ def write_views(scene: Any, cams: Sequence[Any], directory: str, outputs: Sequen
     todo: list[int] = []
     bar = None
     try:
-        with concurrent.futures.ThreadPoolExecutor(n_writers, "softrast-writer") as pool:
+        with _interrupt_between_views() as check, \
+                concurrent.futures.ThreadPoolExecutor(n_writers, "softrast-writer") as pool:
             found = pool.map(complete, views) if resume else [False] * len(views)
             for k, ok in zip(views, found):
+                check()
                 if ok:
                     done[k] = files(k)
                 else:
@@ -317,7 +319,7 @@ def write_views(scene: Any, cams: Sequence[Any], directory: str, outputs: Sequen
             bar = _progress_bar(len(cams), skipped) if progress else None
             frames = renderer.render_many(scene, [cams[k - first] for k in todo], outputs=names,
                                           **options)
-            _write_frames(pool, frames, todo, write, done, bar, n_writers)
+            _write_frames(pool, frames, todo, write, done, bar, n_writers, check)
     finally:
         if bar is not None:
             bar.close()

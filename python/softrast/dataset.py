@@ -41,8 +41,11 @@ written once every view is). ``softrast._zarr_store`` has the details.
 from __future__ import annotations
 
 import concurrent.futures
+import contextlib
 import json
 import os
+import signal
+import threading
 import time
 from dataclasses import dataclass, field
 from typing import Any, Iterable, Sequence
@@ -282,10 +285,12 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
     bar = None
     skipped = 0
     try:
-        with concurrent.futures.ThreadPoolExecutor(n_writers, "softrast-writer") as pool:
+        with _interrupt_between_views() as check, \
+                concurrent.futures.ThreadPoolExecutor(n_writers, "softrast-writer") as pool:
             # resume: the writers decode the files already there (OpenImageIO releases the GIL)
             found = pool.map(complete, stems) if resume else [None] * len(stems)
             for k, paths in enumerate(found):
+                check()
                 if paths is not None:
                     done[k] = paths
                 else:
@@ -296,7 +301,7 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
             views: Iterable[Frame] = r.render_many(scene, [cams[k] for k in todo], outputs=names,
                                                    **options)
             _write_frames(pool, views, todo, lambda frame, k: frame.save(directory, stems[k], formats),
-                          done, bar, n_writers)
+                          done, bar, n_writers, check)
     finally:
         if bar is not None:
             bar.close()
@@ -316,11 +321,39 @@ def _progress_bar(total: int, skipped: int) -> Any:
                 postfix=f"skipped {skipped}" if skipped else None)
 
 
+@contextlib.contextmanager
+def _interrupt_between_views() -> Any:
+    """Defers Ctrl-C (SIGINT) in a dataset writer to the next view: yields ``check()``, which
+    raises KeyboardInterrupt once one arrived. Raised asynchronously, it could land inside
+    concurrent.futures' own locks (pool.submit holds its semaphore's), and the pool's shutdown
+    then waited forever for a writer blocked on that lock (seen under load: a `softrast batch`
+    that hung after Ctrl-C). Only in the main thread, and only over Python's own handler; one
+    that arrived after the last view still raises on the way out."""
+    if (threading.current_thread() is not threading.main_thread()
+            or signal.getsignal(signal.SIGINT) is not signal.default_int_handler):
+        yield lambda: None
+        return
+    arrived: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: arrived.append(signum))
+
+    def check() -> None:
+        if arrived:
+            raise KeyboardInterrupt
+
+    try:
+        yield check
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    check()
+
+
 def _write_frames(pool: concurrent.futures.Executor, frames: Iterable[Any], todo: Sequence[int],
-                  write: Any, done: dict[int, Any], bar: Any, n_writers: int) -> None:
+                  write: Any, done: dict[int, Any], bar: Any, n_writers: int,
+                  check: Any = lambda: None) -> None:
     """Hands each frame of ``frames`` (those of views ``todo``, in order) to the writers as
     ``write(frame, k)`` while the next views render, at most 2 frames a writer waiting (so memory
-    stays bounded), and keeps each view's result in ``done[k]``, in order, ticking ``bar``."""
+    stays bounded), and keeps each view's result in ``done[k]``, in order, ticking ``bar``.
+    ``check()`` (_interrupt_between_views) runs between views."""
     pending: list[tuple[int, concurrent.futures.Future]] = []
 
     def drain(limit: int) -> None:
@@ -329,8 +362,10 @@ def _write_frames(pool: concurrent.futures.Executor, frames: Iterable[Any], todo
             done[k] = fut.result()
             if bar is not None:
                 bar.update(1)
+            check()
 
     for k, frame in zip(todo, frames):
+        check()
         pending.append((k, pool.submit(write, frame, k)))
         drain(2 * n_writers)
     drain(0)
