@@ -34,6 +34,7 @@ namespace {
 // to the bit), then the sample.
 struct TriangleAlpha {
   float persp[3];
+  const float (*q)[3];  // the exact weights (setup writes them for masked draws), or null
   float uv[3][2];
   float vertex_alpha[3][1];
   float sum_dx, sum_dy, uv_dx[2], uv_dy[2];
@@ -44,6 +45,7 @@ struct TriangleAlpha {
     const TriangleShading& a = chunk.shading[record];
     const MeshData& mesh = *test.mesh;
     for (int k = 0; k < 3; ++k) persp[k] = a.persp[k];
+    q = chunk.exact.empty() ? nullptr : chunk.exact[record].q;
     varying_alpha = !mesh.colors.empty();
     if (varying_alpha) {
       // Vertex alphas, mapped like any attribute (clipped pieces by their clip weights).
@@ -60,12 +62,19 @@ struct TriangleAlpha {
     if (test.texture) {
       interp::triangle_attributes<2>(mesh, t, a, chunk, uv);
       interp::reduce_uv_period(uv, test.uv_periodic_axes);
-      interp::attribute_derivatives<2>(t, a, uv, sum_dx, sum_dy, uv_dx, uv_dy);
+      interp::attribute_derivatives<2>(t, a.persp, q, uv, sum_dx, sum_dy, uv_dx, uv_dy);
     }
   }
 
   bool passes(const AlphaTest& test, float e0, float e1, float e2) const {
-    float b0 = e0 * persp[0], b1 = e1 * persp[1], b2 = e2 * persp[2];
+    float b0, b1, b2;
+    if (q) {  // (shade_kernels.hpp, exact_weights: the same operations)
+      b0 = e0 * q[0][0] + e1 * q[0][1] + e2 * q[0][2];
+      b1 = e0 * q[1][0] + e1 * q[1][1] + e2 * q[1][2];
+      b2 = e0 * q[2][0] + e1 * q[2][1] + e2 * q[2][2];
+    } else {
+      b0 = e0 * persp[0]; b1 = e1 * persp[1]; b2 = e2 * persp[2];
+    }
     const float inv_sum = 1.0f / (b0 + b1 + b2);
     b0 *= inv_sum; b1 *= inv_sum; b2 *= inv_sum;
     float alpha = test.alpha;

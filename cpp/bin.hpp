@@ -19,6 +19,7 @@ namespace sr {
 struct alignas(64) SetupChunk {
   GrowingArray<TriangleSetup> records;   // (grown without copies: a first frame grows them all)
   GrowingArray<TriangleShading> shading; // records[i]'s in shading[i]; empty unless SetupParams::shade
+  GrowingArray<ExactWeights> exact;      // records[i]'s in exact[i]; empty unless SetupParams::exact_weights
   std::vector<vec3> clip_bary;           // 3 per clipped record: source weights of its vertices
   std::vector<uint32_t> tile_begin;      // num_tiles + 1 offsets into tile_records
   std::vector<uint32_t> tile_records;    // record indices, grouped by tile, ascending

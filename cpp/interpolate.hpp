@@ -94,19 +94,25 @@ inline void reduce_uv_period(float (*uv)[2], uint8_t periodic_axes) {
   }
 }
 
-// Screen derivatives of a record's unnormalised perspective weights b_k = E_k persp_k: of their
-// sum (sum_dx, sum_dy) and of the attributes they weight (attr_dx, attr_dy). E_k (edge
-// kEdgeStart[k] -> kEdgeEnd[k], the weight of vertex k) steps by -dy * one per pixel in x and
-// dx * one in y. Per pixel then d(attr)/dx = (attr_dx - attr * sum_dx) / sum b_k.
+// Screen derivatives of a record's unnormalised perspective weights b_j (E_j persp_j, or with
+// `q` the exact weights sum_k q[j][k] E_k): of their sum (sum_dx, sum_dy) and of the attributes
+// they weight (attr_dx, attr_dy). E_k (edge kEdgeStart[k] -> kEdgeEnd[k], the weight of vertex
+// k) steps by -dy * one per pixel in x and dx * one in y. Per pixel then
+// d(attr)/dx = (attr_dx - attr * sum_dx) / sum b_j.
 template <int N>
-inline void attribute_derivatives(const TriangleSetup& t, const TriangleShading& a,
+inline void attribute_derivatives(const TriangleSetup& t, const float* persp, const float (*q)[3],
                                   const float (*attr)[N], float& sum_dx, float& sum_dy,
                                   float* attr_dx, float* attr_dy) {
-  double sx = 0.0, sy = 0.0, ax[N] = {}, ay[N] = {};
+  double ex[3], ey[3];  // E_k's steps
   for (int k = 0; k < 3; ++k) {
     const int i = kEdgeStart[k], j = kEdgeEnd[k];
-    const double gx = -double(int64_t(t.y[j]) - t.y[i]) * kSubpixelOne * a.persp[k];
-    const double gy = double(int64_t(t.x[j]) - t.x[i]) * kSubpixelOne * a.persp[k];
+    ex[k] = -double(int64_t(t.y[j]) - t.y[i]) * kSubpixelOne;
+    ey[k] = double(int64_t(t.x[j]) - t.x[i]) * kSubpixelOne;
+  }
+  double sx = 0.0, sy = 0.0, ax[N] = {}, ay[N] = {};
+  for (int k = 0; k < 3; ++k) {
+    const double gx = q ? q[k][0] * ex[0] + q[k][1] * ex[1] + q[k][2] * ex[2] : ex[k] * persp[k];
+    const double gy = q ? q[k][0] * ey[0] + q[k][1] * ey[1] + q[k][2] * ey[2] : ey[k] * persp[k];
     sx += gx;
     sy += gy;
     for (int c = 0; c < N; ++c) {
@@ -144,6 +150,10 @@ SR_INLINE Brdf prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTri
   const bool attributes = kLit && (needs & kNeedsUv);
   bool uniform_color;
   for (int k = 0; k < 3; ++k) s.persp[k] = a.persp[k];
+  // The exact weights (pipeline.hpp, ExactWeights: setup wrote them where a draw reads them).
+  const std::size_t record = std::size_t(vt.tri - vt.chunk->records.data());
+  s.q = vt.chunk->exact.empty() ? nullptr : vt.chunk->exact[record].q;
+  s.exact = kLit && d.exact_shading && s.q;
   if (a.clip_ref == kNoClip) {
     const int32_t* v = a.vertex;
     if (!normals) {
@@ -215,7 +225,8 @@ SR_INLINE Brdf prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTri
   if (normals && a.back_facing)  // two-sided: the side the camera sees
     for (vec3& n : s.normal) n = -n;
   if (textured)
-    attribute_derivatives<2>(t, a, s.attr, s.sum_dx, s.sum_dy, s.attr_dx, s.attr_dy);
+    attribute_derivatives<2>(t, a.persp, s.exact ? s.q : nullptr, s.attr, s.sum_dx, s.sum_dy,
+                             s.attr_dx, s.attr_dy);
   if (kLit && (needs & kNeedsFaceNormal)) {
     const vec3 n = a.clip_ref != kNoClip ? flat_normal(d, mesh.faces[t.prim].x, mesh.faces[t.prim].y,
                                                        mesh.faces[t.prim].z)

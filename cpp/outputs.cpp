@@ -1,6 +1,7 @@
 // Outputs: resolve (depth from keys, ids from the visibility buffer) and write a tile's rows.
 #include "outputs.hpp"
 
+#include "interpolate.hpp"
 #include "lines.hpp"
 #include "multisample.hpp"
 #include "surface.hpp"
@@ -414,6 +415,61 @@ void exact_depth_tile(const ShadeParams& p, const TileRect& rect, const TileScra
   }
 }
 
+// The normal output of the pixels whose triangle is a sliver (kExactDepth), whose exact weights
+// are its snapped ones (pipeline.hpp, ExactWeights): the draw's vertex normals interpolated
+// with the exact step's weights, as prepare() fetches them (a zero normal: the face's; turned to
+// the side the camera sees), then as write_tile writes them (camera space: rotated). Flat
+// normals are one per face, exact already. `normal` is the tile's first pixel in the output (row stride `stride` pixels).
+void exact_normal_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
+                       ExactPlanes& planes, const ResolvedSamples* samples, float* normal,
+                       std::size_t stride) {
+  const int32_t* representative = samples ? samples->representative : nullptr;
+  const SamplePattern* pattern = samples ? samples->pattern : nullptr;
+  const uint32_t count = uint32_t(raster.triangles.size());
+  for (uint32_t v = 0; v < count; ++v) {
+    const VisibleTriangle& vt = raster.triangles[v];
+    const TriangleSetup& t = *vt.tri;
+    if (!(t.flags & kExactDepth)) continue;
+    const ShadeDraw& d = p.draws[t.draw];
+    if (!d.world_normals) continue;
+    const TriangleShading& a = vt.chunk->shading[std::size_t(&t - vt.chunk->records.data())];
+    const ivec3 face = d.mesh->faces[t.prim];
+    dvec3 corner[3];
+    bool zero = false;
+    for (int c = 0; c < 3; ++c) {
+      corner[c] = dvec3(d.world_normals[face[c]]);
+      zero |= corner[c] == dvec3(0.0);
+    }
+    if (zero) {
+      const dvec3 flat(interp::flat_normal(d, face.x, face.y, face.z));
+      for (dvec3& n : corner)
+        if (n == dvec3(0.0)) n = flat;
+    }
+    const int x0 = std::max(int(t.x0), rect.x0), x1 = std::min(int(t.x1), rect.x1 - 1);
+    const int y0 = std::max(int(t.y0), rect.y0), y1 = std::min(int(t.y1), rect.y1 - 1);
+    const ExactTriangle* plane = nullptr;
+    for (int y = y0; y <= y1; ++y) {
+      const int row = (y - rect.y0) * kTileSizePx - rect.x0;
+      for (int x = x0; x <= x1; ++x) {
+        if (raster.visible[row + x] != v) continue;
+        if (!plane) plane = &planes.get(p, raster, v);
+        double wx, wy;
+        sample_point(p, x, y, representative ? representative + row : nullptr, pattern, x, wx, wy);
+        ExactHit hit;
+        if (!exact_hit(p.rays, *plane, wx, wy, hit)) continue;
+        dvec3 n = hit.bary[0] * corner[0] + hit.bary[1] * corner[1] + hit.bary[2] * corner[2];
+        if (a.back_facing) n = -n;
+        if (p.normal_rotation) n = dmat3(*p.normal_rotation) * n;
+        const double len2 = glm::dot(n, n);
+        if (!(len2 > 0.0) || !std::isfinite(len2)) continue;
+        n /= std::sqrt(len2);
+        float* out = normal + 3 * (std::size_t(y - rect.y0) * stride + std::size_t(x - rect.x0));
+        for (int c = 0; c < 3; ++c) out[c] = float(n[c]);
+      }
+    }
+  }
+}
+
 }  // namespace
 
 void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
@@ -445,8 +501,10 @@ void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& r
   const bool surface = barycentric || uv || position || ray_depth;
   // The exact step's depth where some triangle of the tile asks for it (kExactDepth).
   const bool exact_depths = depth && (raster.flags & kExactDepth);
+  // (Of slivers; not normal_kind="shading": the normal shading read, with its weights.)
+  const bool exact_normals = normal && (raster.flags & kExactDepth) && !p.in.shading_normals;
   ExactPlanes& planes = *thread_planes();
-  if (surface || exact_depths) planes.reset(raster.triangles.size());
+  if (surface || exact_depths || exact_normals) planes.reset(raster.triangles.size());
   const bool stream_depth = stream && !exact_depths;  // (not mixed with ordinary stores)
   const auto encode_row = isa == Isa::Avx2 ? encode_row_avx2 : encode_row_generic;
   uint32_t packed[kTileSizePx] = {};  // (encode_row skips groups with nothing visible)
@@ -522,6 +580,9 @@ void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& r
   if (exact_depths)
     exact_depth_tile(p, rect, raster, planes, samples,
                      depth + std::size_t(rect.y0) * width + std::size_t(rect.x0), width);
+  if (exact_normals)
+    exact_normal_tile(p, rect, raster, planes, samples,
+                      normal + 3 * (std::size_t(rect.y0) * width + std::size_t(rect.x0)), width);
 #if SR_X86
   if (stream) _mm_sfence();  // order the non-temporal stores before the tile is done
 #endif

@@ -233,6 +233,18 @@ struct TriangleShading {
 static_assert(sizeof(TriangleSetup) == 64 && sizeof(TriangleShading) == 32,
               "binning moves these records: keep them compact, a whole cache line or half");
 constexpr uint32_t kNoClip = 0xffffffffu;
+// The exact weights of a record (interpolate.hpp: what shading and the normal output interpolate
+// with): b_j = sum_k q[j][k] E_k, with E_k the snapped triangle's exact edge values at a sample,
+// is proportional to vertex j's perspective-correct weight in the *unsnapped* triangle at that
+// sample. E_k / area2 are the snapped triangle's barycentrics, a basis of the affine functions
+// of window position, so the unsnapped edge function E'_j is sum_k E'_j(v_k) / area2 E_k, and
+// E'_j(v_k) / area2' = [j == k] + mu_k[j] (SnapShift, vertex.hpp: how the snap moved v_k, in the
+// unsnapped triangle's barycentrics): q[j][k] = persp_j ([j == k] + mu_k[j]). A sliver
+// (kExactDepth) keeps its snapped weights: q = diag(persp). Written by setup beside the records
+// where some output reads them (SetupParams::exact_weights).
+struct ExactWeights {
+  float q[3][3];
+};
 // Edge k of a TriangleSetup runs from vertex kEdgeStart[k] to vertex kEdgeEnd[k].
 constexpr int kEdgeStart[3] = {1, 2, 0};
 constexpr int kEdgeEnd[3] = {2, 0, 1};

@@ -370,23 +370,7 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
     for (std::size_t b = 0; b < m; b += step)
       chunk_ranges.push_back({uint32_t(d), b, std::min(m, b + step)});
   }
-  if (chunks_.size() < chunk_ranges.size()) chunks_.resize(chunk_ranges.size());
-  pool_.parallel_for(chunk_ranges.size(), [&](std::size_t item, int) {
-    const Block& blk = chunk_ranges[item];
-    SetupParams params{draws[blk.draw].mesh.get(), &transforms[blk.draw],
-                       vertices_[blk.draw].data(), blk.draw, camera.orthographic,
-                       draws[blk.draw].never_culled && !options.cull_double_sided ? Cull::None
-                                                                                  : options.cull,
-                       &planes, viewport, plan.estimate_overdraw,
-                       plan.shade || plan.surface || alpha[blk.draw], alpha[blk.draw], isa_};
-    setup_chunk(params, blk.begin, blk.end, chunks_[item]);
-  });
-
-  // Lines and points: transformed, clipped, projected and binned, parallel over blocks.
-  primitives_.build(primitives, camera, viewport, line_algorithm,
-                    (options.outputs & (kOutPosition | kOutRayDepth)) != 0, pool_);
-
-  // Tiles: rasterize, then shade, each tile by one thread.
+  // What each draw's shading reads (before setup: whether it writes the exact weights).
   std::vector<ShadeDraw> shade_draws;
   std::vector<Block> normal_blocks;
   world_normals_.resize(draws.size());
@@ -406,6 +390,8 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
                  Brdf::Unlit, 0, draws[d].instance_id, nullptr, draws[d].model,
                  transforms[d].model_view_d};
     shade_draw(plan, options, headlight_lambert, sd);
+    sd.vertices = vertices_[d].data();
+    sd.exact_shading = (sd.needs & (kNeedsPosition | kNeedsUv)) != 0;
     defers_light |= plan.color && options.frequency == Frequency::Pixel && is_lit(sd.brdf);
     const KernelKind mine = !(sd.needs & kInline)      ? KernelKind::Lit
                             : sd.brdf == Brdf::Headlight ? KernelKind::Headlight
@@ -420,6 +406,27 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
     if (smooth) sd.world_normals = world_normals_[d].data();
     shade_draws.push_back(sd);
   }
+  if (chunks_.size() < chunk_ranges.size()) chunks_.resize(chunk_ranges.size());
+  pool_.parallel_for(chunk_ranges.size(), [&](std::size_t item, int) {
+    const Block& blk = chunk_ranges[item];
+    SetupParams params{draws[blk.draw].mesh.get(), &transforms[blk.draw],
+                       vertices_[blk.draw].data(), blk.draw, camera.orthographic,
+                       draws[blk.draw].never_culled && !options.cull_double_sided ? Cull::None
+                                                                                  : options.cull,
+                       &planes, viewport, plan.estimate_overdraw,
+                       plan.shade || plan.surface || alpha[blk.draw], alpha[blk.draw], isa_};
+    // The exact weights where the draw's shading reads them, or the normal output does.
+    // (A masked draw's alpha test reads them too, whichever outputs are requested.)
+    params.exact_weights = (plan.shade && (shade_draws[blk.draw].exact_shading || plan.normal)) ||
+                           alpha[blk.draw];
+    setup_chunk(params, blk.begin, blk.end, chunks_[item]);
+  });
+
+  // Lines and points: transformed, clipped, projected and binned, parallel over blocks.
+  primitives_.build(primitives, camera, viewport, line_algorithm,
+                    (options.outputs & (kOutPosition | kOutRayDepth)) != 0, pool_);
+
+  // Tiles: rasterize, then shade, each tile by one thread.
   pool_.parallel_for(normal_blocks.size(), [&](std::size_t item, int) {
     const Block& blk = normal_blocks[item];
     world_normals(*draws[blk.draw].mesh, transforms[blk.draw].normal_to_world, blk.begin, blk.end,
@@ -430,7 +437,7 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   shade.lit = &lit_kernels(isa_);
   shade.color = plan.color;
   shade.normal = plan.normal;
-  shade.work = uint8_t((plan.color ? kWorkColor : 0) | (plan.normal ? kWorkNormalOut : 0) |
+  shade.work = uint16_t((plan.color ? kWorkColor : 0) | (plan.normal ? kWorkNormalOut : 0) |
                        (plan.color && defers_light ? kWorkLitCode : 0));
   shade.in.defers_light = defers_light;
   // Headlight: the light sits at the camera and shines along its viewing axis.

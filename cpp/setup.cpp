@@ -30,38 +30,39 @@ inline int32_t last_sample(int32_t hi, int32_t min_offset) { return (hi - min_of
 // window space, so evaluating the true plane at the snapped vertices makes the interpolated key
 // exact (to rounding) at every sample. Slivers, whose true plane is ill-conditioned, keep the
 // original keys.
+// `mu` (if not null) receives each snapped vertex's SnapShift (ExactWeights), of a well-shaped
+// triangle only.
 void plane_keys_over_area(const ProjectedVertex* const o[3], int64_t positive_area2,
-                          TriangleSetup& t) {
+                          TriangleSetup& t, double (*mu)[3]) {
   const double area2 = double(positive_area2);
-  // The unsnapped triangle's edges from vertex 0, in fixed-point units.
-  const double ex1 = double(t.x[1] - t.x[0]) + (double(o[1]->dx) - double(o[0]->dx));
-  const double ey1 = double(t.y[1] - t.y[0]) + (double(o[1]->dy) - double(o[0]->dy));
-  const double ex2 = double(t.x[2] - t.x[0]) + (double(o[2]->dx) - double(o[0]->dx));
-  const double ey2 = double(t.y[2] - t.y[0]) + (double(o[2]->dy) - double(o[0]->dy));
-  const double area = ex1 * ey2 - ey1 * ex2;
-  constexpr double kMinArea = 1e-6 * kSubpixelOne * kSubpixelOne;  // 1e-6 px^2
-  if (std::fabs(area) > kMinArea) {
+  // The unsnapped triangle (its edges from vertex 0, in fixed-point units).
+  const float dx[3] = {o[0]->dx, o[1]->dx, o[2]->dx}, dy[3] = {o[0]->dy, o[1]->dy, o[2]->dy};
+  const SnapShift snap(t.x, t.y, dx, dy);
+  if (!snap.degenerate()) {
     // One division for both reciprocals (divisions dominate this function's latency).
-    const double r = 1.0 / (area * area2);
-    const double inv_area = area2 * r, inv_area2 = area * r;
+    const double r = 1.0 / (snap.area * area2);
+    const double inv_area = area2 * r, inv_area2 = snap.area * r;
     const double dkey1 = double(o[1]->key) - double(o[0]->key);
     const double dkey2 = double(o[2]->key) - double(o[0]->key);
     bool well_shaped = true;
-    // Snapping moved vertex v by (-dx, -dy): the change of its barycentric coordinates in the
-    // unsnapped triangle. The plane's value there is v's key plus that change applied to the
-    // keys (the changes sum to 0), which keeps the small correction apart from the large key.
-    auto fitted = [&](const ProjectedVertex& v) {
-      const double sx = -double(v.dx), sy = -double(v.dy);
-      const double mu1 = (sx * ey2 - sy * ex2) * inv_area, mu2 = (ex1 * sy - ey1 * sx) * inv_area;
-      const double mu0 = -(mu1 + mu2);
-      const double key = double(v.key) + (mu1 * dkey1 + mu2 * dkey2);
+    // The plane's value at snapped vertex v is v's key plus its mu applied to the keys (the
+    // changes sum to 0), which keeps the small correction apart from the large key.
+    double shift[3][3];
+    auto fitted = [&](int k) {
+      const ProjectedVertex& v = *o[k];
+      double* m = shift[k];
+      snap.shift(inv_area, v.dx, v.dy, m);
+      const double key = double(v.key) + (m[1] * dkey1 + m[2] * dkey2);
       // A well-shaped triangle moves its barycentrics a little; much more => sliver. The key's
       // sign is its camera type.
-      well_shaped &= (std::fabs(mu0) <= 0.25) & (std::fabs(mu1) <= 0.25) &
-                     (std::fabs(mu2) <= 0.25) & ((key > 0.0) == (v.key > 0.0f));
+      well_shaped &= (std::fabs(m[0]) <= 0.25) & (std::fabs(m[1]) <= 0.25) &
+                     (std::fabs(m[2]) <= 0.25) & ((key > 0.0) == (v.key > 0.0f));
       return key;
     };
-    const double key0 = fitted(*o[0]), key1 = fitted(*o[1]), key2 = fitted(*o[2]);
+    const double key0 = fitted(0), key1 = fitted(1), key2 = fitted(2);
+    if (well_shaped && mu)
+      for (int k = 0; k < 3; ++k)
+        for (int j = 0; j < 3; ++j) mu[k][j] = shift[k][j];
     if (well_shaped) {
       t.key_over_area[0] = float(key0 * inv_area2);
       t.key_over_area[1] = float(key1 * inv_area2);
@@ -96,21 +97,29 @@ bool covers_box_samples(const TriangleSetup& t, const SamplePattern& samples) {
   return false;
 }
 
-// Shading's perspective weights (TriangleShading::persp) of oriented vertices o.
+// Shading's perspective weights (TriangleShading::persp) of oriented vertices o, and with `mu`
+// (a well-shaped triangle's SnapShifts, else null: a sliver) the exact weights `e`.
 void perspective_weights(const ProjectedVertex* const o[3], int64_t positive_area2,
-                         TriangleShading& a) {
+                         TriangleShading& a, const double (*mu)[3], ExactWeights* e) {
   const double max_inv_w = std::max({double(o[0]->inv_w), double(o[1]->inv_w), double(o[2]->inv_w)});
   const double scale = 1.0 / (max_inv_w * double(positive_area2));
-  for (int k = 0; k < 3; ++k) a.persp[k] = float(double(o[k]->inv_w) * scale);
+  double persp[3];
+  for (int k = 0; k < 3; ++k) a.persp[k] = float(persp[k] = double(o[k]->inv_w) * scale);
+  if (!e) return;
+  for (int j = 0; j < 3; ++j)
+    for (int k = 0; k < 3; ++k)
+      e->q[j][k] = mu ? float(persp[j] * ((j == k ? 1.0 : 0.0) + mu[k][j]))
+                      : j == k ? a.persp[j] : 0.0f;
 }
 
 // Builds the records for one snapped triangle whose corners are the mesh's vertices `vertex` (or
-// null for a piece of a clipped face), `a` only if params.shade (its clip_ref left to the caller);
+// null for a piece of a clipped face), `a` only if params.shade (its clip_ref left to the caller),
+// `e` only if params.exact_weights;
 // `positive_area2` receives twice its area (> 0). Returns
 // false if it is culled, degenerate, or has no sample centre in its box or covers none of the
 // one or two there; those integer tests come before any floating-point work.
 bool setup_triangle(const ProjectedVertex* const v[3], const SetupParams& params, uint32_t prim,
-                    const int32_t* vertex, TriangleSetup& t, TriangleShading& a,
+                    const int32_t* vertex, TriangleSetup& t, TriangleShading& a, ExactWeights& e,
                     int64_t& positive_area2) {
   const int64_t area2 = int64_t(v[1]->x - v[0]->x) * (v[2]->y - v[0]->y) -
                         int64_t(v[1]->y - v[0]->y) * (v[2]->x - v[0]->x);
@@ -151,11 +160,13 @@ bool setup_triangle(const ProjectedVertex* const v[3], const SetupParams& params
   }
   if (!covers_box_samples(t, samples)) return false;
   t.flags = 0;
-  plane_keys_over_area(o, positive_area2, t);
+  double mu[3][3];
+  plane_keys_over_area(o, positive_area2, t, params.exact_weights ? mu : nullptr);
   t.prim = prim;
   t.draw = params.draw;
   if (params.shade) {
-    perspective_weights(o, positive_area2, a);
+    perspective_weights(o, positive_area2, a, t.flags & kExactDepth ? nullptr : mu,
+                        params.exact_weights ? &e : nullptr);
     for (int k = 0; k < 3; ++k) a.vertex[k] = vertex ? vertex[k == 0 ? 0 : swapped ? 3 - k : k] : 0;
     a.clip_ref = kNoClip;
     a.swapped = swapped ? 1 : 0;
@@ -193,13 +204,15 @@ void clip_and_setup(const ivec3& face, uint8_t planes_mask, const SetupParams& p
     const ProjectedVertex* const tri[3] = {&projected[0], &projected[i], &projected[i + 1]};
     TriangleSetup t;
     TriangleShading a;
+    ExactWeights e;
     int64_t area2;
-    if (!setup_triangle(tri, params, prim, nullptr, t, a, area2)) continue;
+    if (!setup_triangle(tri, params, prim, nullptr, t, a, e, area2)) continue;
     if (params.shade) {
       a.clip_ref = uint32_t(out.clip_bary.size() / 3);
       const int ids[3] = {0, a.swapped ? i + 1 : i, a.swapped ? i : i + 1};
       for (int k = 0; k < 3; ++k) out.clip_bary.push_back(poly[ids[k]].bary_source);
       out.shading.push_back(a);
+      if (params.exact_weights) out.exact.push_back(e);
     }
     out.records.push_back(t);
     emit(t.x0, t.y0, t.x1, t.y1, double(area2), params.viewport, out);
@@ -220,10 +233,12 @@ void setup_face(const SetupParams& params, std::size_t f, SetupChunk& out) {
   if (any_out == 0) {
     TriangleSetup t;
     TriangleShading a;
+    ExactWeights e;
     int64_t area2;
-    if (setup_triangle(v, params, uint32_t(f), &face.x, t, a, area2)) {
+    if (setup_triangle(v, params, uint32_t(f), &face.x, t, a, e, area2)) {
       out.records.push_back(t);
       if (params.shade) out.shading.push_back(a);
+      if (params.shade && params.exact_weights) out.exact.push_back(e);
       emit(t.x0, t.y0, t.x1, t.y1, double(area2), params.viewport, out);
     }
   } else {
@@ -237,6 +252,7 @@ void setup_chunk(const SetupParams& params, std::size_t begin, std::size_t end, 
   out.shading.clear();
   out.record_tiles.clear();
   out.clip_bary.clear();
+  out.exact.clear();
   out.tile_begin.assign(params.viewport.num_tiles() + 2, 0);
   out.tile_area.assign(params.estimate_overdraw ? params.viewport.num_tiles() : 0, 0.0f);
   setup_faces(params, begin, end, out);

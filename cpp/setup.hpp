@@ -25,6 +25,8 @@ struct SetupParams {
   bool shade;              // fill SetupChunk::shading (shading, or an alpha test, reads it)
   const AlphaTest* alpha;  // the draw's alpha test, or null (opaque)
   Isa isa;                 // kernels for eight faces at a time (the same records for either)
+  bool exact_weights = false;  // fill SetupChunk::exact (with shade: the draw's shading or the
+                               // normal output reads the exact weights)
 };
 
 // Sets up faces [begin, end) of one draw and bins them (out is cleared first).

@@ -67,6 +67,7 @@ SR_INLINE void setup_eight(const SetupParams& params, std::size_t f, SetupChunk&
 
   alignas(32) int32_t lane_x[3][8], lane_y[3][8], lane_box[4][8], lane_bias[3][8];
   alignas(32) float lane_key[3][8], lane_persp[3][8];
+  alignas(32) float lane_q[3][3][8];  // params.exact_weights: ExactWeights::q
   alignas(32) double lane_area2[8];
   unsigned exact = 0;  // kExactDepth per lane
   if (keep != 0) {
@@ -128,7 +129,7 @@ SR_INLINE void setup_eight(const SetupParams& params, std::size_t f, SetupChunk&
       store(lane_box[3], y1);
       // plane_keys_over_area and perspective_weights, four lanes at a time (a half without
       // survivors is skipped).
-      constexpr double kMinArea = 1e-6 * kSubpixelOne * kSubpixelOne;
+      constexpr double kMinArea = SnapShift::kMinArea;
       f4 key_over_area[3][2] = {}, persp[3][2] = {};
       for (int h = 0; h < 2; ++h) {
         if ((keep >> (4 * h) & 0xfu) == 0) continue;
@@ -145,12 +146,15 @@ SR_INLINE void setup_eight(const SetupParams& params, std::size_t f, SetupChunk&
         const d4 key0 = wide(okey[0], h);
         const d4 dkey1 = wide(okey[1], h) - key0, dkey2 = wide(okey[2], h) - key0;
         l4 well_shaped = abs(area) > kMinArea;
-        d4 fitted[3];
+        d4 fitted[3], mu[3][3];  // mu[k][j]: SnapShift of vertex k
         for (int k = 0; k < 3; ++k) {
           const d4 key = wide(okey[k], h);
           const d4 sx = -wide(odx[k], h), sy = -wide(ody[k], h);
           const d4 mu1 = (sx * ey2 - sy * ex2) * inv_area, mu2 = (ex1 * sy - ey1 * sx) * inv_area;
           const d4 mu0 = -(mu1 + mu2);
+          mu[k][0] = mu0;
+          mu[k][1] = mu1;
+          mu[k][2] = mu2;
           fitted[k] = key + (mu1 * dkey1 + mu2 * dkey2);
           well_shaped &= (abs(mu0) <= 0.25) & (abs(mu1) <= 0.25) & (abs(mu2) <= 0.25) &
                          ((fitted[k] > 0.0) == (key > 0.0));
@@ -165,9 +169,17 @@ SR_INLINE void setup_eight(const SetupParams& params, std::size_t f, SetupChunk&
         if (params.shade) {
           const d4 w0 = wide(oinv_w[0], h), w1 = wide(oinv_w[1], h), w2 = wide(oinv_w[2], h);
           const d4 scale = 1.0 / (max(max(w0, w1), w2) * t_area2);
-          persp[0][h] = __builtin_convertvector(w0 * scale, f4);
-          persp[1][h] = __builtin_convertvector(w1 * scale, f4);
-          persp[2][h] = __builtin_convertvector(w2 * scale, f4);
+          const d4 pd[3] = {w0 * scale, w1 * scale, w2 * scale};
+          for (int k = 0; k < 3; ++k) persp[k][h] = __builtin_convertvector(pd[k], f4);
+          if (params.exact_weights) {  // setup.cpp, perspective_weights; slivers: diag(persp)
+            const i4 keep_exact = __builtin_convertvector(well_shaped, i4);
+            for (int j = 0; j < 3; ++j)
+              for (int k = 0; k < 3; ++k) {
+                const f4 exact = __builtin_convertvector(pd[j] * ((j == k ? 1.0 : 0.0) + mu[k][j]), f4);
+                const f4 snapped = j == k ? persp[j][h] : f4{};
+                store(&lane_q[j][k][4 * h], f4((i4(exact) & keep_exact) | (i4(snapped) & ~keep_exact)));
+              }
+          }
         }
       }
       for (int k = 0; k < 3; ++k) {
@@ -210,6 +222,11 @@ SR_INLINE void setup_eight(const SetupParams& params, std::size_t f, SetupChunk&
       a.clip_ref = kNoClip;
       a.swapped = swapped ? 1 : 0;
       a.back_facing = (front >> j & 1) ? 0 : 1;
+      if (params.exact_weights) {
+        ExactWeights& e = out.exact.emplace_back();
+        for (int r = 0; r < 3; ++r)
+          for (int k = 0; k < 3; ++k) e.q[r][k] = lane_q[r][k][j];
+      }
     }
     emit(t.x0, t.y0, t.x1, t.y1, lane_area2[j], params.viewport, out);
   }

@@ -6,6 +6,7 @@
 #include "plan.hpp"
 #include "shade_models.hpp"
 #include "surface.hpp"
+#include "vertex.hpp"
 
 namespace sr {
 
@@ -24,12 +25,18 @@ struct ShadeDraw {
   const vec3* world_normals;  // per vertex (world_normals()), or null: flat face normals
   dmat4 model_to_world;       // for models that read world positions
   dmat4 model_view;           // model -> view, double: the exact surface step (surface.hpp)
+  // The draw's projected vertices: their unsnapped positions, for the exact weights.
+  const ProjectedVertex* vertices = nullptr;
+  // Everything its triangles interpolate takes the exact weights (its model reads world positions
+  // or uvs: lights, textures, the uv and depth views); else only the normal output does
+  // (normal_kind="interpolated"; "shading" gives the normal shading read, with its weights).
+  bool exact_shading = false;
 };
 
 // What each group of a visible triangle's pixels does (shade_kernels.hpp, Prepared::work), decided
 // once per triangle: the render's shaded outputs are run-time choices folded in here, not kernel
 // axes (benchmarks/RESULTS.md, "What each kernel axis is worth").
-enum ShadeWork : uint8_t {
+enum ShadeWork : uint16_t {
   kWorkVaryingColor = 1,    // the colour output, interpolated (ShadeTriangle::kVaryingColor)
   kWorkVaryingNormal = 2,   // the normal output, interpolated
   kWorkUnitNormal = 4,      // the normal output, one for the whole triangle
@@ -37,12 +44,17 @@ enum ShadeWork : uint8_t {
   kWorkNormalOut = 16,      // the normal output (normalised here)   } (ShadeParams::work)
   kWorkLitCode = 32,        // colour, with codes for the light pass }
   kWorkShadingNormal = 64,  // the normal output with the normal or bump map applied (lit kernel)
+  // The exact weights (ShadeTriangle::exact; interpolate.hpp, exact_weights) instead of the
+  // snapped triangle's: for everything the triangle interpolates (its draw reads positions or
+  // uvs: ShadeDraw::exact_shading), or for the normal output alone (the colour keeps its bits
+  // whichever outputs are requested).
+  kWorkExactWeights = 128,
+  kWorkExactNormal = 256,
 };
-
 struct ShadeParams {
   const ShadeDraw* draws;
   bool color, normal;  // shaded outputs requested: colour (or radiance), normals
-  uint8_t work;        // the render's ShadeWork bits
+  uint16_t work;       // the render's ShadeWork bits
   ShadeInputs in;  // what shading reads (shade_models.hpp)
   const LitKernels* lit;  // lighting and textures out of line, for the render's instruction set
   uint8_t background[3];  // the colour output's background, as given (not encoded)

@@ -50,20 +50,34 @@ struct Prepared {
   static constexpr KernelKind kKind = K;
   ShadeTriangle s;
   ShadeConstants c;
-  uint8_t work;  // ShadeWork bits
+  uint16_t work;  // ShadeWork bits
   SR_INLINE void make(const ShadeParams& p, const VisibleTriangle& vt) {
     const Brdf brdf = prepare<K>(p, vt, s);
     // The render's bits (p.work: kWorkColor, kWorkNormalOut, kWorkLitCode), then the triangle's.
     const bool varying = p.color && s.color_kind != ShadeTriangle::kConstantColor;
     const bool shading_normal = K == KernelKind::Lit && p.normal && s.normal_out_map;
     const bool varying_normal = p.normal && (!s.one_normal || shading_normal);
-    work = uint8_t(p.work | (varying && s.color_kind == ShadeTriangle::kVaryingColor ? kWorkVaryingColor : 0) |
-                   (varying_normal ? kWorkVaryingNormal : 0) |
-                   (shading_normal ? kWorkShadingNormal : 0) |
-                   (p.normal && s.one_normal && !shading_normal ? kWorkUnitNormal : 0));
+    uint16_t w = uint16_t(p.work | (varying && s.color_kind == ShadeTriangle::kVaryingColor ? kWorkVaryingColor : 0) |
+                          (varying_normal ? kWorkVaryingNormal : 0) |
+                          (shading_normal ? kWorkShadingNormal : 0) |
+                          (p.normal && s.one_normal && !shading_normal ? kWorkUnitNormal : 0));
+    // The exact weights: for everything (the draw reads positions or uvs: prepare), or else for
+    // an interpolated normal output alone (slivers keep the snapped weights).
+    if (K == KernelKind::Lit && s.exact)
+      w |= kWorkExactWeights;
+    else if (varying_normal && !p.in.shading_normals && s.q)  // (normal_kind="shading": shading's)
+      w |= kWorkExactNormal;
+    work = w;
     make_constants<K>(p.in, p.lit, brdf, varying || varying_normal, s, c);
   }
 };
+
+// The exact weights (ShadeTriangle::q) from the exact edge values e0..e2, unnormalised.
+SR_INLINE void exact_weights(const float (*q)[3], f8 e0, f8 e1, f8 e2, f8& b0, f8& b1, f8& b2) {
+  b0 = e0 * q[0][0] + e1 * q[0][1] + e2 * q[0][2];
+  b1 = e0 * q[1][0] + e1 * q[1][1] + e2 * q[1][2];
+  b2 = e0 * q[2][0] + e1 * q[2][1] + e2 * q[2][2];
+}
 
 // Shades eight pixels of one triangle from their exact edge values e0..e2, writing the lanes in
 // `mine` to the scratch buffers at i: eight pixels of a row, or with kPairs four pixels of row i
@@ -73,82 +87,101 @@ SR_INLINE void shade_group(const P& t, f8 e0, f8 e1, f8 e2, i8 mine, int i, Shad
   constexpr bool kLit = P::kKind == KernelKind::Lit;
   const ShadeTriangle& s = t.s;
   const ShadeConstants& c = t.c;
-  const uint8_t work = t.work;
+  const uint16_t work = t.work;
   if (work & (kWorkVaryingColor | kWorkVaryingNormal)) {
-    // Perspective-correct barycentrics from the exact edge values.
-    f8 b0 = e0 * c.persp[0], b1 = e1 * c.persp[1], b2 = e2 * c.persp[2];
-    const f8 inv_sum = 1.0f / (b0 + b1 + b2);
-    b0 *= inv_sum; b1 *= inv_sum; b2 *= inv_sum;
-    Fragment frag;
-    f8& nx = frag.normal[0];
-    f8& ny = frag.normal[1];
-    f8& nz = frag.normal[2];
-    nx = ny = nz = f8{};
-    const bool varying_color = work & kWorkVaryingColor;
-    if ((work & kWorkVaryingNormal) || (varying_color && (s.reads & ShadeTriangle::kReadNormal))) {
-      const Lanes3 n = weighted(s.normal, b0, b1, b2);
-      nx = n.x; ny = n.y; nz = n.z;
-      // The tile's light pass normalises the normals it is left (ShadeScratch::lit_code), in
-      // full groups of eight: the same operations on the same values.
-      if (!kLit || (work & kWorkNormalOut) || !c.raw_normal) normalize(nx, ny, nz);
+    if (work & kWorkExactNormal) {  // the normal output's own interpolation, at the exact weights
+      f8 q0, q1, q2;
+      exact_weights(s.q, e0, e1, e2, q0, q1, q2);
+      Lanes3 m = weighted(s.normal, q0, q1, q2);  // (a positive multiple: normalised)
+      normalize(m.x, m.y, m.z);
+      merge<kPairs>(out.normal[0] + i, m.x, mine);
+      merge<kPairs>(out.normal[1] + i, m.y, mine);
+      merge<kPairs>(out.normal[2] + i, m.z, mine);
     }
-    if (work & kWorkVaryingNormal) {
-      merge<kPairs>(out.normal[0] + i, nx, mine);
-      merge<kPairs>(out.normal[1] + i, ny, mine);
-      merge<kPairs>(out.normal[2] + i, nz, mine);
-    }
-    if (varying_color) {
-      f8 r{}, g{}, b{};
-      if (s.reads & ShadeTriangle::kReadColor) {
-        if (s.uniform_color) {
-          r = splat(s.color[0].x); g = splat(s.color[0].y); b = splat(s.color[0].z);
-        } else {
-          const Lanes3 rgb = weighted(s.color, b0, b1, b2);
-          r = rgb.x; g = rgb.y; b = rgb.z;
+    // The normal output below unless it was exact above.
+    const bool normal_out = (work & kWorkVaryingNormal) && !(work & kWorkExactNormal);
+    if ((work & kWorkVaryingColor) || normal_out) {
+      // Perspective-correct barycentrics from the exact edge values: the snapped triangle's, or
+      // the exact weights.
+      f8 b0, b1, b2;
+      if (kLit && (work & kWorkExactWeights)) {
+        exact_weights(s.q, e0, e1, e2, b0, b1, b2);
+      } else {
+        b0 = e0 * c.persp[0]; b1 = e1 * c.persp[1]; b2 = e2 * c.persp[2];
+      }
+      const f8 inv_sum = 1.0f / (b0 + b1 + b2);
+      b0 *= inv_sum; b1 *= inv_sum; b2 *= inv_sum;
+      Fragment frag;
+      f8& nx = frag.normal[0];
+      f8& ny = frag.normal[1];
+      f8& nz = frag.normal[2];
+      nx = ny = nz = f8{};
+      const bool varying_color = work & kWorkVaryingColor;
+      if (normal_out || (varying_color && (s.reads & ShadeTriangle::kReadNormal))) {
+        const Lanes3 n = weighted(s.normal, b0, b1, b2);
+        nx = n.x; ny = n.y; nz = n.z;
+        // The tile's light pass normalises the normals it is left (ShadeScratch::lit_code), in
+        // full groups of eight: the same operations on the same values.
+        if (!kLit || (work & kWorkNormalOut) || !c.raw_normal) normalize(nx, ny, nz);
+      }
+      if (normal_out) {
+        merge<kPairs>(out.normal[0] + i, nx, mine);
+        merge<kPairs>(out.normal[1] + i, ny, mine);
+        merge<kPairs>(out.normal[2] + i, nz, mine);
+      }
+      if (varying_color) {
+        f8 r{}, g{}, b{};
+        if (s.reads & ShadeTriangle::kReadColor) {
+          if (s.uniform_color) {
+            r = splat(s.color[0].x); g = splat(s.color[0].y); b = splat(s.color[0].z);
+          } else {
+            const Lanes3 rgb = weighted(s.color, b0, b1, b2);
+            r = rgb.x; g = rgb.y; b = rgb.z;
+          }
         }
+        if (kLit && (s.reads & ShadeTriangle::kReadPosition)) {
+          const Lanes3 pos = weighted(s.position, b0, b1, b2);
+          frag.position[0] = pos.x; frag.position[1] = pos.y; frag.position[2] = pos.z;
+        }
+        if (kLit && (s.reads & ShadeTriangle::kReadUv)) {
+          for (int j = 0; j < 2; ++j)
+            frag.attr[j] = b0 * s.attr[0][j] + b1 * s.attr[1][j] + b2 * s.attr[2][j];
+          if (s.reads & ShadeTriangle::kReadUvDerivs)
+            for (int j = 0; j < 2; ++j) {
+              frag.attr_dx[j] = (s.attr_dx[j] - frag.attr[j] * s.sum_dx) * inv_sum;
+              frag.attr_dy[j] = (s.attr_dy[j] - frag.attr[j] * s.sum_dy) * inv_sum;
+            }
+        }
+        frag.mine = mine;
+        if (kLit && c.code != 0) {  // the tile's light pass lights it from these
+          f8 n[3] = {nx, ny, nz};
+          if (c.textured) c.kernels->surface(c, frag, n, r, g, b);
+          for (int k = 0; k < 3; ++k) merge<kPairs>(out.lit_normal[k] + i, n[k] * c.side, mine);
+          if (c.code & 1)
+            for (int k = 0; k < 3; ++k) merge<kPairs>(out.lit_position[k] + i, frag.position[k], mine);
+          out.lit_pending = true;
+        } else if (kLit && c.op == ShadeConstants::kOutOfLine) {
+          c.kernels->shade(c, frag, r, g, b);
+        } else {
+          shade_inline<P::kKind>(c, frag, r, g, b);
+        }
+        merge<kPairs>(out.rgb[0] + i, r, mine);
+        merge<kPairs>(out.rgb[1] + i, g, mine);
+        merge<kPairs>(out.rgb[2] + i, b, mine);
       }
-      if (kLit && (s.reads & ShadeTriangle::kReadPosition)) {
-        const Lanes3 pos = weighted(s.position, b0, b1, b2);
-        frag.position[0] = pos.x; frag.position[1] = pos.y; frag.position[2] = pos.z;
-      }
-      if (kLit && (s.reads & ShadeTriangle::kReadUv)) {
-        for (int j = 0; j < 2; ++j)
-          frag.attr[j] = b0 * s.attr[0][j] + b1 * s.attr[1][j] + b2 * s.attr[2][j];
-        if (s.reads & ShadeTriangle::kReadUvDerivs)
+      if (kLit && (work & kWorkShadingNormal)) {  // the normal output as the shading perturbs it
+        if (!varying_color) {  // (the colour's block computes the uvs otherwise)
           for (int j = 0; j < 2; ++j) {
+            frag.attr[j] = b0 * s.attr[0][j] + b1 * s.attr[1][j] + b2 * s.attr[2][j];
             frag.attr_dx[j] = (s.attr_dx[j] - frag.attr[j] * s.sum_dx) * inv_sum;
             frag.attr_dy[j] = (s.attr_dy[j] - frag.attr[j] * s.sum_dy) * inv_sum;
           }
-      }
-      frag.mine = mine;
-      if (kLit && c.code != 0) {  // the tile's light pass lights it from these
-        f8 n[3] = {nx, ny, nz};
-        if (c.textured) c.kernels->surface(c, frag, n, r, g, b);
-        for (int k = 0; k < 3; ++k) merge<kPairs>(out.lit_normal[k] + i, n[k] * c.side, mine);
-        if (c.code & 1)
-          for (int k = 0; k < 3; ++k) merge<kPairs>(out.lit_position[k] + i, frag.position[k], mine);
-        out.lit_pending = true;
-      } else if (kLit && c.op == ShadeConstants::kOutOfLine) {
-        c.kernels->shade(c, frag, r, g, b);
-      } else {
-        shade_inline<P::kKind>(c, frag, r, g, b);
-      }
-      merge<kPairs>(out.rgb[0] + i, r, mine);
-      merge<kPairs>(out.rgb[1] + i, g, mine);
-      merge<kPairs>(out.rgb[2] + i, b, mine);
-    }
-    if (kLit && (work & kWorkShadingNormal)) {  // the normal output as the shading perturbs it
-      if (!varying_color) {  // (the colour's block computes the uvs otherwise)
-        for (int j = 0; j < 2; ++j) {
-          frag.attr[j] = b0 * s.attr[0][j] + b1 * s.attr[1][j] + b2 * s.attr[2][j];
-          frag.attr_dx[j] = (s.attr_dx[j] - frag.attr[j] * s.sum_dx) * inv_sum;
-          frag.attr_dy[j] = (s.attr_dy[j] - frag.attr[j] * s.sum_dy) * inv_sum;
+          frag.mine = mine;
         }
-        frag.mine = mine;
+        f8 n[3] = {nx, ny, nz};
+        c.kernels->shading_normal(c, frag, n);
+        for (int k = 0; k < 3; ++k) merge<kPairs>(out.normal[k] + i, n[k], mine);
       }
-      f8 n[3] = {nx, ny, nz};
-      c.kernels->shading_normal(c, frag, n);
-      for (int k = 0; k < 3; ++k) merge<kPairs>(out.normal[k] + i, n[k], mine);
     }
   }
   if (work & kWorkUnitNormal)
@@ -158,7 +191,12 @@ SR_INLINE void shade_group(const P& t, f8 e0, f8 e1, f8 e2, i8 mine, int i, Shad
       for (int k = 0; k < 3; ++k) merge<kPairs>(out.rgb[k] + i, splat(s.rgb[k]), mine);
     } else if (s.color_kind == ShadeTriangle::kUniformLit) {
       // Unnormalised perspective weights: the normal's length and dot(n, L) share their scale.
-      const f8 b0 = e0 * c.persp[0], b1 = e1 * c.persp[1], b2 = e2 * c.persp[2];
+      f8 b0, b1, b2;
+      if (kLit && (work & kWorkExactWeights)) {
+        exact_weights(s.q, e0, e1, e2, b0, b1, b2);
+      } else {
+        b0 = e0 * c.persp[0]; b1 = e1 * c.persp[1]; b2 = e2 * c.persp[2];
+      }
       const f8 f = shade_uniform(c, s, b0, b1, b2);
       for (int k = 0; k < 3; ++k) merge<kPairs>(out.rgb[k] + i, f * s.color[0][k], mine);
     }

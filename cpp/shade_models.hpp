@@ -113,6 +113,10 @@ struct ShadeTriangle {
   };
   float persp[3];   // 1 / (w_k * area2) / max_k(1 / w_k): E_k * persp[k] ~ perspective-correct
                     // weight, scaled so that the largest is about 1 (no float underflow)
+  // The exact weights (pipeline.hpp, ExactWeights), or null where setup wrote none. `exact`:
+  // everything the triangle interpolates reads them (ShadeDraw::exact_shading), not persp.
+  const float (*q)[3];
+  bool exact;
   vec3 normal[3];   // world-space normal at each vertex (the face normal if flat), facing the
                     // camera's side for back faces; unset unless the draw's normals are read
   vec3 color[3];    // base colour at each vertex (vertex colours, else the draw's colour)

@@ -641,8 +641,9 @@ def test_smooth_lambert_matches_the_interpolated_normal(camera):
         cam = sr.OrthographicCamera(xmag=1.4, ymag=1.2, near=0.5, far=100.0)
         cam.pose = np.eye(4)
     # srgb=False: the Lambert term is checked on the linear colour (x * 255, rounded).
+    # (normal_kind="shading": the normal the shading read; the default is the exact one)
     frame = render(scene, cam, 96, 80, outputs=("color", "normal", "mask"), ambient=ambient,
-                   srgb=False)
+                   srgb=False, normal_kind="shading")
     assert frame.mask.sum() > 1000
     n = frame.normal[frame.mask].astype(np.float64)
     np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-5)

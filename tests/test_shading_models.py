@@ -21,6 +21,8 @@ def _render(mesh: sr.Mesh, simd: bool = True, path: str = "auto", **kw) -> sr.Fr
     # srgb=False: the colour is (n + 1) / 2 itself, linearly encoded (the default sRGB encoding
     # would apply its curve to it), as _unorm8 computes.
     kw.setdefault("srgb", False)
+    # The normal the shading read (the default normal output is the exact surface normal).
+    kw.setdefault("normal_kind", "shading")
     scene = sr.Scene()
     scene.add(mesh, pose=np.diag([1.0, 1.0, 1.0, 1.0]))
     cam = sr.PerspectiveCamera(fov_y=40.0, near=0.1, far=10.0)

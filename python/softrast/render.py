@@ -612,11 +612,15 @@ class Renderer:
               ``camera.unproject(..., space="camera")`` gives points.
         normal_kind : what the ``normal`` output holds: "interpolated" (default) — the
               interpolated vertex normal (the face normal of a mesh without normals), unit,
-              of the visible side, as a G-buffer stores it: no normal or bump map; or
+              of the visible side, as a G-buffer stores it: no normal or bump map, and
+              interpolated at the pixel's own point of the surface (the exact weights, as
+              ``barycentric``); or
               "shading" — the normal the lighting uses: that normal perturbed by the
               material's ``normal_texture`` (or ``bump_texture``) at the pixel frequency,
               exactly as the shading perturbs it (``shading="normal"`` shows it as a
-              colour). Meshes without such maps, the vertex and face frequencies, and the
+              colour), with the weights shading interpolated with: the exact ones where the
+              draw's model reads positions or uvs (lights, textures), else the snapped
+              triangle's, whose point lies within 1/724 px of the pixel's. Meshes without such maps, the vertex and face frequencies, and the
               "uv" and "depth" views give the interpolated normal either way.
         raster : how triangles are filled: "edge" (default; edge functions tested at every
               pixel of a triangle's box) or "scanline" (each row's span found by edge walking,
