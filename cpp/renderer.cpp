@@ -390,7 +390,6 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
                  Brdf::Unlit, 0, draws[d].instance_id, nullptr, draws[d].model,
                  transforms[d].model_view_d};
     shade_draw(plan, options, headlight_lambert, sd);
-    sd.vertices = vertices_[d].data();
     sd.exact_shading = (sd.needs & (kNeedsPosition | kNeedsUv)) != 0;
     defers_light |= plan.color && options.frequency == Frequency::Pixel && is_lit(sd.brdf);
     const KernelKind mine = !(sd.needs & kInline)      ? KernelKind::Lit

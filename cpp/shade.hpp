@@ -6,7 +6,6 @@
 #include "plan.hpp"
 #include "shade_models.hpp"
 #include "surface.hpp"
-#include "vertex.hpp"
 
 namespace sr {
 
@@ -25,8 +24,6 @@ struct ShadeDraw {
   const vec3* world_normals;  // per vertex (world_normals()), or null: flat face normals
   dmat4 model_to_world;       // for models that read world positions
   dmat4 model_view;           // model -> view, double: the exact surface step (surface.hpp)
-  // The draw's projected vertices: their unsnapped positions, for the exact weights.
-  const ProjectedVertex* vertices = nullptr;
   // Everything its triangles interpolate takes the exact weights (its model reads world positions
   // or uvs: lights, textures, the uv and depth views); else only the normal output does
   // (normal_kind="interpolated"; "shading" gives the normal shading read, with its weights).
