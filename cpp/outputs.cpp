@@ -379,14 +379,14 @@ void write_surface_row(const ShadeParams& p, const TileScratch& raster, ExactPla
   }
 }
 
-// The depth of the pixels whose triangle asks for the exact step (kExactDepth: the raster's
-// float32 key may be off there by more than a few units in the last place), from the pixel's ray
-// on the face's unsnapped plane; the others keep the key's depth. Triangle by triangle over its
-// box in the tile, so a tile's other pixels cost nothing. `depth` is the tile's first pixel in
-// the output (row stride `stride`).
-void exact_depth_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
-                      ExactPlanes& planes, const ResolvedSamples* samples, float* depth,
-                      std::size_t stride) {
+// Calls fn(v, x, y, wx, wy) for each pixel (x, y, tile-relative) of the tile whose visible
+// triangle v is a sliver (kExactDepth: its float32 key may be off by more than a few units in the
+// last place, and it shades with the snapped weights), (wx, wy) its sample's window point (the
+// representative's under anti-aliasing). Triangle by triangle over its box, so a tile's other
+// pixels cost nothing.
+template <typename Fn>
+void each_sliver_pixel(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
+                       const ResolvedSamples* samples, Fn&& fn) {
   const int32_t* representative = samples ? samples->representative : nullptr;
   const SamplePattern* pattern = samples ? samples->pattern : nullptr;
   const uint32_t count = uint32_t(raster.triangles.size());
@@ -395,79 +395,60 @@ void exact_depth_tile(const ShadeParams& p, const TileRect& rect, const TileScra
     if (!(t.flags & kExactDepth)) continue;
     const int x0 = std::max(int(t.x0), rect.x0), x1 = std::min(int(t.x1), rect.x1 - 1);
     const int y0 = std::max(int(t.y0), rect.y0), y1 = std::min(int(t.y1), rect.y1 - 1);
-    bool any = false;
-    for (int y = y0; y <= y1 && !any; ++y) {
-      const uint32_t* visible = raster.visible + (y - rect.y0) * kTileSizePx - rect.x0;
-      for (int x = x0; x <= x1; ++x) any |= visible[x] == v;
-    }
-    if (!any) continue;
-    const ExactTriangle& plane = planes.get(p, raster, v);
     for (int y = y0; y <= y1; ++y) {
       const int row = (y - rect.y0) * kTileSizePx - rect.x0;
       for (int x = x0; x <= x1; ++x) {
         if (raster.visible[row + x] != v) continue;
-        double wx, wy, d;
+        double wx, wy;
         sample_point(p, x, y, representative ? representative + row : nullptr, pattern, x, wx, wy);
-        if (exact_depth(p.rays, plane, wx, wy, d))
-          depth[std::size_t(y - rect.y0) * stride + std::size_t(x - rect.x0)] = float(d);
+        fn(v, x - rect.x0, y - rect.y0, wx, wy);
       }
     }
   }
 }
 
-// The normal output of the pixels whose triangle is a sliver (kExactDepth), whose exact weights
-// are its snapped ones (pipeline.hpp, ExactWeights): the draw's vertex normals interpolated
-// with the exact step's weights, as prepare() fetches them (a zero normal: the face's; turned to
-// the side the camera sees), then as write_tile writes them (camera space: rotated). Flat
-// normals are one per face, exact already. `normal` is the tile's first pixel in the output (row stride `stride` pixels).
+// The depth of slivers' pixels, from the pixel's ray on the face's unsnapped plane; the others
+// keep the key's depth. `depth` is the tile's first pixel in the output (row stride `stride`).
+void exact_depth_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
+                      ExactPlanes& planes, const ResolvedSamples* samples, float* depth,
+                      std::size_t stride) {
+  each_sliver_pixel(p, rect, raster, samples, [&](uint32_t v, int x, int y, double wx, double wy) {
+    double d;
+    if (exact_depth(p.rays, planes.get(p, raster, v), wx, wy, d))
+      depth[std::size_t(y) * stride + std::size_t(x)] = float(d);
+  });
+}
+
+// The normal output of slivers' pixels (their exact weights are the snapped ones: pipeline.hpp,
+// ExactWeights): the draw's vertex normals interpolated with the exact step's weights, as
+// prepare() fetches them (a zero normal: the face's; turned to the side the camera sees), then as
+// write_tile writes them (camera space: rotated). Flat normals are one per face, exact already.
+// `normal` is the tile's first pixel in the output (row stride `stride` pixels).
 void exact_normal_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
                        ExactPlanes& planes, const ResolvedSamples* samples, float* normal,
                        std::size_t stride) {
-  const int32_t* representative = samples ? samples->representative : nullptr;
-  const SamplePattern* pattern = samples ? samples->pattern : nullptr;
-  const uint32_t count = uint32_t(raster.triangles.size());
-  for (uint32_t v = 0; v < count; ++v) {
+  each_sliver_pixel(p, rect, raster, samples, [&](uint32_t v, int x, int y, double wx, double wy) {
     const VisibleTriangle& vt = raster.triangles[v];
     const TriangleSetup& t = *vt.tri;
-    if (!(t.flags & kExactDepth)) continue;
     const ShadeDraw& d = p.draws[t.draw];
-    if (!d.world_normals) continue;
-    const TriangleShading& a = vt.chunk->shading[std::size_t(&t - vt.chunk->records.data())];
+    if (!d.world_normals) return;
+    ExactHit hit;
+    if (!exact_hit(p.rays, planes.get(p, raster, v), wx, wy, hit)) return;
     const ivec3 face = d.mesh->faces[t.prim];
-    dvec3 corner[3];
-    bool zero = false;
+    dvec3 n(0.0);
     for (int c = 0; c < 3; ++c) {
-      corner[c] = dvec3(d.world_normals[face[c]]);
-      zero |= corner[c] == dvec3(0.0);
+      dvec3 corner(d.world_normals[face[c]]);
+      if (corner == dvec3(0.0)) corner = dvec3(interp::flat_normal(d, face.x, face.y, face.z));
+      n += hit.bary[c] * corner;
     }
-    if (zero) {
-      const dvec3 flat(interp::flat_normal(d, face.x, face.y, face.z));
-      for (dvec3& n : corner)
-        if (n == dvec3(0.0)) n = flat;
-    }
-    const int x0 = std::max(int(t.x0), rect.x0), x1 = std::min(int(t.x1), rect.x1 - 1);
-    const int y0 = std::max(int(t.y0), rect.y0), y1 = std::min(int(t.y1), rect.y1 - 1);
-    const ExactTriangle* plane = nullptr;
-    for (int y = y0; y <= y1; ++y) {
-      const int row = (y - rect.y0) * kTileSizePx - rect.x0;
-      for (int x = x0; x <= x1; ++x) {
-        if (raster.visible[row + x] != v) continue;
-        if (!plane) plane = &planes.get(p, raster, v);
-        double wx, wy;
-        sample_point(p, x, y, representative ? representative + row : nullptr, pattern, x, wx, wy);
-        ExactHit hit;
-        if (!exact_hit(p.rays, *plane, wx, wy, hit)) continue;
-        dvec3 n = hit.bary[0] * corner[0] + hit.bary[1] * corner[1] + hit.bary[2] * corner[2];
-        if (a.back_facing) n = -n;
-        if (p.normal_rotation) n = dmat3(*p.normal_rotation) * n;
-        const double len2 = glm::dot(n, n);
-        if (!(len2 > 0.0) || !std::isfinite(len2)) continue;
-        n /= std::sqrt(len2);
-        float* out = normal + 3 * (std::size_t(y - rect.y0) * stride + std::size_t(x - rect.x0));
-        for (int c = 0; c < 3; ++c) out[c] = float(n[c]);
-      }
-    }
-  }
+    if (vt.chunk->shading[std::size_t(&t - vt.chunk->records.data())].back_facing) n = -n;
+    if (p.normal_rotation) n = dmat3(*p.normal_rotation) * n;
+    const double len2 = glm::dot(n, n);
+    if (!(len2 > 0.0) || !std::isfinite(len2)) return;
+    n /= std::sqrt(len2);
+    float* out = normal + 3 * (std::size_t(y) * stride + std::size_t(x));
+    for (int c = 0; c < 3; ++c) out[c] = float(n[c]);
+  });
 }
 
 }  // namespace
