@@ -51,6 +51,7 @@ struct Prepared {
   ShadeTriangle s;
   ShadeConstants c;
   uint16_t work;  // ShadeWork bits
+  LitConstantsCache cache;  // (across the triangles one Prepared is made for)
   SR_INLINE void make(const ShadeParams& p, const VisibleTriangle& vt) {
     const Brdf brdf = prepare<K>(p, vt, s);
     // The render's bits (p.work: kWorkColor, kWorkNormalOut, kWorkLitCode), then the triangle's.
@@ -68,7 +69,7 @@ struct Prepared {
     else if (varying_normal && !p.in.shading_normals && s.q)  // (normal_kind="shading": shading's)
       w |= kWorkExactNormal;
     work = w;
-    make_constants<K>(p.in, p.lit, brdf, varying || varying_normal, s, c);
+    make_constants<K>(p.in, p.lit, brdf, varying || varying_normal, s, c, cache);
   }
 };
 
@@ -334,12 +335,12 @@ struct ShadeVisible {
         }
       }
     }
+    Prepared<K> prepared;  // (one for all: its LitConstantsCache)
     for (uint32_t v = 0; v < n; ++v) {
       const uint8_t* const owns = used.data() + std::size_t(v) * kStride;
       uint32_t any_pass;
       std::memcpy(&any_pass, owns, sizeof any_pass);
       if (!any_pass) continue;
-      Prepared<K> prepared;
       prepared.make(p, rasters[0]->triangles[v]);
       int owned[kMaxShadePasses], count = 0;
       for (int k = 0; k < passes; ++k)

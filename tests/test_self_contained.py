@@ -21,6 +21,7 @@ skipped):
 from __future__ import annotations
 
 import ast
+import functools
 import os
 import re
 from pathlib import Path
@@ -233,6 +234,7 @@ class PathEvaluator:
         return None
 
 
+@functools.lru_cache(maxsize=None)  # three checks read every file's paths: parsed once
 def python_paths(path: Path) -> PathEvaluator:
     return PathEvaluator(path, ast.parse(path.read_text(encoding="utf-8"), filename=str(path)))
 
