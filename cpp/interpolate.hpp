@@ -137,7 +137,8 @@ inline void attribute_derivatives(const TriangleSetup& t, const float* persp, co
 // A plain kernel's draws (KernelKind) read normals and colours only, as its model does.
 // Returns the draw's model.
 template <KernelKind K>
-SR_INLINE Brdf prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTriangle& s) {
+SR_INLINE Brdf prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTriangle& s,
+                       LitClassCache& cache) {
   constexpr bool kLit = K == KernelKind::Lit;
   constexpr bool kColors = K != KernelKind::NormalColor;  // (the normal as a colour reads none)
   const TriangleSetup& t = *vt.tri;
@@ -234,7 +235,7 @@ SR_INLINE Brdf prepare(const ShadeParams& p, const VisibleTriangle& vt, ShadeTri
                                : flat_normal(d, a.vertex[0], a.vertex[1], a.vertex[2]);
     s.face_normal = a.back_facing ? -n : n;
   }
-  classify<K>(p.in, d.brdf, needs, d.material, t.draw, a.back_facing, uniform_color, s);
+  classify<K>(p.in, d.brdf, needs, d.material, t.draw, a.back_facing, uniform_color, s, cache);
   return d.brdf;
 }
 

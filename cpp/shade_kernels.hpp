@@ -45,15 +45,22 @@ SR_INLINE void merge(T* p, V v, i8 mine) {
 // per-pixel constants, and what each group of its pixels does (Work bits, once per triangle): the
 // render's shaded outputs are a run-time choice folded in here, not a kernel axis
 // (benchmarks/RESULTS.md, "What each kernel axis is worth").
+// What one Prepared keeps across the triangles it is made for in turn (a tile's): decisions and
+// constants that the next triangle of the same draw may share (shade_models.hpp). Apart from
+// Prepared, which stays trivial to construct (its fields are written where they are read).
+struct PrepareCaches {
+  LitClassCache classes;
+  LitConstantsCache constants;
+};
+
 template <KernelKind K>
 struct Prepared {
   static constexpr KernelKind kKind = K;
   ShadeTriangle s;
   ShadeConstants c;
   uint16_t work;  // ShadeWork bits
-  LitConstantsCache cache;  // (across the triangles one Prepared is made for)
-  SR_INLINE void make(const ShadeParams& p, const VisibleTriangle& vt) {
-    const Brdf brdf = prepare<K>(p, vt, s);
+  SR_INLINE void make(const ShadeParams& p, const VisibleTriangle& vt, PrepareCaches& caches) {
+    const Brdf brdf = prepare<K>(p, vt, s, caches.classes);
     // The render's bits (p.work: kWorkColor, kWorkNormalOut, kWorkLitCode), then the triangle's.
     const bool varying = p.color && s.color_kind != ShadeTriangle::kConstantColor;
     const bool shading_normal = K == KernelKind::Lit && p.normal && s.normal_out_map;
@@ -69,7 +76,7 @@ struct Prepared {
     else if (varying_normal && !p.in.shading_normals && s.q)  // (normal_kind="shading": shading's)
       w |= kWorkExactNormal;
     work = w;
-    make_constants<K>(p.in, p.lit, brdf, varying || varying_normal, s, c, cache);
+    make_constants<K>(p.in, p.lit, brdf, varying || varying_normal, s, c, caches.constants);
   }
 };
 
@@ -300,7 +307,8 @@ template <KernelKind K>
 SR_INLINE void shade_triangle(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
                               uint32_t index, ShadeScratch& out) {
   Prepared<K> t;
-  t.make(p, raster.triangles[index]);
+  PrepareCaches caches;
+  t.make(p, raster.triangles[index], caches);
   shade_prepared(rect, raster, index, t, out);
 }
 
@@ -335,13 +343,14 @@ struct ShadeVisible {
         }
       }
     }
-    Prepared<K> prepared;  // (one for all: its LitConstantsCache)
+    Prepared<K> prepared;  // (one for all, with its caches)
+    PrepareCaches caches;
     for (uint32_t v = 0; v < n; ++v) {
       const uint8_t* const owns = used.data() + std::size_t(v) * kStride;
       uint32_t any_pass;
       std::memcpy(&any_pass, owns, sizeof any_pass);
       if (!any_pass) continue;
-      prepared.make(p, rasters[0]->triangles[v]);
+      prepared.make(p, rasters[0]->triangles[v], caches);
       int owned[kMaxShadePasses], count = 0;
       for (int k = 0; k < passes; ++k)
         if (owns[k]) owned[count++] = k;
@@ -378,6 +387,7 @@ struct ForwardShading {
   const VisibleTriangle* current = nullptr;  // valid until the next triangle()
   bool ready = false;
   Prepared<K> t{};
+  PrepareCaches caches{};  // (t's)
 
   SR_INLINE void triangle(const VisibleTriangle& vt) {
     current = &vt;
@@ -386,7 +396,7 @@ struct ForwardShading {
   template <bool kPairs>
   SR_INLINE void shade(i8 win, int i, f8 e0, f8 e1, f8 e2) {
     if (!ready) {
-      t.make(p, *current);
+      t.make(p, *current, caches);
       ready = true;
     }
     shade_group<kPairs>(t, e0, e1, e2, win, i, out);

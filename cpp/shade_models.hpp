@@ -234,6 +234,20 @@ struct LitConstantsCache {
   }
 };
 
+// What classify_lit decided for the last triangle whose decision depends only on its draw, its
+// side and whether its colours and normals are uniform: the pixel frequency, untextured, no
+// tangent frame, a colour lit per pixel (the common lit triangle). The next triangle with the same
+// ones takes that decision (classify_lit cost ~2.2 M instructions a frame, 3% of a lit frame of
+// small triangles). Kept across the triangles one Prepared is made for (shade_kernels.hpp).
+struct LitClassCache {
+  const Material* material = nullptr;
+  uint32_t draw = 0;
+  Brdf brdf{};
+  bool back_facing = false, uniform_color = false, one_normal = false, valid = false;
+  float side = 1.0f;  // classify_lit's outputs (the rest are the same for every such triangle)
+  uint8_t reads = 0;
+};
+
 // make_lit_constants, or what it wrote last time when `cached` and the triangle reads the same.
 SR_INLINE void lit_constants(const ShadeInputs& in, const LitKernels* kernels, const ShadeTriangle& s,
                              bool cached, ShadeConstants& c, LitConstantsCache& cache) {
@@ -264,9 +278,11 @@ SR_INLINE void classify_unlit(bool uniform_color, ShadeTriangle& s) {
 // equal. The headlight, the uv and depth views, and untextured unlit and normal draws at the pixel
 // frequency are classified inline; the kernels without the lit path (kLit false) see no other
 // draws, nor the views. Only what later reads is written.
+// `cache`: classify_lit's last decision that others may share (LitClassCache).
 template <KernelKind K>
 SR_INLINE void classify(const ShadeInputs& in, Brdf draw_brdf, uint8_t needs, const Material& m,
-                        uint32_t draw, bool back_facing, bool uniform_color, ShadeTriangle& s) {
+                        uint32_t draw, bool back_facing, bool uniform_color, ShadeTriangle& s,
+                        LitClassCache& cache) {
   constexpr bool kLit = K == KernelKind::Lit;
   const Brdf brdf = kernel_brdf<K>(draw_brdf);
   if (K == KernelKind::Headlight || K == KernelKind::NormalColor || (needs & kNeedsNormal)) {
@@ -287,7 +303,30 @@ SR_INLINE void classify(const ShadeInputs& in, Brdf draw_brdf, uint8_t needs, co
     s.material = &m;
     s.draw = draw;
     s.back_facing = back_facing;
-    classify_lit(in, uniform_color, s);
+    if (cache.valid && cache.draw == draw && cache.material == &m && cache.brdf == brdf &&
+        cache.back_facing == back_facing && cache.uniform_color == uniform_color &&
+        cache.one_normal == s.one_normal) {
+      s.side = cache.side;
+      s.reads = cache.reads;
+      s.color_kind = ShadeTriangle::kVaryingColor;
+      s.normal_map = false;
+      s.tangent = vec3(0.0f);
+      s.handedness = 1.0f;
+    } else {
+      classify_lit(in, uniform_color, s);
+      cache.valid = in.frequency == Frequency::Pixel && !m.textured() &&
+                    s.color_kind == ShadeTriangle::kVaryingColor && !s.passthrough &&
+                    !s.normal_map && !s.normal_out_map && brdf != Brdf::Normal &&
+                    brdf != Brdf::Unlit;
+      cache.material = &m;
+      cache.draw = draw;
+      cache.brdf = brdf;
+      cache.back_facing = back_facing;
+      cache.uniform_color = uniform_color;
+      cache.one_normal = s.one_normal;
+      cache.side = s.side;
+      cache.reads = s.reads;
+    }
     // (after classify, which may put the vertices' radiance in the colours: Gouraud)
     s.uniform_color = s.color[0] == s.color[1] && s.color[0] == s.color[2];
     return;
