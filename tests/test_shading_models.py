@@ -186,3 +186,60 @@ def test_depth_view_ignores_materials_and_lights():
     assert (f.color == 128).all()
     lit = sr.Renderer(32, 32).render(scene, cam, outputs=("color",), srgb=False)
     assert (lit.color != 128).any()  # (the material itself would not give that grey)
+
+
+# ---------------------------------------------------------------- a pixel's shade is its triangle's
+# The lit kernel reuses the previous triangle's classification and constants when their key
+# matches (shade_models.hpp, LitClassCache and LitConstantsCache). A key missing a field would
+# make a pixel's colour depend on which triangle was shaded before its own: reordering the faces
+# would change it. Random triangle soups mix what the keys hold: draws and materials, front and
+# back faces (single- and double-sided), uniform and varying vertex colours, one normal and three.
+
+def _soup(rng: np.random.Generator, n: int) -> sr.Mesh:
+    centres = rng.uniform(-0.8, 0.8, (n, 1, 3))
+    positions = (centres + rng.normal(0.0, 0.25, (n, 3, 3))).reshape(-1, 3)
+    normals = rng.normal(0.0, 1.0, (n, 3, 3))
+    one = rng.random(n) < 0.4  # faces whose three normals are the same
+    normals[one] = normals[one][:, :1]
+    colors = rng.uniform(0.2, 1.0, (n, 3, 3))
+    uniform = rng.random(n) < 0.5  # faces whose three colours are the same
+    colors[uniform] = colors[uniform][:, :1]
+    return sr.Mesh(positions, np.arange(3 * n).reshape(n, 3), normals=normals.reshape(-1, 3),
+                   colors=colors.reshape(-1, 3))
+
+
+def _permuted(mesh: sr.Mesh, order: np.ndarray) -> sr.Mesh:
+    return sr.Mesh(mesh.positions, mesh.faces[order], normals=mesh.normals, colors=mesh.colors)
+
+
+@pytest.mark.parametrize("lights", ["point", "directional"])
+@pytest.mark.parametrize("path,msaa", [("forward", 1), ("deferred", 1), ("auto", 4)])
+def test_a_pixels_shade_does_not_depend_on_face_order(lights, path, msaa):
+    rng = np.random.default_rng(7)
+    materials = [sr.Material(model="blinn_phong", ks=(0.5, 0.5, 0.5), shininess=20.0),
+                 sr.Material(model="blinn_phong", ks=(0.0, 0.0, 0.0), double_sided=True),
+                 sr.Material(model="lambert"),
+                 sr.Material(model="pbr", metallic=0.3, roughness=0.5, double_sided=True)]
+    meshes = [_soup(rng, 150) for _ in materials]
+    orders = [rng.permutation(len(m.faces)) for m in meshes]
+    cam = sr.PerspectiveCamera(fov_y=50.0, near=0.1, far=20.0)
+    cam.look_at((0.3, 0.4, 3.0), (0.0, 0.0, 0.0))
+    frames = []
+    for shuffle in (False, True):
+        scene = sr.Scene(ambient_light=(0.05, 0.05, 0.05))
+        for mesh, order, material in zip(meshes, orders, materials):
+            scene.add(_permuted(mesh, order) if shuffle else mesh, material=material)
+        pose = np.eye(4)
+        pose[:3, 3] = (1.0, 1.5, 2.0)
+        if lights == "point":
+            scene.add(sr.PointLight(color=(1.0, 0.9, 0.8), intensity=8.0), pose=pose)
+        scene.add(sr.DirectionalLight(color=(0.8, 0.9, 1.0), intensity=2.0), pose=pose)
+        frames.append(sr.Renderer(200, 160, threads=2).render(
+            scene, cam, outputs=("color", "instance_id"), cull="none", shading_path=path,
+            msaa=msaa, srgb=False))
+    a, b = frames
+    assert np.array_equal(a.instance_id, b.instance_id)  # the same draw wins every pixel
+    covered = a.instance_id >= 0
+    assert covered.mean() > 0.3 and len(np.unique(a.instance_id[covered])) == len(materials)
+    assert len(np.unique(a.color[covered].reshape(-1, 3), axis=0)) > 1000  # lit, not flat
+    assert np.array_equal(a.color, b.color)
