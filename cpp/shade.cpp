@@ -10,14 +10,6 @@
 
 namespace sr {
 
-// A sanitized CI build may leave out the generic shading kernels (CMakeLists.txt,
-// SOFTRAST_GENERIC_SHADE_KERNELS): simd=False then shades with the AVX2 ones, the same bits.
-#ifdef SR_NO_GENERIC_SHADE_KERNELS
-constexpr bool kNoGenericKernels = true;
-#else
-constexpr bool kNoGenericKernels = false;
-#endif
-
 TileKernels select_tile_kernels(const RenderPlan& plan, const Viewport& viewport, Isa isa,
                                 KernelKind kind) {
   TileKernels k;
@@ -25,14 +17,11 @@ TileKernels select_tile_kernels(const RenderPlan& plan, const Viewport& viewport
   if (viewport.samples.count > 1)
     k.raster_samples = select_rasterize_samples(isa, plan.coverage, plan.scanline);
   if (plan.shade) {
-    if (kNoGenericKernels && best_isa() != Isa::Avx2)
-      throw std::runtime_error("this build of softrast has no generic shading kernels, and this "
-                               "machine has no AVX2 (CMake option SOFTRAST_GENERIC_SHADE_KERNELS)");
     using shading::deferred_kernel;
     using shading::forward_kernel;
     k.deferred = dispatch::select<TileKernels::Deferred>(
         [&](auto avx2) {
-          constexpr Isa I = decltype(avx2)::value || kNoGenericKernels ? kBestIsa : Isa::Generic;
+          constexpr Isa I = decltype(avx2)::value ? kBestIsa : Isa::Generic;
           switch (kind) {
             case KernelKind::Headlight: return deferred_kernel<I, KernelKind::Headlight>();
             case KernelKind::Unlit: return deferred_kernel<I, KernelKind::Unlit>();
@@ -44,7 +33,7 @@ TileKernels select_tile_kernels(const RenderPlan& plan, const Viewport& viewport
     if (plan.forward_allowed)  // (never with coverage counting: make_plan)
       k.forward = dispatch::select<TileKernels::Forward>(
           [&](auto avx2) {
-            constexpr Isa I = decltype(avx2)::value || kNoGenericKernels ? kBestIsa : Isa::Generic;
+            constexpr Isa I = decltype(avx2)::value ? kBestIsa : Isa::Generic;
             switch (kind) {
               case KernelKind::Headlight: return forward_kernel<I, KernelKind::Headlight>();
               case KernelKind::Unlit: return forward_kernel<I, KernelKind::Unlit>();
