@@ -39,12 +39,6 @@ SR_INLINE void merge(T* p, V v, i8 mine) {
   raster::store_lanes<kPairs>(p, mine ? v : raster::load_lanes<kPairs, V>(p));
 }
 
-// A visible triangle prepared for its pixels: what prepare() fetched and classify() decided, and
-// its per-pixel constants.
-// A visible triangle prepared for its pixels: what prepare() fetched and classify() decided, its
-// per-pixel constants, and what each group of its pixels does (Work bits, once per triangle): the
-// render's shaded outputs are a run-time choice folded in here, not a kernel axis
-// (benchmarks/RESULTS.md, "What each kernel axis is worth").
 // What one Prepared keeps across the triangles it is made for in turn (a tile's): decisions and
 // constants that the next triangle of the same draw may share (shade_models.hpp). Apart from
 // Prepared, which stays trivial to construct (its fields are written where they are read).
@@ -53,6 +47,10 @@ struct PrepareCaches {
   LitConstantsCache constants;
 };
 
+// A visible triangle prepared for its pixels: what prepare() fetched and classify() decided, its
+// per-pixel constants, and what each group of its pixels does (Work bits, once per triangle): the
+// render's shaded outputs are a run-time choice folded in here, not a kernel axis
+// (benchmarks/RESULTS.md, "What each kernel axis is worth").
 template <KernelKind K>
 struct Prepared {
   static constexpr KernelKind kKind = K;
