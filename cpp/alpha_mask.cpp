@@ -1,16 +1,20 @@
 // Alpha masks (alpha_mask.hpp): the alpha test and the scalar raster path of masked draws.
 #include "alpha_mask.hpp"
 
+#include "blend.hpp"
 #include "interpolate.hpp"
+#include "lines.hpp"
 #include "rasterize.hpp"
 
+#include <algorithm>
+#include <cstring>
 #include <optional>
 
 namespace sr {
 
 AlphaKind alpha_kind(const Draw& draw, uint8_t filter_override, AlphaTest& test) {
   const Material& m = draw.material;
-  if (!m.alpha_mask) return AlphaKind::Opaque;
+  if (!m.alpha_mask && !m.alpha_blend) return AlphaKind::Opaque;
   const MeshData& mesh = *draw.mesh;
   const Texture* t = m.base_color_texture;
   const bool texture_alpha = t && (t->channels() == 2 || t->channels() == 4);
@@ -22,6 +26,14 @@ AlphaKind alpha_kind(const Draw& draw, uint8_t filter_override, AlphaTest& test)
   test.alpha = draw.color.a;
   test.cutoff = m.alpha_cutoff;
   test.uv_periodic_axes = interp::uv_periodic_axes(m);
+  if (m.alpha_blend) {
+    if (texture_alpha || !mesh.colors.empty()) return AlphaKind::Blended;
+    // One alpha for the whole draw: 1 covers what lies behind (opaque, the same colours), 0
+    // adds nothing (not even to the alpha output).
+    return !(draw.color.a > 0.0f) ? AlphaKind::Invisible
+           : draw.color.a >= 1.0f ? AlphaKind::Opaque
+                                  : AlphaKind::Blended;
+  }
   if (texture_alpha || !mesh.colors.empty()) return AlphaKind::Masked;
   // One alpha for the whole draw.
   return draw.color.a >= m.alpha_cutoff ? AlphaKind::Opaque : AlphaKind::Invisible;
@@ -66,7 +78,9 @@ struct TriangleAlpha {
     }
   }
 
-  bool passes(const AlphaTest& test, float e0, float e1, float e2) const {
+  // The fragment's alpha (the test compares it with the cutoff; blending composites with it).
+  float value(const AlphaTest& test, float e0, float e1, float e2) const {
+    if (!varying_alpha && !test.texture) return test.alpha;  // (a blended draw's one alpha)
     float b0, b1, b2;
     if (q) {  // (shade_kernels.hpp, exact_weights: the same operations)
       b0 = e0 * q[0][0] + e1 * q[0][1] + e2 * q[0][2];
@@ -87,7 +101,10 @@ struct TriangleAlpha {
       const float dudy = (uv_dy[0] - u * sum_dy) * inv_sum, dvdy = (uv_dy[1] - v * sum_dy) * inv_sum;
       alpha *= sample_texture(*test.texture, test.filter, u, v, dudx, dvdx, dudy, dvdy).a;
     }
-    return alpha >= test.cutoff;
+    return alpha;
+  }
+  bool passes(const AlphaTest& test, float e0, float e1, float e2) const {
+    return value(test, e0, e1, e2) >= test.cutoff;
   }
 };
 
@@ -127,6 +144,86 @@ bool rasterize_masked(const AlphaTest& test, const SetupChunk& chunk, uint32_t r
     row[0] += eq.step_y[0]; row[1] += eq.step_y[1]; row[2] += eq.step_y[2];
   }
   return won;
+}
+
+int gather_blended(const std::vector<SetupChunk>& chunks, std::size_t begin, std::size_t end,
+                   int tile, const TileRect& rect, const AlphaTest* const* tests,
+                   const TileScratch& opaque, bool first, BlendScratch& s) {
+  std::memset(s.count, 0, sizeof s.count);
+  if (first) std::memset(s.total, 0, sizeof s.total);
+  for (TileScratch& layer : s.layer)  // (whole arrays: the shading kernels read past the tile)
+    std::fill(std::begin(layer.visible), std::end(layer.visible), kNoTriangle);
+  std::vector<VisibleTriangle>& list = s.layer[0].triangles;
+  if (first) list.clear();
+  uint32_t index = 0;
+  const float tie = opaque.tie;
+  for (std::size_t c = begin; c < end; ++c) {
+    const SetupChunk& chunk = chunks[c];
+    const uint32_t records_end = chunk.tile_begin[tile + 1];
+    for (uint32_t r = chunk.tile_begin[tile]; r < records_end; ++r, ++index) {
+      const uint32_t record = chunk.tile_records[r];
+      const TriangleSetup& t = chunk.records[record];
+      if (first) list.push_back({&t, &chunk});
+      const int x0 = std::max(int(t.x0), rect.x0), x1 = std::min(int(t.x1), rect.x1 - 1);
+      const int y0 = std::max(int(t.y0), rect.y0), y1 = std::min(int(t.y1), rect.y1 - 1);
+      if (x0 > x1 || y0 > y1) continue;
+      const AlphaTest& test = *tests[t.draw];
+      // As rasterize_masked: the same edge values and keys.
+      const EdgeEquations eq = edge_equations_at(t, x0, y0, opaque.sample_x, opaque.sample_y);
+      int64_t row[3];
+      for (int k = 0; k < 3; ++k) row[k] = eq.origin[k] - t.bias[k];
+      const float k0 = t.key_over_area[0], k1 = t.key_over_area[1], k2 = t.key_over_area[2];
+      const int64_t b0 = t.bias[0], b1 = t.bias[1], b2 = t.bias[2];
+      std::optional<TriangleAlpha> alpha;
+      for (int y = y0; y <= y1; ++y) {
+        int64_t e0 = row[0], e1 = row[1], e2 = row[2];
+        const int line = (y - rect.y0) * kTileSizePx - rect.x0;
+        for (int x = x0; x <= x1; ++x, e0 += eq.step_x[0], e1 += eq.step_x[1], e2 += eq.step_x[2]) {
+          if ((e0 | e1 | e2) < 0) continue;
+          const int i = line + x;
+          const float f0 = float(e0 + b0), f1 = float(e1 + b1), f2 = float(e2 + b2);
+          const float key = f0 * k0 + f1 * k1 + f2 * k2;
+          // In front of the opaque surface, as the depth test decides between the two: a draw
+          // after it must beat its key, one before it only not be beaten (lines and points are
+          // drawn after every triangle).
+          const uint32_t seen = opaque.visible[i];
+          if (seen != kNoTriangle) {
+            const float other = opaque.key[i];
+            const bool later = seen == kPrimitivePixel || t.draw > opaque.triangles[seen].tri->draw;
+            if (later ? !(key > other * tie) : other > key * tie) continue;
+          }
+          if (first) ++s.total[i];
+          else if (s.taken[i] >= s.total[i] || !blend_before(s.floor_key[i], s.floor_index[i], key, index, tie))
+            continue;  // composited by an earlier walk
+          const int n = s.count[i];
+          if (n == kBlendLayers &&
+              !blend_before(key, index, s.layer[kBlendLayers - 1].key[i],
+                            s.layer[kBlendLayers - 1].visible[i], tie))
+            continue;
+          if (!alpha) alpha.emplace(test, chunk, record);
+          const float a = alpha->value(test, f0, f1, f2);
+          // Insert, nearest first (the farthest of a full buffer drops out).
+          int at = n < kBlendLayers ? n : kBlendLayers - 1;
+          for (; at > 0 && blend_before(key, index, s.layer[at - 1].key[i], s.layer[at - 1].visible[i], tie);
+               --at) {
+            s.alpha_of[at][i] = s.alpha_of[at - 1][i];
+            s.layer[at].key[i] = s.layer[at - 1].key[i];
+            s.layer[at].visible[i] = s.layer[at - 1].visible[i];
+          }
+          s.alpha_of[at][i] = a;
+          s.layer[at].key[i] = key;
+          s.layer[at].visible[i] = index;
+          s.count[i] = uint8_t(n < kBlendLayers ? n + 1 : n);
+        }
+        row[0] += eq.step_y[0]; row[1] += eq.step_y[1]; row[2] += eq.step_y[2];
+      }
+    }
+  }
+  int most = 0;
+  for (int y = rect.y0; y < rect.y1; ++y)
+    for (int x = 0; x < rect.x1 - rect.x0; ++x)
+      most = std::max(most, int(s.count[(y - rect.y0) * kTileSizePx + x]));
+  return most;
 }
 
 }  // namespace sr

@@ -29,7 +29,8 @@ struct AlphaTest {
 
 // What a draw's material makes of it: drawn opaque (no test), masked, or not drawn at all (a
 // constant alpha below the cutoff). `filter_override` is RenderOptions::texture_filter.
-enum class AlphaKind : uint8_t { Opaque, Masked, Invisible };
+// Blended: glTF alphaMode BLEND with an alpha that varies or is in (0, 1) (blend.hpp).
+enum class AlphaKind : uint8_t { Opaque, Masked, Invisible, Blended };
 AlphaKind alpha_kind(const Draw& draw, uint8_t filter_override, AlphaTest& test);
 
 // Rasterizes record `record` of `chunk` (a masked draw's, with its TriangleShading) over pixels

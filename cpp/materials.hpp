@@ -63,6 +63,8 @@ struct Material {
   bool normal_y_down = false;  // DirectX-style normal map (green = -v)
   bool alpha_mask = false;     // glTF alphaMode MASK: fragments with alpha < alpha_cutoff are
   float alpha_cutoff = 0.5f;   // discarded (alpha_mask.hpp); else the draw is opaque
+  bool alpha_blend = false;    // glTF alphaMode BLEND: composited over what lies behind it in
+                               // depth order (blend.hpp); never together with alpha_mask
   // Every texture slot, null where absent (the one list of them).
   std::array<const Texture*, 7> textures() const {
     return {base_color_texture, emissive_texture, normal_texture, metallic_roughness_texture,
@@ -81,7 +83,7 @@ struct Material {
   // gets the headlight's kernel (renderer.cpp, the plan).
   bool plain() const {
     return kd_is_base && ka_is_kd && emissive == vec3(0.0f) && double_sided && !textured() &&
-           !alpha_mask;
+           !alpha_mask && !alpha_blend;
   }
 };
 

@@ -1,6 +1,8 @@
 // Outputs: resolve (depth from keys, ids from the visibility buffer) and write a tile's rows.
 #include "outputs.hpp"
 
+#include "blend.hpp"
+
 #include "interpolate.hpp"
 #include "lines.hpp"
 #include "multisample.hpp"
@@ -455,7 +457,7 @@ void exact_normal_tile(const ShadeParams& p, const TileRect& rect, const TileScr
 
 void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& raster,
                 const ShadeScratch& shaded, Isa isa, const ResolvedSamples* samples,
-                const PrimitivePixels* primitives) {
+                const PrimitivePixels* primitives, const BlendScratch* blend) {
   const Framebuffer& fb = *p.framebuffer;
   const std::size_t width = std::size_t(fb.width);
   const int n = rect.x1 - rect.x0;
@@ -498,6 +500,7 @@ void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& r
                   sizeof(uint32_t) * n);
     if (alpha) {
       if (samples) std::memcpy(alpha + o, samples->alpha + row, sizeof(float) * n);
+      else if (blend) std::memcpy(alpha + o, blend->alpha + row, sizeof(float) * n);
       else for (int x = 0; x < n; ++x) alpha[o + x] = visible[x] != kNoTriangle ? 1.0f : 0.0f;
     }
     if (depth)
@@ -547,11 +550,20 @@ void write_tile(const ShadeParams& p, const TileRect& rect, const TileScratch& r
     const float* rgb[3] = {shaded.rgb[0] + row, shaded.rgb[1] + row, shaded.rgb[2] + row};
     if (color) {
       const uint32_t background = p.background[0] | p.background[1] << 8 | p.background[2] << 16;
-      encode_row(rgb[0], rgb[1], rgb[2], visible, n, p.srgb, packed);
-      write_rgb(packed, visible, n, background, color + 3 * o);
+      if (blend) {  // composited over the opaque surface or the background (blend.hpp)
+        encode_row(blend->color[0] + row, blend->color[1] + row, blend->color[2] + row,
+                   blend->seen + row, n, p.srgb, packed);
+        write_rgb(packed, blend->seen + row, n, background, color + 3 * o);
+      } else {
+        encode_row(rgb[0], rgb[1], rgb[2], visible, n, p.srgb, packed);
+        write_rgb(packed, visible, n, background, color + 3 * o);
+      }
     }
     if (radiance) {
-      if (samples)  // premultiplied: without the background the colour output mixes in
+      if (blend)
+        write_radiance_row(blend->radiance[0] + row, blend->radiance[1] + row,
+                           blend->radiance[2] + row, blend->seen + row, n, radiance + 3 * o);
+      else if (samples)  // premultiplied: without the background the colour output mixes in
         write_radiance_row(samples->radiance[0] + row, samples->radiance[1] + row,
                            samples->radiance[2] + row, visible, n, radiance + 3 * o);
       else

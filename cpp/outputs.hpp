@@ -6,6 +6,8 @@
 
 namespace sr {
 
+struct BlendScratch;  // blend.hpp
+
 // Frames of at least this many output bytes are written with non-temporal stores: they spare a
 // large frame the read of every line it overwrites, while a small frame, which stays in cache
 // from one render to the next, gets slower with them (benchmarks/RESULTS.md, "Measurements
@@ -20,9 +22,11 @@ struct PrimitivePixels;  // lines.hpp
 // each pixel's representative sample, where its surface outputs are read; `raster` then holds
 // the representative's entries and `shaded` the colour output's linear values. `primitives`
 // (null unless lines or points were drawn into the tile, lines.hpp) holds the instance id and
-// world position of each pixel whose entry is kPrimitivePixel.
+// world position of each pixel whose entry is kPrimitivePixel. `blend` (null unless blended
+// fragments were composited in the tile, blend.hpp): the colour, radiance and alpha outputs
+// from its planes (never with `samples`).
 void write_tile(const ShadeParams& params, const TileRect& rect, const TileScratch& raster,
                 const ShadeScratch& shaded, Isa isa, const ResolvedSamples* samples = nullptr,
-                const PrimitivePixels* primitives = nullptr);
+                const PrimitivePixels* primitives = nullptr, const BlendScratch* blend = nullptr);
 
 }  // namespace sr

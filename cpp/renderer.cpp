@@ -262,6 +262,7 @@ Renderer::Renderer(int width, int height, int threads, bool simd)
       tile_scratch_(pool_.size()),
       shade_scratch_(pool_.size()),
       multisample_scratch_(pool_.size()),
+      blend_scratch_(pool_.size()),
       primitive_pixels_(pool_.size()) {
   ForkGuard& guard = fork_guard();
   std::lock_guard<std::mutex> lock(guard.mutex);
@@ -358,18 +359,33 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   // Setup and binning, parallel over fixed-size triangle chunks (primitive order is kept).
   // A masked draw's chunks carry its alpha test; a draw whose one alpha is below its cutoff
   // has none.
+  // A blended draw's chunks follow every opaque one (blend.hpp), set up only where some output
+  // reads them (colour, radiance, alpha).
   std::vector<AlphaTest> alpha_tests(draws.size());
   std::vector<const AlphaTest*> alpha(draws.size(), nullptr);
-  std::vector<Block> chunk_ranges;
+  std::vector<const AlphaTest*> blend_tests(draws.size(), nullptr);
+  std::vector<Block> chunk_ranges, blend_ranges;
+  const bool blend_read = (options.outputs & (kOutColor | kOutRadiance | kOutAlpha)) != 0;
   for (std::size_t d = 0; d < draws.size(); ++d) {
     const AlphaKind kind = alpha_kind(draws[d], options.texture_filter, alpha_tests[d]);
     if (kind == AlphaKind::Invisible) continue;
+    if (kind == AlphaKind::Blended) {
+      if (multisample)
+        throw std::invalid_argument(
+            std::string(options.ssaa > 1 ? "ssaa" : "msaa") + " > 1 is not supported with a "
+            "blended material (alpha_mode='blend', draw " + std::to_string(d) +
+            ") yet: render it with msaa=1 and ssaa=1");
+      if (!blend_read) continue;
+      blend_tests[d] = &alpha_tests[d];
+    }
     if (kind == AlphaKind::Masked) alpha[d] = &alpha_tests[d];
     const std::size_t m = draws[d].mesh->faces.size();
     const std::size_t step = chunk_faces(m);
     for (std::size_t b = 0; b < m; b += step)
-      chunk_ranges.push_back({uint32_t(d), b, std::min(m, b + step)});
+      (blend_tests[d] ? blend_ranges : chunk_ranges).push_back({uint32_t(d), b, std::min(m, b + step)});
   }
+  const std::size_t num_opaque_chunks = chunk_ranges.size();
+  chunk_ranges.insert(chunk_ranges.end(), blend_ranges.begin(), blend_ranges.end());
   // What each draw's shading reads (before setup: whether it writes the exact weights).
   std::vector<ShadeDraw> shade_draws;
   std::vector<Block> normal_blocks;
@@ -408,16 +424,18 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   if (chunks_.size() < chunk_ranges.size()) chunks_.resize(chunk_ranges.size());
   pool_.parallel_for(chunk_ranges.size(), [&](std::size_t item, int) {
     const Block& blk = chunk_ranges[item];
+    const bool blended = blend_tests[blk.draw] != nullptr;
     SetupParams params{draws[blk.draw].mesh.get(), &transforms[blk.draw],
                        vertices_[blk.draw].data(), blk.draw, camera.orthographic,
                        draws[blk.draw].never_culled && !options.cull_double_sided ? Cull::None
                                                                                   : options.cull,
-                       &planes, viewport, plan.estimate_overdraw,
-                       plan.shade || plan.surface || alpha[blk.draw], alpha[blk.draw], isa_};
+                       &planes, viewport, plan.estimate_overdraw && !blended,
+                       plan.shade || plan.surface || alpha[blk.draw] || blended, alpha[blk.draw],
+                       isa_};
     // The exact weights where the draw's shading reads them, or the normal output does.
-    // (A masked draw's alpha test reads them too, whichever outputs are requested.)
+    // (A masked or blended draw's alpha reads them too, whichever outputs are requested.)
     params.exact_weights = (plan.shade && (shade_draws[blk.draw].exact_shading || plan.normal)) ||
-                           alpha[blk.draw];
+                           alpha[blk.draw] || blended;
     setup_chunk(params, blk.begin, blk.end, chunks_[item]);
   });
 
@@ -486,8 +504,17 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
                                  : v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4));
   }
   const float tie = camera.orthographic ? kTieFactorOrthographic : kTieFactorPerspective;
-  const std::size_t num_chunks = chunk_ranges.size();
+  const std::size_t num_chunks = num_opaque_chunks;
   const TileKernels kernels = select_tile_kernels(plan, viewport, isa_, kind);
+  // Blended layers shade colour only (blend.hpp).
+  ShadeParams blend_shade = shade;
+  blend_shade.normal = false;
+  blend_shade.work = uint16_t(shade.work & ~kWorkNormalOut);
+  blend_shade.in.shading_normals = false;
+  const BlendParams blend{plan.color && kernels.deferred ? &blend_shade : nullptr, &kernels,
+                          &chunks_, num_opaque_chunks, chunk_ranges.size(), blend_tests.data(),
+                          background_linear};
+  const bool blending = chunk_ranges.size() > num_opaque_chunks;
   // Every tile is one sequence: rasterize (and shade, forward) -> shade (deferred) -> lines and
   // points over the shaded tile -> write the outputs. Anti-aliased tiles run it per sample pass
   // and resolve (multisample.cpp).
@@ -534,7 +561,13 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
                                  nullptr, {nullptr, nullptr, nullptr}, tie, pixels};
       draw_primitives_tile(primitives_, rect, int(tile), target);
     }
-    write_tile(shade, rect, raster, shaded, kernels.isa, nullptr, pixels);
+    BlendScratch* blended = nullptr;
+    if (blending) {
+      if (!blend_scratch_[worker]) blend_scratch_[worker].reset(new BlendScratch);
+      if (blend_tile(blend, rect, int(tile), raster, shaded, *blend_scratch_[worker]))
+        blended = blend_scratch_[worker].get();
+    }
+    write_tile(shade, rect, raster, shaded, kernels.isa, nullptr, pixels, blended);
   });
   return framebuffer;
 }

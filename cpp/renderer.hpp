@@ -3,6 +3,7 @@
 //   -> rasterize + shade (parallel over screen tiles, each owned by one thread)
 #pragma once
 
+#include "blend.hpp"
 #include "framebuffer.hpp"
 #include "lines.hpp"
 #include "multisample.hpp"
@@ -67,6 +68,7 @@ class Renderer {
   std::vector<std::unique_ptr<TileScratch>> tile_scratch_;
   std::vector<std::unique_ptr<ShadeScratch>> shade_scratch_;
   std::vector<std::unique_ptr<MultisampleScratch>> multisample_scratch_;  // anti-aliased renders
+  std::vector<std::unique_ptr<BlendScratch>> blend_scratch_;  // renders with blended draws
   PrimitiveSetup primitives_;  // lines and points, set up (lines.hpp)
   std::vector<std::unique_ptr<PrimitivePixels>> primitive_pixels_;  // per worker, on first use
   std::shared_ptr<BufferPool> buffer_pool_ = std::make_shared<BufferPool>(0);

@@ -115,6 +115,10 @@ void bind_material(py::module_& m) {
       .field<float>("alpha_cutoff", "float", "alpha_mask's threshold",
           +[](const MaterialRecord& r) { return r.material.alpha_cutoff; },
           +[](MaterialRecord& r, float v) { r.material.alpha_cutoff = v; })
+      .field<bool>("alpha_blend", "bool",
+          "glTF alphaMode BLEND: composited in depth order over what lies behind (not with alpha_mask)",
+          +[](const MaterialRecord& r) { return r.material.alpha_blend; },
+          +[](MaterialRecord& r, bool v) { r.material.alpha_blend = v; })
       .finish();
 }
 #undef SR_TEXTURE_FIELD

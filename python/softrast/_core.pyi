@@ -131,6 +131,7 @@ class Material:
                  bump_scale: float = ...,
                  alpha_mask: bool = ...,
                  alpha_cutoff: float = ...,
+                 alpha_blend: bool = ...,
                  ) -> None: ...
     model: str  # its reflectance model (REFLECTANCE_MODELS), drawn by shading='auto'
     kd_is_base: bool  # kd is the base colour (vertex colours, else the draw's colour)
@@ -156,6 +157,7 @@ class Material:
     bump_scale: float  # the bump texture's height scale
     alpha_mask: bool  # glTF alphaMode MASK: fragments below alpha_cutoff are discarded
     alpha_cutoff: float  # alpha_mask's threshold
+    alpha_blend: bool  # glTF alphaMode BLEND: composited in depth order over what lies behind (not with alpha_mask)
 
 class MeshData:
     # Validates (n,3) float32 positions, (m,3) int32 faces and optional (n,3) float32 normals, (n,4) float32 colors, (n,2) float32 uvs. Views immutable arrays (read-only views of a bytes object) in place and copies any other.

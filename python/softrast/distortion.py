@@ -307,8 +307,12 @@ def render_distorted(renderer: Any, scene: Any, camera: Any, names: Any, options
     shading_normals = "normal" in cast and options["normal_kind"] == "shading" and bool(mapped.any())
     masked = any(i.material is not None and i.material.alpha_mode == "mask" for i in instances)
     need_ids = bool(cast) and (masked or shading_normals)
+    # Blended materials are composited in the ideal view; the cast sees only opaque surfaces, so
+    # where a ray hits none, alpha (their coverage) is gathered from the view like colour.
+    blended = "alpha" in cast and any(i.material is not None and i.material.alpha_mode == "blend"
+                                      for i in instances)
     inner = [n for n in wanted if n in _BILINEAR] + (["triangle_id", "instance_id"] if need_ids else []) \
-        + (["normal"] if shading_normals else [])
+        + (["normal"] if shading_normals else []) + (["alpha"] if blended else [])
     frame = None
     if inner:
         view_renderers = renderer.__dict__.setdefault("_distortion_renderers", {})
@@ -353,6 +357,11 @@ def render_distorted(renderer: Any, scene: Any, camera: Any, names: Any, options
             value[~valid] = bg
         elif name == "radiance":
             value[~valid] = 0.0
+        elif name == "alpha" and blended:  # no opaque hit: the blended coverage, gathered
+            gathered = np.empty(shape, np.float32)
+            _core._distortion_bilinear(rays.core, rays.weights, frame.alpha[..., None], gathered)
+            gathered[~valid] = 0.0
+            value = np.where(value == 1.0, value, gathered)
         elif name == "instance_id":
             seen = value >= 0
             value[seen] = shadow._source_ids[value[seen]]

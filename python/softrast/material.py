@@ -49,8 +49,8 @@ __all__ = ["Material", "MODELS", "ALPHA_MODES"]
 
 # Shading models a material may ask for (render(shading="auto") uses each material's own).
 MODELS: tuple[str, ...] = tuple(_core.REFLECTANCE_MODELS)  # unlit, lambert, phong, blinn_phong, pbr, normal
-# How a material's alpha is used (glTF's alphaMode, less BLEND).
-ALPHA_MODES = ("opaque", "mask")
+# How a material's alpha is used (glTF's alphaMode, lower case).
+ALPHA_MODES = ("opaque", "mask", "blend")
 
 
 def _color(value: Any, name: str, n: int) -> tuple[float, ...]:
@@ -121,7 +121,14 @@ class Material:
         ``base_color``'s (or the mesh's interpolated per-vertex alpha where it has vertex
         colours) times the ``base_color_texture``'s alpha at the pixel, sampled with the same uv,
         filter and level of detail as its colour. ``coverage`` counts only the fragments kept.
-        Blending ("blend") is not drawn yet.
+        "blend" (glTF's alphaMode BLEND): the material is translucent with that same alpha. At
+        every pixel its fragments in front of the nearest opaque surface are composited in exact
+        depth order (whatever the draw order; fragments at equal depth in draw order), in linear
+        light, over that surface or the background. ``color`` and ``radiance`` are composited,
+        ``alpha`` is the total coverage; ``depth``, ids, ``mask``, ``normal`` and the surface
+        outputs follow the nearest opaque surface, and ``coverage`` counts opaque fragments
+        only. A blended draw whose one alpha is 1 (no vertex colours, no texture alpha) is drawn
+        opaque, the same colours.
     """
 
     __slots__ = ("base_color", "ka", "kd", "ks", "shininess", "metallic", "roughness", "emissive",
@@ -197,8 +204,7 @@ class Material:
         bump = float32_real(bump_scale, "bump_scale")
         s(self, "bump_scale", bump)
         if not isinstance(alpha_mode, str) or alpha_mode not in ALPHA_MODES:
-            raise ValueError(f"alpha_mode must be one of {ALPHA_MODES}, got {alpha_mode!r:.80}"
-                             + (" (blending is not drawn yet)" if alpha_mode == "blend" else ""))
+            raise ValueError(f"alpha_mode must be one of {ALPHA_MODES}, got {alpha_mode!r:.80}")
         s(self, "alpha_mode", alpha_mode)
         cutoff = float32_real(alpha_cutoff, "alpha_cutoff")
         s(self, "alpha_cutoff", cutoff)
@@ -219,6 +225,7 @@ class Material:
             occlusion_texture=core(occlusion_texture, False),
             occlusion_strength=self.occlusion_strength, bump_texture=core(bump_texture, False),
             bump_scale=bump, alpha_mask=alpha_mode == "mask", alpha_cutoff=cutoff,
+            alpha_blend=alpha_mode == "blend",
             specular_texture=core(specular_texture, False)))
 
     def __setattr__(self, key: str, value: Any) -> None:

@@ -1,0 +1,95 @@
+// Alpha blending (blend.hpp): the tile's blended layers, peeled, shaded and composited.
+#include "blend.hpp"
+
+#include <algorithm>
+
+namespace sr {
+
+bool blend_tile(const BlendParams& params, const TileRect& rect, int tile,
+                const TileScratch& opaque, const ShadeScratch& opaque_shade, BlendScratch& s) {
+  const int width = rect.x1 - rect.x0;
+  for (int y = rect.y0; y < rect.y1; ++y) {
+    const int row = (y - rect.y0) * kTileSizePx;
+    for (int x = 0; x < width; ++x) {
+      s.taken[row + x] = 0;
+      s.transmit[row + x] = 1.0f;
+      s.sum[0][row + x] = s.sum[1][row + x] = s.sum[2][row + x] = 0.0f;
+      s.touched[row + x] = false;
+    }
+  }
+  bool any = false;
+  for (bool first = true;; first = false) {
+    const int most = gather_blended(*params.chunks, params.begin, params.end, tile, rect,
+                                    params.tests, opaque, first, s);
+    if (most == 0) break;
+    any = true;
+    if (params.shade) {
+      const TileScratch* rasters[kBlendLayers];
+      ShadeScratch* outs[kBlendLayers];
+      for (int l = 0; l < most; ++l) {
+        if (l > 0 && first) s.layer[l].triangles = s.layer[0].triangles;
+        rasters[l] = &s.layer[l];
+        outs[l] = &s.shaded[l];
+      }
+      params.kernels->deferred(*params.shade, rect, rasters, outs, most);
+    }
+    // Front to back; a pixel with fragments left takes them in the next walk.
+    bool more = false;
+    for (int y = rect.y0; y < rect.y1; ++y) {
+      const int row = (y - rect.y0) * kTileSizePx;
+      for (int x = 0; x < width; ++x) {
+        const int i = row + x;
+        // (At most the fragments left: see BlendScratch::total.)
+        const int n = int(std::min<uint32_t>(s.count[i], s.total[i] - s.taken[i]));
+        if (n == 0) continue;
+        s.touched[i] = true;
+        float t = s.transmit[i];
+        for (int l = 0; l < n; ++l) {
+          const float raw = s.alpha_of[l][i];
+          const float a = !(raw > 0.0f) ? 0.0f : raw < 1.0f ? raw : 1.0f;
+          if (params.shade) {
+            const float w = t * a;
+            for (int c = 0; c < 3; ++c) s.sum[c][i] += w * s.shaded[l].rgb[c][i];
+          }
+          t *= 1.0f - a;
+        }
+        s.transmit[i] = t;
+        s.taken[i] += uint32_t(n);
+        if (!(t > 0.0f)) s.taken[i] = s.total[i];  // nothing behind shows through
+        s.floor_key[i] = s.layer[n - 1].key[i];
+        s.floor_index[i] = s.layer[n - 1].visible[i];
+        more |= s.taken[i] < s.total[i];
+      }
+    }
+    if (!more) break;
+  }
+  if (!any) return false;
+  const vec3& background = params.background_linear;
+  for (int y = rect.y0; y < rect.y1; ++y) {
+    const int row = (y - rect.y0) * kTileSizePx;
+    for (int x = 0; x < width; ++x) {
+      const int i = row + x;
+      const uint32_t seen = opaque.visible[i];
+      const bool surface = seen != kNoTriangle;
+      if (!s.touched[i]) {
+        s.seen[i] = seen;
+        s.alpha[i] = surface ? 1.0f : 0.0f;
+        if (params.shade)
+          for (int c = 0; c < 3; ++c) s.color[c][i] = s.radiance[c][i] = opaque_shade.rgb[c][i];
+        continue;
+      }
+      const float t = s.transmit[i];
+      s.seen[i] = 0;  // (any entry but kNoTriangle)
+      s.alpha[i] = surface ? 1.0f : 1.0f - t;
+      if (params.shade)
+        for (int c = 0; c < 3; ++c) {
+          const float behind = surface ? opaque_shade.rgb[c][i] : 0.0f;
+          s.radiance[c][i] = s.sum[c][i] + t * behind;
+          s.color[c][i] = s.sum[c][i] + t * (surface ? behind : background[c]);
+        }
+    }
+  }
+  return true;
+}
+
+}  // namespace sr
