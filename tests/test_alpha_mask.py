@@ -251,8 +251,8 @@ def test_material_alpha_options_checked() -> None:
     assert pickle.loads(pickle.dumps(m)) == m
     with pytest.raises(ValueError, match="alpha_mode"):
         sr.Material(alpha_mode="clip")
-    with pytest.raises(ValueError, match="blending is not drawn yet"):
-        sr.Material(alpha_mode="blend")
+    assert sr.Material(alpha_mode="blend").alpha_mode == "blend"  # "blend" is drawn
+    assert m.replace(alpha_mode="blend").alpha_mode == "blend"
     for bad in (float("nan"), float("inf")):
         with pytest.raises(ValueError, match="alpha_cutoff"):
             sr.Material(alpha_cutoff=bad)
@@ -274,8 +274,8 @@ def test_from_pyrender_material_alpha_mode() -> None:
     m = _material(MetallicRoughnessMaterial("MASK", 0.3))
     assert (m.alpha_mode, m.alpha_cutoff) == ("mask", 0.3)
     assert _material(MetallicRoughnessMaterial("OPAQUE", 0.5)).alpha_mode == "opaque"
-    # BLEND is drawn opaque; from_pyrender warns (naming the mesh) only where an alpha is below 1
-    # (issue 33: test_from_pyrender.py), the material alone does not.
+    # BLEND alone converts opaque: from_pyrender makes a primitive "blend" where an alpha it
+    # reads (this factor, its texture, its color_0) is below 1 (test_from_pyrender.py).
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert _material(MetallicRoughnessMaterial("BLEND", None)).alpha_mode == "opaque"

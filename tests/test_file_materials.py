@@ -157,9 +157,10 @@ def mtl_roughness(ns):  # the MTL rule (softrast.loaders): trimesh's and pyrende
 RED = sr.Material(base_color=(0.7, 0.2, 0.1, 1.0), ka=(0.1, 0.05, 0.025), kd=(0.7, 0.2, 0.1),
                   ks=(0.3, 0.35, 0.4), shininess=96.078431, metallic=0.0,
                   roughness=mtl_roughness(96.078431), model="pbr", name="red_plastic")
+# d 0.375 < 1: blended, with base colour alpha d
 BLUE = sr.Material(base_color=(0.15, 0.25, 0.9, 0.375), kd=(0.15, 0.25, 0.9), ks=(1.0, 1.0, 1.0),
                    shininess=250.0, metallic=0.0, roughness=mtl_roughness(250.0), model="pbr",
-                   name="blue_glass")
+                   name="blue_glass", alpha_mode="blend")
 
 
 def _write_obj(tmp_path, obj=OBJ_TWO, mtl=MTL_TWO):
@@ -169,10 +170,9 @@ def _write_obj(tmp_path, obj=OBJ_TWO, mtl=MTL_TWO):
     return path
 
 
-def test_obj_mtl_materials_are_exact_in_load_scene(tmp_path):
+def test_obj_mtl_materials_are_exact_in_load_scene(tmp_path, no_warnings):
     path = _write_obj(tmp_path)
-    with pytest.warns(UserWarning, match=r"two\.obj: material 'blue_glass': transparency \(d 0\.375"):
-        scene = sr.load_scene(path)
+    scene = sr.load_scene(path)  # d 0.375 is drawn (blended): nothing to warn about
     assert len(scene) == 2
     by_name = {inst.material.name: inst for inst in scene}
     assert by_name["red_plastic"].material == RED  # exact: not trimesh's 8-bit copies
@@ -363,10 +363,112 @@ def test_glb_alpha_mode_textures_and_extensions_warn(tmp_path):
     # the file has no textures: the occlusionTexture names one it does not have
     assert texts[1].startswith(f"{path}: material 'paint': occlusionTexture refers to texture 0, which the "
                                "file does not have: not drawn")
-    assert "alphaMode 'BLEND' is not drawn yet" in texts[1]
+    assert "alphaMode" not in texts[1]  # BLEND is drawn
     by_name = {inst.material.name: inst.material for inst in scene}
     assert by_name["chrome"] == CHROME.replace(model="unlit")
-    assert by_name["paint"] == PAINT
+    assert by_name["paint"] == PAINT.replace(alpha_mode="blend")
+
+
+def test_glb_blend_loads_as_blend_without_a_warning(tmp_path, no_warnings):
+    """glTF alphaMode BLEND -> alpha_mode "blend" (its baseColorFactor alpha kept, alphaCutoff
+    ignored as glTF says), OPAQUE -> opaque; nothing warns."""
+    def edit(doc):
+        paint = next(m for m in doc["materials"] if m["name"] == "paint")
+        paint["alphaMode"], paint["alphaCutoff"] = "BLEND", 0.9
+        chrome = next(m for m in doc["materials"] if m["name"] == "chrome")
+        chrome["alphaMode"] = "OPAQUE"
+
+    path, _, _ = _two_material_glb(tmp_path, edit)
+    by_name = {inst.material.name: inst.material for inst in sr.load_scene(path)}
+    assert by_name["paint"].alpha_mode == "blend" and by_name["paint"].base_color[3] == 0.5
+    assert by_name["paint"] == PAINT.replace(alpha_mode="blend")
+    assert by_name["chrome"] == CHROME and by_name["chrome"].alpha_mode == "opaque"
+
+
+MTL_ALPHA = """newmtl half
+Kd 1 0 0
+d 0.5
+newmtl tr
+Kd 0 1 0
+Tr 0.25
+newmtl solid
+Kd 0 0 1
+d 1.0
+newmtl agree
+Kd 1 1 0
+d 0.5
+Tr 0.5
+newmtl tr_zero
+Kd 0 1 1
+Tr 0
+newmtl dissolved
+Kd 1 0 1
+d -0.5
+newmtl meshlab
+Kd 0.5 0.5 0.5
+Tr 1.000000
+"""
+
+
+def _alpha_obj(tmp_path, mtl, names):
+    lines = ["mtllib alpha.mtl"]
+    for i, name in enumerate(names):
+        lines += [f"v {i} 0 0", f"v {i + 1} 0 0", f"v {i} 1 0", f"usemtl {name}",
+                  f"f {3 * i + 1} {3 * i + 2} {3 * i + 3}"]
+    (tmp_path / "alpha.mtl").write_text(mtl)
+    path = tmp_path / "alpha.obj"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_mtl_transparency_loads_as_blend(tmp_path, no_warnings):
+    """MTL d < 1 -> alpha_mode "blend" with base colour alpha d (a d below 0 clipped to 0);
+    d 1 stays opaque. Tr t in (0, 1) without d -> d = 1 - t; Tr 0 and Tr 1 (Meshlab's opaque:
+    vcglib writes Tr meaning d, as assets/meshes/fuze's MTL shows) stay opaque. Nothing warns.
+    trimesh 5.2 ignores d and Tr (its diffuse alpha stays 255: pyrender.Mesh.from_trimesh draws
+    such a material opaque), so this is read from the MTL file itself."""
+    names = ["half", "tr", "solid", "agree", "tr_zero", "dissolved", "meshlab"]
+    scene = sr.load_scene(_alpha_obj(tmp_path, MTL_ALPHA, names))
+    got = {inst.material.name: (inst.material.alpha_mode, inst.material.base_color) for inst in scene}
+    assert got == {"half": ("blend", (1.0, 0.0, 0.0, 0.5)), "tr": ("blend", (0.0, 1.0, 0.0, 0.75)),
+                   "solid": ("opaque", (0.0, 0.0, 1.0, 1.0)), "agree": ("blend", (1.0, 1.0, 0.0, 0.5)),
+                   "tr_zero": ("opaque", (0.0, 1.0, 1.0, 1.0)),
+                   "dissolved": ("blend", (1.0, 0.0, 1.0, 0.0)),
+                   "meshlab": ("opaque", (0.5, 0.5, 0.5, 1.0))}
+    # load_mesh of a one-material file keeps it too (and the base colour as the mesh's colour)
+    mesh = sr.load_mesh(_alpha_obj(tmp_path, MTL_ALPHA, ["half"]))
+    assert mesh.material.alpha_mode == "blend" and mesh.material.base_color == (1.0, 0.0, 0.0, 0.5)
+    assert mesh.material == sr.Material(base_color=(1.0, 0.0, 0.0, 0.5), kd=(1.0, 0.0, 0.0), ks=None,
+                                        metallic=0.0, roughness=1.0, model="pbr", name="half",
+                                        alpha_mode="blend")
+
+
+def test_mtl_d_wins_over_tr(tmp_path, no_warnings):
+    """A material with both d and Tr reads d, whichever comes first (tinyobjloader's rule),
+    without a warning: d is the standard statement, Tr an exporter's duplicate of it."""
+    mtl = ("newmtl max\nKd 0.5 0.5 0.5\nd 1\nTr 1\nnewmtl glass\nKd 0.5 0.5 0.5\nTr 0.9\nd 0.25\n"
+           "newmtl clear\nKd 0.5 0.5 0.5\nd 1\nTr 0.5\n")
+    scene = sr.load_scene(_alpha_obj(tmp_path, mtl, ["max", "glass", "clear"]))
+    got = {inst.material.name: (inst.material.alpha_mode, inst.material.base_color[3]) for inst in scene}
+    assert got == {"max": ("opaque", 1.0), "glass": ("blend", 0.25), "clear": ("opaque", 1.0)}
+
+
+def test_fuze_meshlab_tr_1_stays_opaque(no_warnings):
+    """assets/meshes/fuze is a Meshlab export whose MTL says "Tr 1.000000" (vcglib writes Tr as
+    the opacity): read as opaque, not as an invisible material."""
+    mesh = sr.load_mesh(ASSETS / "fuze" / "fuze.obj")
+    assert mesh.material.alpha_mode == "opaque" and mesh.material.base_color[3] == 1.0
+
+
+def test_from_trimesh_simple_material_alpha_blends(no_warnings):
+    """Mesh.from_trimesh: a SimpleMaterial whose diffuse alpha is below 255 blends (as MTL's
+    d < 1, and as pyrender.Mesh.from_trimesh's BLEND draws it); 255 stays opaque."""
+    for alpha, mode in ((128, "blend"), (255, "opaque")):
+        tm = trimesh.creation.box()
+        tm.visual = trimesh.visual.TextureVisuals(material=trimesh.visual.material.SimpleMaterial(
+            name="m", diffuse=[200, 100, 50, alpha]))
+        m = sr.Mesh.from_trimesh(tm).material
+        assert m.alpha_mode == mode and m.base_color[3] == alpha / 255.0
 
 
 def test_box_textured_draws_its_texture(no_warnings):

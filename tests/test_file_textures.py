@@ -236,7 +236,7 @@ def test_pil_modes_become_1_to_4_channels(tmp_path, no_warnings, mode, channels)
     assert texture.image.dtype == (np.uint16 if mode == "I;16" else np.uint8)
 
 
-def test_glb_alpha_mode_texcoord_and_transform_warn_but_mr_and_occlusion_load(tmp_path):
+def test_glb_texcoord_and_transform_warn_but_blend_mr_and_occlusion_load(tmp_path):
     mr = np.full((2, 2, 3), (0, 128, 255), np.uint8)
 
     def edit(doc):
@@ -251,19 +251,19 @@ def test_glb_alpha_mode_texcoord_and_transform_warn_but_mr_and_occlusion_load(tm
         scene = sr.load_scene(path)
     (text,) = [str(w.message) for w in record]
     assert text.startswith(f"{path}: material 'paint': ")
-    for part in ("alphaMode 'BLEND' is not drawn yet: rendered opaque",
-                 "emissiveTexture uses texCoord 1 and only TEXCOORD_0 is read: not drawn",
+    for part in ("emissiveTexture uses texCoord 1 and only TEXCOORD_0 is read: not drawn",
                  "baseColorTexture: extension KHR_texture_transform is ignored"):
         assert part in text
     assert "metallicRoughnessTexture" not in text and "occlusionTexture" not in text
+    assert "alphaMode" not in text  # BLEND is drawn
     (inst,) = scene.instances
     m = inst.material
+    assert m.alpha_mode == "blend"
     assert m.base_color_texture is not None and m.emissive_texture is None
     # one image named by both slots (an occlusion-roughness-metallic image): one Texture
     assert m.metallic_roughness_texture is m.occlusion_texture
     np.testing.assert_array_equal(m.metallic_roughness_texture.image, mr)
     assert m.occlusion_strength == 1.0  # glTF's default
-    assert m.alpha_mode == "opaque"
 
 
 @pytest.mark.parametrize("cutoff", [None, 0.25])

@@ -18,10 +18,11 @@ with softrast, and writes both. Checked here:
 * orthographic: pyrender's depth is wrong for orthographic cameras (its linearization assumes a
   perspective projection), so softrast's depth is checked against rays cast through each pixel
   centre (trimesh's ray-triangle intersection, float64) instead; masks against pyrender.
-* issue 33: alphaMode "BLEND" (every material of pyrender.Mesh.from_trimesh) converts without a
-  warning where every alpha is 1 (pyrender draws it opaque too), and warns naming the mesh, node
-  and material where one is below 1 (pyrender blends); bg_color comes back as the result's
-  ``background``, and softrast renders it as pyrender's bytes (white 255; others within 1).
+* issue 33: alphaMode "BLEND" (every material of pyrender.Mesh.from_trimesh) converts opaque
+  where every alpha is 1 (pyrender draws it opaque too), and to ``alpha_mode="blend"`` where one
+  is below 1 (pyrender blends), without a warning either way; bg_color comes back as the
+  result's ``background``, and softrast renders it as pyrender's bytes (white 255; others
+  within 1). How the blends compare: tests/test_blend_vs_pyrender.py.
 The test FAILS (never skips) without pyrender and OSMesa: see test_pbr_vs_pyrender.py.
 """
 from __future__ import annotations
@@ -33,6 +34,7 @@ import pathlib
 import pickle
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -295,17 +297,11 @@ for name, (mesh, mesh_name, node_name, mat_name) in cases.items():
         prim.material.alphaMode = "BLEND"
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        sr.from_pyrender(scene, W, H)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("error")
-            sr.from_pyrender(scene, W, H)
-        error = None
-    except Exception as exc:
-        error = f"{type(exc).__name__}: {exc}"
+        conv = sr.from_pyrender(scene, W, H)
     out[name] = {"modes": sorted(modes), "pyrender_opaque": bool(np.array_equal(blended, opaque)),
                  "differ": int((blended != opaque).any(-1).sum()),
-                 "warnings": [str(c.message) for c in caught], "error": error}
+                 "warnings": [str(c.message) for c in caught],
+                 "converted": sorted({inst.material.alpha_mode for inst in conv.scene})}
 renderer.delete()
 print(json.dumps(out))
 """
@@ -319,73 +315,78 @@ def run_child(tmp_path: pathlib.Path, code: str, *args: str) -> str:
     return run_pyrender_child(child, [parent, tests, *args], timeout=300).stdout
 
 
-def test_blend_at_alpha_one_is_opaque_without_a_warning(tmp_path) -> None:
+def test_blend_is_blend_below_alpha_one_and_opaque_at_one(tmp_path) -> None:
     """pyrender.Mesh.from_trimesh marks every material it makes alphaMode "BLEND" (textured,
     vertex-coloured, plain). Where every alpha is 1 pyrender draws it opaque (its BLEND render
-    equals the same scene's OPAQUE render byte for byte) and from_pyrender converts it without a
-    warning (under simplefilter("error")); where an alpha is below 1 (baseColorFactor, the base
-    colour texture, the vertex colours) pyrender blends, and from_pyrender warns once, naming
-    the mesh, its node, its material and what is translucent (issue 33, defect 7)."""
+    equals the same scene's OPAQUE render byte for byte) and from_pyrender converts it opaque;
+    where an alpha is below 1 (baseColorFactor, the base colour texture, the vertex colours)
+    pyrender blends, and from_pyrender converts it to alpha_mode "blend". Neither warns (issue
+    33, defect 7; blending is drawn now)."""
     info = json.loads(run_child(tmp_path, BLEND_CHILD).strip().splitlines()[-1])
     for name, case in info.items():
         assert case["modes"] == ["BLEND"], name
+        assert case["warnings"] == [], (name, case["warnings"])
         if name.endswith("translucent"):
             assert not case["pyrender_opaque"] and case["differ"] > 50, name  # pyrender blends
-            assert len(case["warnings"]) == 1, (name, case["warnings"])
-            assert case["error"] is not None, name
+            assert case["converted"] == ["blend"], (name, case)
         else:
             assert case["pyrender_opaque"], name
-            assert case["warnings"] == [] and case["error"] is None, (name, case)
-    expected = {
-        "factor_translucent": ("pyrender mesh 'glass' (node 'glass node'), material 'frosted'",
-                               "baseColorFactor alpha 0.5"),
-        "texture_translucent": ("pyrender mesh 'leaf' (node 'leaf node'), material 'leaf material'",
-                                "baseColorTexture alpha down to 0.3922"),
-        "vertex_colors_translucent": ("pyrender mesh 'tinted' (node 'tint node'), material 'tint'",
-                                      "color_0 alpha down to 0.502"),
-    }
-    for name, (label, why) in expected.items():
-        message = info[name]["warnings"][0]
-        assert message.startswith(label + " (softrast instance 0): alphaMode 'BLEND'"), message
-        assert why in message and "rendered opaque" in message, message
+            assert case["converted"] == ["opaque"], (name, case)
+    assert {name for name, case in info.items() if case["converted"] == ["blend"]} == {
+        "factor_translucent", "texture_translucent", "vertex_colors_translucent"}
 
 
-def test_blend_warning_names_unnamed_meshes_by_instance() -> None:
-    """Without pyrender (duck-typed stand-ins): an unnamed mesh, node and material are said to be
-    unnamed, the primitive and the softrast instance ids are given; alpha 1 warns nothing."""
+def test_blend_converts_per_primitive_without_a_warning() -> None:
+    """Without pyrender (duck-typed stand-ins): a "BLEND" primitive at alpha 1 converts opaque,
+    one with baseColorFactor alpha 0.5 (two instancing poses: both instances), one whose
+    color_0 alpha is below 1 and one whose base colour texture's alpha is below 1 convert to
+    alpha_mode "blend", keeping the alpha; nothing warns (the test suite turns warnings into
+    errors)."""
 
     def pyrender_class(name):
         cls = type(name, (), {})
         cls.__module__ = "pyrender"
         return cls
 
-    def material(alpha):
+    def material(alpha, texture=None):
         mat = pyrender_class("MetallicRoughnessMaterial")()
         mat.alphaMode, mat.alphaCutoff, mat.name = "BLEND", 0.5, None
         mat.baseColorFactor, mat.doubleSided = (1.0, 1.0, 1.0, alpha), False
+        mat.baseColorTexture = texture
         return mat
 
-    def primitive(alpha, poses=None):
+    def primitive(alpha, poses=None, color_0=None, texture=None):
         prim = pyrender_class("Primitive")()
         prim.positions, prim.indices, prim.mode = np.eye(3), None, 4
-        prim.material, prim.poses = material(alpha), poses
+        prim.material, prim.poses, prim.color_0 = material(alpha, texture), poses, color_0
+        prim.texcoord_0 = None if texture is None else np.zeros((3, 2))
         return prim
 
+    texture = pyrender_class("Texture")()
+    texture.source, texture.sampler = np.full((2, 2, 4), 255, np.uint8), None
+    texture.source[0, 0, 3] = 100
+    opaque_texture = pyrender_class("Texture")()
+    opaque_texture.source, opaque_texture.sampler = np.full((2, 2, 4), 255, np.uint8), None
+    tinted = np.array([[1.0, 0.5, 0.25, 1.0], [1.0, 0.5, 0.25, 0.5], [1.0, 0.5, 0.25, 1.0]])
     mesh = pyrender_class("Mesh")()
-    mesh.name, mesh.primitives = None, [primitive(1.0), primitive(0.25, np.stack([np.eye(4)] * 2))]
+    mesh.name, mesh.primitives = None, [
+        primitive(1.0), primitive(0.5, np.stack([np.eye(4)] * 2)), primitive(1.0, color_0=tinted),
+        primitive(1.0, color_0=np.ones((3, 4))), primitive(1.0, texture=texture),
+        primitive(1.0, texture=opaque_texture)]
     node = pyrender_class("Node")()
     node.name, node.mesh = None, mesh
     scene = pyrender_class("Scene")()
     scene.mesh_nodes, scene.light_nodes, scene.main_camera_node = [node], [], None
     scene.get_pose = lambda n: np.eye(4)
     scene.ambient_light, scene.bg_color = None, np.array([0.5, 0.25, 1.5, 0.5])
-    with pytest.warns(UserWarning) as caught:
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
         conv = sr.from_pyrender(scene, 8, 8)
-    assert [str(w.message) for w in caught] == [
-        "an unnamed pyrender mesh (an unnamed node), primitive 1, an unnamed material (softrast "
-        "instances 1-2): alphaMode 'BLEND' with alpha below 1 (baseColorFactor alpha 0.25) is not "
-        "drawn yet: rendered opaque"]
-    assert len(conv.scene) == 3 and conv.camera is None
+    assert len(conv.scene) == 7 and conv.camera is None
+    modes = [inst.material.alpha_mode for inst in conv.scene]
+    assert modes == ["opaque", "blend", "blend", "blend", "opaque", "blend", "opaque"]
+    assert [inst.material.base_color[3] for inst in conv.scene][:3] == [1.0, 0.5, 0.5]
+    np.testing.assert_array_equal(conv.scene.instances[3].mesh.colors[:, 3], [1.0, 0.5, 1.0])
     assert conv.background == (0.5, 0.25, 1.0) and conv.background_alpha == 0.5  # clipped as GL does
 
 

@@ -251,8 +251,19 @@ def warning_scenes() -> dict[str, tuple[sr.Scene, sr.Camera | None]]:
               pose=rigid(0.3, (0, 1, 0), (0.1, 0.2, 0.0)))
     prims.add(sr.Lines([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1], [1, 2]], color=(1.0, 0.0, 0.0),
                        width=2.0), instance_id=7, pose=np.diag([1.0, 1.0, -1.0, 1.0]))  # a mirror
+    # alpha_mode "blend": a base colour alpha 0.5, vertex colours with alpha below 1, and alpha 1
+    blend = sr.Scene()
+    blend.add(sr.Mesh(bp, bf, material=sr.Material(base_color=(0.2, 0.4, 0.8, 0.5), metallic=0.0,
+                                                   alpha_mode="blend", name="glass")))
+    tints = np.c_[np.full((len(bp), 3), 0.5), np.linspace(0.25, 1.0, len(bp))]
+    blend.add(sr.Mesh(bp, bf, colors=tints, material=sr.Material(alpha_mode="blend", name="tinted")),
+              pose=rigid(0.0, (0, 1, 0), (1.0, 0.0, 0.0)))
+    blend.add(sr.Mesh(bp, bf, material=sr.Material(alpha_mode="blend", name="clear")),
+              pose=rigid(0.0, (0, 1, 0), (-1.0, 0.0, 0.0)))
+    blend.add(sr.DirectionalLight())
+    blend_cam = sr.PerspectiveCamera(fov_y=45.0, near=NEAR, far=FAR).look_at((0, 0, 5), (0, 0, 0))
     return {"warn_lights": (lights, None), "warn_many_lights": (many, None), "warn_no_lights": (dark, None),
-            "warn_materials": (materials, ortho), "primitives": (prims, None)}
+            "warn_materials": (materials, ortho), "primitives": (prims, None), "blend": (blend, blend_cam)}
 
 
 # -- running pyrender ----------------------------------------------------------------------------
@@ -662,6 +673,29 @@ def test_materials_and_textures_that_do_not_convert_warn(results) -> None:
     assert (mb.metallic_roughness_texture.image[..., 0] == 0).all()
     np.testing.assert_array_equal(mb.occlusion_texture.image[..., 0], src.occlusion_texture.image[..., 0])
     assert mb.bump_texture is None and (mb.alpha_mode, mb.alpha_cutoff) == ("mask", pytest.approx(0.3))
+
+
+def test_blend_converts_to_blend_and_back(results) -> None:
+    """alpha_mode "blend" -> alphaMode "BLEND" without a warning (the alpha in baseColorFactor,
+    or in color_0 for a mesh with vertex colours), and from_pyrender reads "BLEND" with an alpha
+    below 1 back as "blend"; at alpha 1 it reads it back opaque (as softrast draws a blended
+    draw whose one alpha is 1). How pyrender's blending compares: test_blend_vs_pyrender.py."""
+    result = results["blend"]
+    assert result["warnings"] == [], result["warnings"]
+    prims = {node["primitives"][0]["material"]["name"]: node["primitives"][0]
+             for node in result["summary"]["nodes"]}
+    assert {name: p["material"]["alphaMode"] for name, p in prims.items()} == {
+        "glass": "BLEND", "tinted": "BLEND", "clear": "BLEND"}
+    np.testing.assert_allclose(prims["glass"]["material"]["baseColorFactor"], (0.2, 0.4, 0.8, 0.5), atol=1e-7)
+    np.testing.assert_array_equal(prims["tinted"]["material"]["baseColorFactor"], (1, 1, 1, 1))
+    source = warning_scenes()["blend"][0].instances[1].mesh
+    tinted = prims["tinted"]
+    np.testing.assert_allclose(tinted["color_0"][tinted["indices"].astype(np.int64)],
+                               source.colors[source.faces], atol=1e-7)
+    back, _ = result["back"]
+    assert result["back_warnings"] == []
+    got = {inst.material.name: inst.material.alpha_mode for inst in back.instances}
+    assert got == {"glass": "blend", "tinted": "blend", "clear": "opaque"}
 
 
 # -- importing -----------------------------------------------------------------------------------

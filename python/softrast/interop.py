@@ -24,12 +24,16 @@ What is converted, and how (pyrender 0.1.45's attribute names):
   wraps (GL enums) and filter (nearest / bilinear without mipmaps, else trilinear); uvs keep
   pyrender's convention, image row 0 at v = 1 (``uv_origin="bottom_left"``). ``alphaMode``
   "MASK" and ``alphaCutoff`` -> ``alpha_mode="mask"``, ``alpha_cutoff`` (as a glTF file's).
-  "BLEND" is rendered opaque (softrast does not blend yet): silently where every alpha is 1 --
-  the ``baseColorFactor`` alpha, the base colour texture's alpha channel if it has one, the
-  ``color_0`` alpha if any -- as ``pyrender.Mesh.from_trimesh`` makes every material "BLEND"
-  and pyrender then draws it opaque; otherwise with one UserWarning per primitive naming the
-  pyrender mesh, its node, its material (or "unnamed"), the softrast instance ids and which alpha
-  is below 1. Any other material type gets softrast's default look, with a UserWarning.
+  "BLEND" -> ``alpha_mode="blend"`` where some alpha the primitive reads is below 1 -- the
+  ``baseColorFactor`` alpha, the base colour texture's alpha channel if it has one, the
+  ``color_0`` alpha if any -- and opaque where every one is 1 (decided per primitive, silently
+  either way): ``pyrender.Mesh.from_trimesh`` makes every material "BLEND", and pyrender then
+  draws it opaque. softrast composites blended surfaces in exact depth order in linear light;
+  pyrender blends whole meshes in its node order (farthest node origin first) in its encoded
+  output (gamma 2.2 when lit, the raw factor with ``RenderFlags.FLAT``), so overlapping or
+  interpenetrating translucent meshes and the encoding of a blend differ
+  (tests/test_blend_vs_pyrender.py). Any other material type gets softrast's default look,
+  with a UserWarning.
 * Lights: ``DirectionalLight`` / ``PointLight`` / ``SpotLight`` -> ``sr.DirectionalLight`` /
   ``sr.PointLight`` / ``sr.SpotLight`` with the same ``color`` and ``intensity`` (spot cones:
   ``innerConeAngle`` / ``outerConeAngle``, radians in both), posed by the node's world pose
@@ -87,8 +91,9 @@ silently); the scene's background is black (softrast's default ``background``).
   instance's colour: a ``Scene.add(color=)`` included), ``metallic``, ``roughness``,
   ``emissive`` -> ``emissiveFactor``, ``double_sided`` -> ``doubleSided`` (which also turns
   pyrender's back-face culling off; softrast culls by ``render(cull=)``), ``alpha_mode`` /
-  ``alpha_cutoff`` -> ``alphaMode`` "OPAQUE" / "MASK", ``alphaCutoff`` (pyrender 0.1.45 never
-  discards a fragment below the cutoff: a "mask" material warns), ``name``. A mesh with
+  ``alpha_cutoff`` -> ``alphaMode`` "OPAQUE" / "MASK" / "BLEND", ``alphaCutoff`` (pyrender
+  0.1.45 never discards a fragment below the cutoff: a "mask" material warns; it blends "BLEND"
+  meshes in its own way, see from_pyrender above), ``name``. A mesh with
   per-vertex colours gets ``baseColorFactor`` (1, 1, 1, 1): softrast's per-vertex colours
   replace the base colour, pyrender multiplies them by it (its lit shader multiplies the shaded
   colour by them, so ``pbr`` renders with vertex colours differ in the specular term). An
@@ -220,7 +225,7 @@ def _material(mat: Any, cache: dict[int, Any] | None = None) -> Material | None:
     textures = {slot: _texture(getattr(mat, key), label, key, cache)
                 for key, slot in _TEXTURES.items() if getattr(mat, key, None) is not None}
     dropped: list[str] = []
-    # "BLEND" is drawn opaque; from_pyrender warns (naming the mesh) only where an alpha is < 1.
+    # "BLEND" is opaque here: _mesh makes it "blend" where the primitive reads an alpha < 1.
     mode = getattr(mat, "alphaMode", None)
     alpha = _gltf_alpha(None if mode == "BLEND" else mode, getattr(mat, "alphaCutoff", None), dropped)
     for what in dropped:
@@ -249,7 +254,7 @@ def _primitive(prim: Any) -> Points | Lines:
     return Lines(positions, segments, colors=colors)
 
 
-def _mesh(prim: Any, cache: dict[int, Any]) -> Mesh:
+def _mesh(prim: Any, cache: dict[int, Any], alpha_cache: dict[int, float]) -> Mesh:
     mode = getattr(prim, "mode", _TRIANGLES)
     if mode != _TRIANGLES:
         raise ValueError(f"only triangle primitives (mode 4) are converted, got mode {mode}")
@@ -265,6 +270,8 @@ def _mesh(prim: Any, cache: dict[int, Any]) -> Mesh:
     uvs = getattr(prim, "texcoord_0", None)
     material = (_material(prim.material, cache) if getattr(prim, "material", None) is not None
                 else None)
+    if material is not None and _blend_alpha(prim, cache, alpha_cache):
+        material = material.replace(alpha_mode="blend")  # "BLEND" with an alpha below 1
     colors = getattr(prim, "color_0", None)
     if colors is not None:
         colors = np.clip(np.asarray(colors, dtype=np.float64), 0.0, 1.0)
@@ -289,7 +296,8 @@ def _alpha_min(values: Any) -> float:
 def _blend_alpha(prim: Any, cache: dict[int, Any], alpha_cache: dict[int, float]) -> list[str]:
     """What makes a primitive with alphaMode "BLEND" translucent, as pyrender reads it (the
     ``baseColorFactor`` alpha, the base colour texture's alpha channel, the ``color_0`` alpha
-    below 1); empty: every alpha is 1 and the primitive is opaque (pyrender draws it so too)."""
+    below 1): it is then blended; empty: every alpha is 1 and the primitive is opaque (pyrender
+    draws it so too)."""
     mat = getattr(prim, "material", None)
     if getattr(mat, "alphaMode", None) != "BLEND":
         return []
@@ -313,14 +321,6 @@ def _blend_alpha(prim: Any, cache: dict[int, Any], alpha_cache: dict[int, float]
         if least < 1.0:
             found.append(f"color_0 alpha down to {least:.4g}")
     return found
-
-
-def _mesh_label(node: Any, mesh: Any, index: int, count: int) -> str:
-    """How a warning names a pyrender primitive: its Mesh's name, its node's, its index."""
-    mesh_name, node_name = getattr(mesh, "name", None), getattr(node, "name", None)
-    label = f"pyrender mesh {mesh_name!r}" if isinstance(mesh_name, str) else "an unnamed pyrender mesh"
-    label += f" (node {node_name!r})" if isinstance(node_name, str) else " (an unnamed node)"
-    return label + (f", primitive {index}" if count > 1 else "")
 
 
 def _light(light: Any) -> Light:
@@ -434,9 +434,9 @@ def from_pyrender(pyrender_scene: Any, width: int, height: int) -> PyrenderConve
     ``renderer.render(conv.scene, conv.camera, background=conv.background)``.
     Instance ids are 0, 1, 2, ... in the order of ``pyrender_scene.mesh_nodes`` (sorted by node
     name, then primitive, then instancing pose, for a stable order: pyrender keeps them in a set).
-    A primitive whose material has alphaMode "BLEND" is drawn opaque: silently where every
-    alpha is 1 (``pyrender.Mesh.from_trimesh`` marks its materials "BLEND", and pyrender draws
-    them opaque then), else with a UserWarning naming the mesh, its node and its material.
+    A primitive whose material has alphaMode "BLEND" gets ``alpha_mode="blend"`` where an
+    alpha it reads is below 1, else it is opaque (``pyrender.Mesh.from_trimesh`` marks its
+    materials "BLEND", and pyrender draws them opaque then).
     """
     ambient = getattr(pyrender_scene, "ambient_light", None)
     scene = Scene(ambient_light=None if ambient is None else
@@ -450,24 +450,13 @@ def from_pyrender(pyrender_scene: Any, width: int, height: int) -> PyrenderConve
         if not getattr(mesh, "is_visible", True):
             continue
         world = np.asarray(pyrender_scene.get_pose(node), dtype=np.float64)
-        primitives = list(mesh.primitives)
-        for index, prim in enumerate(primitives):
+        for prim in mesh.primitives:
             mode = getattr(prim, "mode", _TRIANGLES)
-            converted = _primitive(prim) if mode in (_POINTS, _LINES) else _mesh(prim, textures)
+            converted = (_primitive(prim) if mode in (_POINTS, _LINES)
+                         else _mesh(prim, textures, alphas))
             poses = getattr(prim, "poses", None)
-            ids = [scene.add(converted, pose=world @ local)
-                   for local in ([np.eye(4)] if poses is None else np.asarray(poses, dtype=np.float64))]
-            translucent = ([] if mode in (_POINTS, _LINES) or getattr(converted, "material", None) is None
-                           else _blend_alpha(prim, textures, alphas))
-            if translucent:
-                name = getattr(prim.material, "name", None)
-                what = f"material {name!r}" if isinstance(name, str) else "an unnamed material"
-                where = (f"softrast instance {ids[0]}" if len(ids) == 1
-                         else f"softrast instances {ids[0]}-{ids[-1]}")
-                warnings.warn(f"{_mesh_label(node, mesh, index, len(primitives))}, {what} "
-                              f"({where}): alphaMode 'BLEND' with alpha below 1 "
-                              f"({', '.join(translucent)}) is not drawn yet: rendered opaque",
-                              UserWarning, stacklevel=2)
+            for local in ([np.eye(4)] if poses is None else np.asarray(poses, dtype=np.float64)):
+                scene.add(converted, pose=world @ local)
     for node in sorted(pyrender_scene.light_nodes, key=lambda n: (str(n.name), id(n))):
         scene.add(_light(node.light), pose=np.asarray(pyrender_scene.get_pose(node), dtype=np.float64))
     cam_node = getattr(pyrender_scene, "main_camera_node", None)
@@ -611,7 +600,7 @@ def _pr_material(pyrender: Any, mat: Material | None, base: tuple[float, ...], h
     return pyrender.MetallicRoughnessMaterial(
         name=mat.name, baseColorFactor=factor, metallicFactor=mat.metallic,
         roughnessFactor=mat.roughness, emissiveFactor=mat.emissive, doubleSided=mat.double_sided,
-        alphaMode="MASK" if mat.alpha_mode == "mask" else "OPAQUE", alphaCutoff=mat.alpha_cutoff,
+        alphaMode=mat.alpha_mode.upper(), alphaCutoff=mat.alpha_cutoff,
         **textures)
 
 

@@ -18,6 +18,21 @@ read files with trimesh and keep, with these conventions:
   from the MTL file itself (trimesh keeps them only as 8-bit values). Absent: Kd -> base colour
   0.8 grey, Ka -> kd, Ks -> no specular (0), Ns -> 32, d -> 1. A negative Ns is read as 0,
   with a warning naming the file and material.
+* MTL transparency: ``d`` (dissolve, clipped to [0, 1]) < 1 -> ``alpha_mode="blend"`` with
+  base colour alpha d (``softrast.Material`` says how blending is drawn; a ``map_Kd`` image's
+  alpha multiplies d); ``d 1`` (or no ``d``) stays opaque. ``Tr`` (not in Wavefront's spec)
+  is read only where the material has no ``d`` (where it has both, ``d`` is read and ``Tr``
+  ignored, as tinyobjloader does). Exporters disagree on what it means: transparency, d = 1 -
+  Tr (tinyobjloader's and three.js's reading, so ``Tr 0`` is opaque), or opacity, d = Tr
+  (Meshlab and 3ds Max, so ``Tr 1`` is opaque: assets/meshes/fuze's MTL, a Meshlab export,
+  says ``Tr 1.000000``). softrast reads ``Tr`` t in (0, 1) as transparency (d = 1 - t,
+  blended) and both ends, ``Tr 0`` and ``Tr 1``, as opaque, the only readings that do not make
+  one convention's opaque material invisible; a Meshlab ``Tr 0.3`` (meaning d 0.3) is drawn
+  with alpha 0.7. trimesh (5.2) reads neither ``d`` nor ``Tr``: it keeps them as unparsed
+  strings in ``SimpleMaterial.kwargs`` and its diffuse alpha stays 255, so
+  ``pyrender.Mesh.from_trimesh`` draws such a material opaque (alphaMode BLEND at alpha 1),
+  where softrast blends it. ``Mesh.from_trimesh`` blends a ``SimpleMaterial`` whose diffuse
+  alpha is below 255 (what pyrender's BLEND does with it).
 * How MTL materials are lit (``render(shading="auto")``): as the rough dielectric that
   pyrender (through ``pyrender.Mesh.from_trimesh``) and Blender's OBJ importer draw, not as
   Blinn-Phong: model "pbr", base colour Kd (times ``map_Kd``), metallic 0, and
@@ -95,16 +110,17 @@ Textures (``softrast.Texture``, see ``softrast.texture``):
 * Within one load, an image is one Texture however many materials and instances use it.
 * A textured material on a mesh without uvs loses its textures, with a warning.
 
-* glTF ``alphaMode`` MASK and ``alphaCutoff`` -> ``alpha_mode="mask"``, ``alpha_cutoff``.
+* glTF ``alphaMode`` MASK and ``alphaCutoff`` -> ``alpha_mode="mask"``, ``alpha_cutoff``;
+  BLEND -> ``alpha_mode="blend"`` (the alpha: ``baseColorFactor``'s times ``COLOR_0``'s times
+  the ``baseColorTexture``'s, as glTF says); OPAQUE (or none) -> "opaque".
 
-Whatever a file carries that softrast cannot draw yet (glTF alpha blending (``alphaMode``
-BLEND: rendered opaque), textures read through ``texCoord`` other than 0,
-``KHR_texture_transform`` and other texture or material extensions; MTL ``map_Ka``,
-``map_Ns``, ``map_d``, ``disp``, ``decal``, ``refl`` and the PBR maps ``map_Pr``,
+Whatever a file carries that softrast cannot draw yet (textures read through ``texCoord``
+other than 0, ``KHR_texture_transform`` and other texture or material extensions; MTL
+``map_Ka``, ``map_Ns``, ``map_d``, ``disp``, ``decal``, ``refl`` and the PBR maps ``map_Pr``,
 ``map_Pm``, ``map_Ps``, ``map_RMA``, ``map_ORM``, map options other than ``-clamp``, ``-bm``
-(on ``norm`` and bump maps) and ``-imfchan r`` (on bump maps), and transparency ``d`` < 1) is
-dropped with a ``UserWarning`` naming the file, the material and what was dropped: never
-silently; so is a texture that cannot be read.
+(on ``norm`` and bump maps) and ``-imfchan r`` (on bump maps)) is dropped with a
+``UserWarning`` naming the file, the material and what was dropped: never silently; so is a
+texture that cannot be read.
 """
 from __future__ import annotations
 
@@ -512,10 +528,11 @@ def _parse_mtl(text: str, mtl_name: str, info: _FileInfo, folder: str = "") -> d
         name = current["name"]
         where = f"material {name!r}"
         kd = current.get("kd")
-        d = current.get("d", 1.0)
         dropped = list(current["dropped"])
-        if d < 1.0:
-            dropped.append(f"transparency (d {d:g}, kept as base_color alpha) is not drawn yet")
+        # d wins over Tr (tinyobjloader's rule); Tr t in (0, 1) alone is d = 1 - t, Tr 1 is
+        # opaque (Meshlab and 3ds Max write Tr meaning d: "Tr 1" is their opaque material)
+        tr = current.get("tr", 0.0)
+        d = current.get("d", 1.0 - tr if tr < 1.0 else 1.0)
         maps = current["maps"]
         ks, ns = current.get("ks"), current.get("ns", _MTL_NS_DEFAULT)
         kwargs: dict[str, Any] = {
@@ -523,6 +540,8 @@ def _parse_mtl(text: str, mtl_name: str, info: _FileInfo, folder: str = "") -> d
             "ka": current.get("ka"), "kd": kd, "ks": ks, "shininess": ns,
             "metallic": 0.0, "roughness": _mtl_roughness(ks, ns), "model": "pbr", "name": name,
         }
+        if d < 1.0:  # MTL transparency: blended with base colour alpha d
+            kwargs["alpha_mode"] = "blend"
         if "ke" in current:
             kwargs["emissive"] = current["ke"]
         try:
@@ -547,7 +566,7 @@ def _parse_mtl(text: str, mtl_name: str, info: _FileInfo, folder: str = "") -> d
             value = _mtl_color(words[1:], words[0], where, info)
             if value is not None:
                 current[key] = value
-        elif key in ("ns", "d"):
+        elif key in ("ns", "d", "tr"):
             try:
                 v = float(words[1])
                 if not math.isfinite(v):
@@ -560,8 +579,8 @@ def _parse_mtl(text: str, mtl_name: str, info: _FileInfo, folder: str = "") -> d
                     info.warn((where, "ns<0"), f"{where}: {words[0]} {words[1]} is negative: read as 0 "
                                                "(no highlight)")
                 current["ns"] = min(max(v, 0.0), FLOAT32_MAX)  # Material's (float32) range
-            else:
-                current["d"] = min(max(v, 0.0), 1.0)
+            else:  # d, or Tr (1 - d): clipped to [0, 1]
+                current[key] = min(max(v, 0.0), 1.0)
         elif key in _MTL_MAPS:
             if key in _MTL_SLOTS or key in ("map_bump", "bump"):
                 entry = _mtl_map(words, where, info)
@@ -730,8 +749,9 @@ def _gltf_material(index: int, entry: Any, info: _FileInfo, mat: Any = None) -> 
 
 
 def _gltf_alpha(mode: Any, cutoff: Any, dropped: list[str]) -> dict[str, Any]:
-    """A glTF material's alphaMode and alphaCutoff as Material arguments: MASK is drawn (cutoff
-    0.5 unless given), BLEND is rendered opaque with a note in `dropped`."""
+    """A glTF material's alphaMode and alphaCutoff as Material arguments: MASK (cutoff 0.5
+    unless given) -> "mask", BLEND -> "blend", OPAQUE or None -> opaque; any other value is
+    rendered opaque with a note in `dropped`."""
     if mode == "MASK":
         if cutoff is None:
             cutoff = 0.5
@@ -741,8 +761,10 @@ def _gltf_alpha(mode: Any, cutoff: Any, dropped: list[str]) -> dict[str, Any]:
                            "(using 0.5)")
             cutoff = 0.5
         return {"alpha_mode": "mask", "alpha_cutoff": float(cutoff)}
+    if mode == "BLEND":
+        return {"alpha_mode": "blend"}
     if mode not in (None, "OPAQUE"):
-        dropped.append(f"alphaMode {mode!r} is not drawn yet: rendered opaque")
+        dropped.append(f"alphaMode {mode!r:.40} is not a glTF alpha mode: rendered opaque")
     return {}
 
 
@@ -948,10 +970,11 @@ def _trimesh_material(mat: Any, info: _FileInfo) -> tuple[Material | None, list[
         # a texture multiplies the diffuse colour: kd is the base colour then
         # the MTL rule (see the module docstring): pbr, metallic 0, roughness from Ks and Ns
         ns = min(max(float(mat.glossiness), 0.0), FLOAT32_MAX)  # Material's (float32) range
+        # a diffuse alpha below 1 blends, as MTL's d < 1 (pyrender's from_trimesh: BLEND)
         m = Material(base_color=(*rgb[1], alpha), ka=rgb[0], kd=None if texture is not None else rgb[1],
                      ks=rgb[2], shininess=ns, metallic=0.0, roughness=_mtl_roughness(rgb[2], ns),
                      model="pbr", name=name if isinstance(name, str) else None,
-                     base_color_texture=texture)
+                     base_color_texture=texture, alpha_mode="blend" if alpha < 1.0 else "opaque")
         return m, dropped, ("simple", id(mat))
     return None, [f"a {type(mat).__name__} is not supported"], ("other", id(mat))
 

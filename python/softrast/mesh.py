@@ -454,8 +454,9 @@ class Mesh:
         colours as 8 bits; ``softrast.load_mesh`` reads the exact values from the file instead.
         Its images become ``softrast.Texture`` objects (a SimpleMaterial's image: the base colour
         texture; a PBRMaterial's base colour, metallic-roughness, normal, occlusion and emissive
-        textures, with default samplers: trimesh keeps none), and its alpha mode (MASK is drawn;
-        what softrast cannot draw yet, BLEND, is rendered opaque with a UserWarning).
+        textures, with default samplers: trimesh keeps none), and its alpha mode (a
+        PBRMaterial's MASK -> "mask", BLEND -> "blend"; a SimpleMaterial whose diffuse alpha
+        is below 255 -> "blend", as MTL's ``d`` < 1).
         A Scene whose parts have different materials gets the first part's, with a UserWarning
         (``softrast.load_scene`` keeps each part's).
         """
@@ -586,16 +587,19 @@ def load_mesh(path: str | os.PathLike[str], smooth: bool | str = True, color: Se
     Textures are drawn (``softrast.Texture``; details in ``softrast.loaders``): glTF
     ``baseColorTexture``, ``emissiveTexture``, ``normalTexture`` (its ``scale``),
     ``metallicRoughnessTexture`` and ``occlusionTexture`` (its ``strength``), each with its
-    sampler's filter and wraps; MTL ``map_Kd``, ``map_Ke``, ``norm`` (``-bm``: normal scale) and
-    ``map_Bump`` / ``bump`` height maps (``-bm``: bump scale; an RGB one that looks like a normal
-    map is drawn as the normal map, with a warning; next to a ``norm`` map a height map is kept
-    but the normal map is drawn, with a warning). Whatever softrast cannot draw yet is dropped
-    with a UserWarning naming the file, the material and what: glTF ``alphaMode`` BLEND
-    (rendered opaque; MASK is drawn), textures read through ``texCoord`` other than 0, ``KHR_texture_transform``
-    and other unknown extensions; MTL transparency (``d`` < 1), the other maps (``map_Ka``,
-    ``map_Ks``, ``map_Ns``, ``map_d``, ``disp``, ``decal``, ``refl``, the PBR maps) and map
-    options other than ``-clamp`` and ``-bm``; textures that cannot be read, and every texture of
-    a mesh without uvs.
+    sampler's filter and wraps; MTL ``map_Kd``, ``map_Ke``, ``map_Ks`` (read by "phong" and
+    "blinn_phong"), ``norm`` (``-bm``: normal scale) and ``map_Bump`` / ``bump`` height maps
+    (``-bm``: bump scale; an RGB one that looks like a normal map is drawn as the normal map,
+    with a warning; next to a ``norm`` map a height map is kept but the normal map is drawn,
+    with a warning). Transparency is drawn: glTF ``alphaMode`` MASK -> ``alpha_mode="mask"``
+    and BLEND -> ``alpha_mode="blend"``; MTL ``d`` < 1 (or, without ``d``, ``Tr`` strictly
+    between 0 and 1, read as d = 1 - Tr; ``Tr 1``, Meshlab's opaque, stays opaque) ->
+    ``alpha_mode="blend"`` with base colour alpha d. Whatever softrast cannot draw yet is
+    dropped with a UserWarning naming the file, the material and what: textures read through
+    ``texCoord`` other than 0, ``KHR_texture_transform`` and other unknown extensions; MTL's
+    other maps (``map_Ka``, ``map_Ns``, ``map_d``, ``disp``, ``decal``, ``refl``, the PBR maps)
+    and map options other than ``-clamp`` and ``-bm``; textures that cannot be read, and every
+    texture of a mesh without uvs.
 
     Raises FileNotFoundError if ``path`` (or a buffer or texture file a glTF references) does not
     exist, ValueError (naming the file) for every other failure: it cannot be parsed, holds no
