@@ -108,51 +108,70 @@ struct TriangleAlpha {
   }
 };
 
-}  // namespace
-
-bool rasterize_masked(const AlphaTest& test, const SetupChunk& chunk, uint32_t record, int x0,
-                      int x1, int y0, int y1, const TileRect& rect, uint32_t index,
-                      int32_t sample_x, int32_t sample_y, bool coverage, TileScratch& s) {
-  const TriangleSetup& t = chunk.records[record];
+// Calls fn(i, f0, f1, f2, key) for each pixel of [x0, x1] x [y0, y1] of the tile at `rect` whose
+// sample (sample_x, sample_y) the record covers: i its scratch index, f_k its exact (unbiased) edge
+// values as floats, key its depth key; the same values as every raster path computes.
+template <typename Fn>
+void each_covered(const TriangleSetup& t, int x0, int x1, int y0, int y1, const TileRect& rect,
+                  int32_t sample_x, int32_t sample_y, Fn&& fn) {
   const EdgeEquations eq = edge_equations_at(t, x0, y0, sample_x, sample_y);
   int64_t row[3];
   for (int k = 0; k < 3; ++k) row[k] = eq.origin[k] - t.bias[k];  // biased: inside <=> >= 0
   const float k0 = t.key_over_area[0], k1 = t.key_over_area[1], k2 = t.key_over_area[2];
   const int64_t b0 = t.bias[0], b1 = t.bias[1], b2 = t.bias[2];
-  // Prepared on the first fragment that needs the test (most of a triangle's may be hidden).
-  std::optional<TriangleAlpha> alpha;
-  bool won = false;
   for (int y = y0; y <= y1; ++y) {
     int64_t e0 = row[0], e1 = row[1], e2 = row[2];
     const int line = (y - rect.y0) * kTileSizePx - rect.x0;
     for (int x = x0; x <= x1; ++x, e0 += eq.step_x[0], e1 += eq.step_x[1], e2 += eq.step_x[2]) {
       if ((e0 | e1 | e2) < 0) continue;
-      const int i = line + x;
       // The same key as every raster path: barycentric weights from the exact edge values.
       const float f0 = float(e0 + b0), f1 = float(e1 + b1), f2 = float(e2 + b2);
-      const float key = f0 * k0 + f1 * k1 + f2 * k2;
-      if (!coverage && !(key > s.key[i] * s.tie)) continue;  // hidden: the test would not change that
-      if (!alpha) alpha.emplace(test, chunk, record);
-      if (!alpha->passes(test, f0, f1, f2)) continue;
-      if (coverage) ++s.coverage[i];
-      if (key > s.key[i] * s.tie) {  // on a tie (kTieFactor*) the earlier triangle stays
-        s.key[i] = key;
-        s.visible[i] = index;
-        won = true;
-      }
+      fn(line + x, f0, f1, f2, f0 * k0 + f1 * k1 + f2 * k2);
     }
     row[0] += eq.step_y[0]; row[1] += eq.step_y[1]; row[2] += eq.step_y[2];
   }
+}
+
+}  // namespace
+
+bool rasterize_masked(const AlphaTest& test, const SetupChunk& chunk, uint32_t record, int x0,
+                      int x1, int y0, int y1, const TileRect& rect, uint32_t index,
+                      int32_t sample_x, int32_t sample_y, bool coverage, TileScratch& s) {
+  // Prepared on the first fragment that needs the test (most of a triangle's may be hidden).
+  std::optional<TriangleAlpha> alpha;
+  bool won = false;
+  each_covered(chunk.records[record], x0, x1, y0, y1, rect, sample_x, sample_y,
+               [&](int i, float f0, float f1, float f2, float key) {
+    if (!coverage && !(key > s.key[i] * s.tie)) return;  // hidden: the test would not change that
+    if (!alpha) alpha.emplace(test, chunk, record);
+    if (!alpha->passes(test, f0, f1, f2)) return;
+    if (coverage) ++s.coverage[i];
+    if (key > s.key[i] * s.tie) {  // on a tie (kTieFactor*) the earlier triangle stays
+      s.key[i] = key;
+      s.visible[i] = index;
+      won = true;
+    }
+  });
   return won;
 }
 
 int gather_blended(const std::vector<SetupChunk>& chunks, std::size_t begin, std::size_t end,
                    int tile, const TileRect& rect, const AlphaTest* const* tests,
                    const TileScratch& opaque, bool first, BlendScratch& s) {
-  std::memset(s.count, 0, sizeof s.count);
-  if (first) std::memset(s.total, 0, sizeof s.total);
-  for (TileScratch& layer : s.layer)  // (whole arrays: the shading kernels read past the tile)
-    std::fill(std::begin(layer.visible), std::end(layer.visible), kNoTriangle);
+  // Only s.box is written; the layers' entries outside it stay empty from the tile's first walk
+  // (whole arrays: the shading kernels read every pixel of the tile, and past it).
+  const TileRect& box = s.box;
+  for (int y = box.y0; y < box.y1; ++y) {
+    const int row = (y - rect.y0) * kTileSizePx - rect.x0;
+    std::fill(s.count + row + box.x0, s.count + row + box.x1, uint8_t(0));
+    if (first) std::fill(s.total + row + box.x0, s.total + row + box.x1, 0u);
+    if (!first)
+      for (TileScratch& layer : s.layer)
+        std::fill(layer.visible + row + box.x0, layer.visible + row + box.x1, kNoTriangle);
+  }
+  if (first)
+    for (TileScratch& layer : s.layer)
+      std::fill(std::begin(layer.visible), std::end(layer.visible), kNoTriangle);
   std::vector<VisibleTriangle>& list = s.layer[0].triangles;
   if (first) list.clear();
   uint32_t index = 0;
@@ -168,61 +187,51 @@ int gather_blended(const std::vector<SetupChunk>& chunks, std::size_t begin, std
       const int y0 = std::max(int(t.y0), rect.y0), y1 = std::min(int(t.y1), rect.y1 - 1);
       if (x0 > x1 || y0 > y1) continue;
       const AlphaTest& test = *tests[t.draw];
-      // As rasterize_masked: the same edge values and keys.
-      const EdgeEquations eq = edge_equations_at(t, x0, y0, opaque.sample_x, opaque.sample_y);
-      int64_t row[3];
-      for (int k = 0; k < 3; ++k) row[k] = eq.origin[k] - t.bias[k];
-      const float k0 = t.key_over_area[0], k1 = t.key_over_area[1], k2 = t.key_over_area[2];
-      const int64_t b0 = t.bias[0], b1 = t.bias[1], b2 = t.bias[2];
       std::optional<TriangleAlpha> alpha;
-      for (int y = y0; y <= y1; ++y) {
-        int64_t e0 = row[0], e1 = row[1], e2 = row[2];
-        const int line = (y - rect.y0) * kTileSizePx - rect.x0;
-        for (int x = x0; x <= x1; ++x, e0 += eq.step_x[0], e1 += eq.step_x[1], e2 += eq.step_x[2]) {
-          if ((e0 | e1 | e2) < 0) continue;
-          const int i = line + x;
-          const float f0 = float(e0 + b0), f1 = float(e1 + b1), f2 = float(e2 + b2);
-          const float key = f0 * k0 + f1 * k1 + f2 * k2;
-          // In front of the opaque surface, as the depth test decides between the two: a draw
-          // after it must beat its key, one before it only not be beaten (lines and points are
-          // drawn after every triangle).
-          const uint32_t seen = opaque.visible[i];
-          if (seen != kNoTriangle) {
-            const float other = opaque.key[i];
+      each_covered(t, x0, x1, y0, y1, rect, opaque.sample_x, opaque.sample_y,
+                   [&](int i, float f0, float f1, float f2, float key) {
+        // In front of the opaque surface, as the depth test decides between the two: a draw
+        // after it must beat its key, one before it only not be beaten (lines and points are
+        // drawn after every triangle). Only a near tie asks which was drawn first.
+        const uint32_t seen = opaque.visible[i];
+        if (seen != kNoTriangle) {
+          const float other = opaque.key[i];
+          if (!(key > other * tie)) {  // not clearly nearer
+            if (other > key * tie) return;  // clearly farther
             const bool later = seen == kPrimitivePixel || t.draw > opaque.triangles[seen].tri->draw;
-            if (later ? !(key > other * tie) : other > key * tie) continue;
+            if (later) return;
           }
-          if (first) ++s.total[i];
-          else if (s.taken[i] >= s.total[i] || !blend_before(s.floor_key[i], s.floor_index[i], key, index, tie))
-            continue;  // composited by an earlier walk
-          const int n = s.count[i];
-          if (n == kBlendLayers &&
-              !blend_before(key, index, s.layer[kBlendLayers - 1].key[i],
-                            s.layer[kBlendLayers - 1].visible[i], tie))
-            continue;
-          if (!alpha) alpha.emplace(test, chunk, record);
-          const float a = alpha->value(test, f0, f1, f2);
-          // Insert, nearest first (the farthest of a full buffer drops out).
-          int at = n < kBlendLayers ? n : kBlendLayers - 1;
-          for (; at > 0 && blend_before(key, index, s.layer[at - 1].key[i], s.layer[at - 1].visible[i], tie);
-               --at) {
-            s.alpha_of[at][i] = s.alpha_of[at - 1][i];
-            s.layer[at].key[i] = s.layer[at - 1].key[i];
-            s.layer[at].visible[i] = s.layer[at - 1].visible[i];
-          }
-          s.alpha_of[at][i] = a;
-          s.layer[at].key[i] = key;
-          s.layer[at].visible[i] = index;
-          s.count[i] = uint8_t(n < kBlendLayers ? n + 1 : n);
         }
-        row[0] += eq.step_y[0]; row[1] += eq.step_y[1]; row[2] += eq.step_y[2];
-      }
+        if (first) ++s.total[i];
+        else if (s.taken[i] >= s.total[i] ||
+                 !blend_before(s.floor_key[i], s.floor_index[i], key, index, tie))
+          return;  // composited by an earlier walk
+        const int n = s.count[i];
+        if (n == kBlendLayers &&
+            !blend_before(key, index, s.layer[kBlendLayers - 1].key[i],
+                          s.layer[kBlendLayers - 1].visible[i], tie))
+          return;
+        if (!alpha) alpha.emplace(test, chunk, record);
+        const float a = alpha->value(test, f0, f1, f2);
+        // Insert, nearest first (the farthest of a full buffer drops out).
+        int at = n < kBlendLayers ? n : kBlendLayers - 1;
+        for (; at > 0 && blend_before(key, index, s.layer[at - 1].key[i], s.layer[at - 1].visible[i], tie);
+             --at) {
+          s.alpha_of[at][i] = s.alpha_of[at - 1][i];
+          s.layer[at].key[i] = s.layer[at - 1].key[i];
+          s.layer[at].visible[i] = s.layer[at - 1].visible[i];
+        }
+        s.alpha_of[at][i] = a;
+        s.layer[at].key[i] = key;
+        s.layer[at].visible[i] = index;
+        s.count[i] = uint8_t(n < kBlendLayers ? n + 1 : n);
+      });
     }
   }
   int most = 0;
-  for (int y = rect.y0; y < rect.y1; ++y)
-    for (int x = 0; x < rect.x1 - rect.x0; ++x)
-      most = std::max(most, int(s.count[(y - rect.y0) * kTileSizePx + x]));
+  for (int y = box.y0; y < box.y1; ++y)
+    for (int x = box.x0; x < box.x1; ++x)
+      most = std::max(most, int(s.count[(y - rect.y0) * kTileSizePx + x - rect.x0]));
   return most;
 }
 

@@ -7,10 +7,24 @@ namespace sr {
 
 bool blend_tile(const BlendParams& params, const TileRect& rect, int tile,
                 const TileScratch& opaque, const ShadeScratch& opaque_shade, BlendScratch& s) {
+  // The pixels the tile's blended records may cover (most tiles of a scene have none).
+  TileRect& box = s.box;
+  box = {rect.x1, rect.y1, rect.x0 - 1, rect.y0 - 1};
+  for (std::size_t c = params.begin; c < params.end; ++c) {
+    const SetupChunk& chunk = (*params.chunks)[c];
+    for (uint32_t r = chunk.tile_begin[tile]; r < chunk.tile_begin[tile + 1]; ++r) {
+      const TriangleSetup& t = chunk.records[chunk.tile_records[r]];
+      box.x0 = std::min(box.x0, int(t.x0)); box.y0 = std::min(box.y0, int(t.y0));
+      box.x1 = std::max(box.x1, int(t.x1)); box.y1 = std::max(box.y1, int(t.y1));
+    }
+  }
+  box = {std::max(box.x0, rect.x0), std::max(box.y0, rect.y0), std::min(box.x1 + 1, rect.x1),
+         std::min(box.y1 + 1, rect.y1)};  // (half-open, like rect)
+  if (box.x0 >= box.x1 || box.y0 >= box.y1) return false;
   const int width = rect.x1 - rect.x0;
-  for (int y = rect.y0; y < rect.y1; ++y) {
-    const int row = (y - rect.y0) * kTileSizePx;
-    for (int x = 0; x < width; ++x) {
+  for (int y = box.y0; y < box.y1; ++y) {
+    const int row = (y - rect.y0) * kTileSizePx - rect.x0;
+    for (int x = box.x0; x < box.x1; ++x) {
       s.taken[row + x] = 0;
       s.transmit[row + x] = 1.0f;
       s.sum[0][row + x] = s.sum[1][row + x] = s.sum[2][row + x] = 0.0f;
@@ -35,9 +49,9 @@ bool blend_tile(const BlendParams& params, const TileRect& rect, int tile,
     }
     // Front to back; a pixel with fragments left takes them in the next walk.
     bool more = false;
-    for (int y = rect.y0; y < rect.y1; ++y) {
-      const int row = (y - rect.y0) * kTileSizePx;
-      for (int x = 0; x < width; ++x) {
+    for (int y = box.y0; y < box.y1; ++y) {
+      const int row = (y - rect.y0) * kTileSizePx - rect.x0;
+      for (int x = box.x0; x < box.x1; ++x) {
         const int i = row + x;
         // (At most the fragments left: see BlendScratch::total.)
         const int n = int(std::min<uint32_t>(s.count[i], s.total[i] - s.taken[i]));
@@ -67,11 +81,13 @@ bool blend_tile(const BlendParams& params, const TileRect& rect, int tile,
   const vec3& background = params.background_linear;
   for (int y = rect.y0; y < rect.y1; ++y) {
     const int row = (y - rect.y0) * kTileSizePx;
+    const bool rows = y >= box.y0 && y < box.y1;
     for (int x = 0; x < width; ++x) {
       const int i = row + x;
       const uint32_t seen = opaque.visible[i];
       const bool surface = seen != kNoTriangle;
-      if (!s.touched[i]) {
+      const int px = rect.x0 + x;
+      if (!(rows && px >= box.x0 && px < box.x1 && s.touched[i])) {
         s.seen[i] = seen;
         s.alpha[i] = surface ? 1.0f : 0.0f;
         if (params.shade)

@@ -57,6 +57,7 @@ struct BlendScratch {
   uint32_t total[kTilePixels];
   uint32_t taken[kTilePixels];
   uint8_t count[kTilePixels];
+  TileRect box;  // the tile's pixels its blended records may cover (blend_tile), half-open
   TileScratch layer[kBlendLayers];   // layer[0].triangles: the tile's blended records, in order
   ShadeScratch shaded[kBlendLayers];
   float transmit[kTilePixels];
@@ -70,7 +71,7 @@ struct BlendScratch {
 };
 
 // One walk over blended chunks [begin, end) of `tile` (tests: each draw's alpha, by draw
-// index): fills the k-buffer of `s`. `first`: also lists the tile's blended records in
+// index): fills the k-buffer of `s` within s.box. `first`: also lists the tile's blended records in
 // s.layer[0].triangles. Returns the most fragments a pixel kept (0: none left).
 int gather_blended(const std::vector<SetupChunk>& chunks, std::size_t begin, std::size_t end,
                    int tile, const TileRect& rect, const AlphaTest* const* tests,
