@@ -313,5 +313,11 @@ def test_ctrl_c_storm_never_hangs_the_writer(tmp_path, store: str) -> None:
     (tmp_path / "out").mkdir()
     proc = subprocess.run([sys.executable, str(script), store, str(tmp_path / "out")],
                           capture_output=True, text=True, timeout=120)
-    assert proc.returncode in (0, 130), proc.stderr[-2000:]
-    assert ("interrupted" if proc.returncode == 130 else "finished") in proc.stdout
+    # A later Ctrl-C of the storm may land inside the script's own `except` clause, after
+    # write_dataset has already raised; Python then exits by SIGINT (-2) with KeyboardInterrupt
+    # as the uncaught exception. That is the harness interrupting itself, not a hang or a crash.
+    interrupted_in_handler = (proc.returncode == -signal.SIGINT
+                              and "KeyboardInterrupt" in proc.stderr)
+    assert proc.returncode in (0, 130) or interrupted_in_handler, proc.stderr[-2000:]
+    if proc.returncode in (0, 130):
+        assert ("interrupted" if proc.returncode == 130 else "finished") in proc.stdout
