@@ -10,6 +10,7 @@
 
 #include "materials.hpp"
 #include "math.hpp"
+#include "shadow.hpp"
 #include "simd.hpp"
 
 #include <cstdint>
@@ -107,7 +108,23 @@ struct LitInputs {
   vec3 ambient_light;
   vec3 eye;          // perspective: the camera centre; orthographic: the direction toward it
   float eye_point;   // 1 for a perspective camera (v = eye - p), 0 for orthographic (v = eye)
+  // The occluders, where some light casts shadows (else null: every light's visibility is 1).
+  const ShadowScene* shadows = nullptr;
 };
+
+// The visibility (0 or 1) of a shadowed light at eight points, in the lanes of `lanes` (1 in the
+// others): shadow.hpp's ray, out of line.
+SR_INLINE simd::f8 light_visibility(const LitInputs& in, const Light& light, const simd::f8 (&p)[3],
+                                    simd::i8 lanes) {
+  alignas(32) float x[8], y[8], z[8], o[8];
+  simd::store(x, p[0]);
+  simd::store(y, p[1]);
+  simd::store(z, p[2]);
+  uint32_t mask = 0;
+  for (int i = 0; i < 8; ++i) mask |= uint32_t(lanes[i] != 0) << i;
+  shadow_lanes(*in.shadows, light, x, y, z, mask, o);
+  return simd::load<simd::f8>(o);
+}
 
 // Radiance of eight pixels: unit normal n (toward the side being lit), world position p, base
 // colour base (kd / ka where the material says so), material m, summed over the lights.
@@ -116,10 +133,12 @@ struct LitInputs {
 // models kept some 27 vectors live, and spilled). kPositions: a light or term reads p.
 // kLanes: per-pixel metallic, roughness, ambient occlusion and ks scale from `lanes` (textures; compiled
 // out of line only, material_maps.cpp), else the material's scalars.
+// `active`: the lanes that are shaded (null: all), where a shadowed light casts its rays.
 template <Brdf B, bool kSpecular, bool kPositions, bool kLanes = false>
 SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, const simd::f8 (&n)[3],
                             const simd::f8 (&p)[3], const simd::f8 (&base)[3],
-                            simd::f8 (&out)[3], const MaterialLanes* lanes = nullptr) {
+                            simd::f8 (&out)[3], const MaterialLanes* lanes = nullptr,
+                            const simd::i8* active = nullptr) {
   using namespace simd;
   constexpr bool kPbr = B == Brdf::Pbr;
   constexpr bool kView = kPositions && (kSpecular || kPbr);  // reads the view vector
@@ -140,6 +159,7 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, const simd::
     for (int c = 0; c < 3; ++c) v[c] *= r;
   }
   const int whole = whole_exponent(m.shininess);  // chosen once: multiplied out, or exp2/log2
+  const i8 shaded = active ? *active : simd::splat(int32_t(-1));
   for (int k = 0; k < in.num_lights; ++k) {
     const Light& light = in.lights[k];
     f8 l[3], att = splat(1.0f);
@@ -165,8 +185,11 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, const simd::
         att = apart ? att : f8{};
       }
     }
+    // A shadowed light (reads positions: reads_position says so for every draw).
+    const bool shadowed = kPositions && light.shadow != ShadowMethod::None && in.shadows;
     const f8 ndl = n[0] * l[0] + n[1] * l[1] + n[2] * l[2];
     if constexpr (kPbr) {
+      if (shadowed) att *= light_visibility(in, light, p, shaded);
       // pyrender 0.1.45's mesh.frag (PBR_NOTES.md): r = clamp(roughness, 0.04, 1), a = r^2;
       // h = normalize(l + v); nl = clamp(n.l, 0.001, 1) (a light behind the surface still adds
       // a little, as pyrender's does); nv = clamp(|n.v|, 0.001, 1); nh, vh clamped to [0, 1];
@@ -219,6 +242,11 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, const simd::
     // Lights behind the surface add nothing: a group that no light reaches skips the light.
     const i8 front = ndl > f8{};
     if (!any(front)) continue;
+    if (shadowed) {
+      const f8 visible = light_visibility(in, light, p, front & shaded);
+      if (!any(visible > f8{})) continue;  // (every lane in shadow)
+      att *= visible;
+    }
     const f8 diffuse = (front ? ndl : f8{}) * att;
     for (int c = 0; c < 3; ++c) out[c] += kd[c] * (diffuse * light.radiance[c]);
     if constexpr (kSpecular) {
@@ -260,21 +288,24 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, const simd::
 template <bool kPositions>
 SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, Brdf brdf,
                             const simd::f8 (&n)[3], const simd::f8 (&p)[3],
-                            const simd::f8 (&base)[3], simd::f8 (&out)[3]) {
+                            const simd::f8 (&base)[3], simd::f8 (&out)[3],
+                            const simd::i8* active = nullptr) {
   if constexpr (kPositions) {
     const bool specular = m.ks.x > 0.0f || m.ks.y > 0.0f || m.ks.z > 0.0f;
     switch (brdf) {
-      case Brdf::Pbr: return lit_radiance<Brdf::Pbr, false, true>(in, m, n, p, base, out);
+      case Brdf::Pbr: return lit_radiance<Brdf::Pbr, false, true>(in, m, n, p, base, out, nullptr, active);
       case Brdf::Phong:
-        if (specular) return lit_radiance<Brdf::Phong, true, true>(in, m, n, p, base, out);
+        if (specular)
+          return lit_radiance<Brdf::Phong, true, true>(in, m, n, p, base, out, nullptr, active);
         break;
       case Brdf::BlinnPhong:
-        if (specular) return lit_radiance<Brdf::BlinnPhong, true, true>(in, m, n, p, base, out);
+        if (specular)
+          return lit_radiance<Brdf::BlinnPhong, true, true>(in, m, n, p, base, out, nullptr, active);
         break;
       default: break;
     }
   }
-  lit_radiance<Brdf::Lambert, false, kPositions>(in, m, n, p, base, out);
+  lit_radiance<Brdf::Lambert, false, kPositions>(in, m, n, p, base, out, nullptr, active);
 }
 
 // lit_radiance with per-pixel material values (kLanes), every model, positions read; out of
@@ -283,6 +314,6 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, Brdf brdf,
 // call (the callers are compiled for AVX2 or not).
 void lit_radiance_lanes(const LitInputs& in, const Material& m, Brdf brdf, const simd::f8* n,
                         const simd::f8* p, const simd::f8* base, const MaterialLanes& lanes,
-                        simd::f8* out);
+                        simd::f8* out, const int32_t* active);
 
 }  // namespace sr

@@ -109,7 +109,9 @@ SR_INLINE void material_maps(const ShadeConstants& c, const Fragment& f, const f
     sample(*m.specular_texture, c.specular_filter, f, tex);
     for (int k = 0; k < 3; ++k) lanes.specular[k] = tex[k];
   }
-  lit_radiance_lanes(*c.in, m, c.brdf, n, f.position, base, lanes, out);
+  alignas(32) int32_t active[8];
+  simd::store(active, f.mine);
+  lit_radiance_lanes(*c.in, m, c.brdf, n, f.position, base, lanes, out, active);
 }
 
 struct TexturedSurface {
@@ -149,9 +151,9 @@ struct TexturedShade {
     if (c.material->material_maps())
       material_maps(c, f, n, base, out);
     else if (c.positions)
-      lit_radiance<true>(*c.in, *c.material, c.brdf, n, f.position, base, out);
+      lit_radiance<true>(*c.in, *c.material, c.brdf, n, f.position, base, out, &f.mine);
     else
-      lit_radiance<false>(*c.in, *c.material, c.brdf, n, f.position, base, out);
+      lit_radiance<false>(*c.in, *c.material, c.brdf, n, f.position, base, out, &f.mine);
     r = out[0];
     g = out[1];
     b = out[2];
@@ -201,9 +203,9 @@ struct LightTile {
           const ShadeDraw& d = p.draws[(first >> 2) - 1];
           f8 o[3];
           if (first & 1)
-            lit_radiance<true>(p.in.lit, d.material, d.brdf, n, position, base, o);
+            lit_radiance<true>(p.in.lit, d.material, d.brdf, n, position, base, o, &mine);
           else
-            lit_radiance<false>(p.in.lit, d.material, d.brdf, n, position, base, o);
+            lit_radiance<false>(p.in.lit, d.material, d.brdf, n, position, base, o, &mine);
           for (int k = 0; k < 3; ++k) rgb[k] = mine ? o[k] : rgb[k];
           pending = pending & ~mine;
         } while (simd::any(pending));

@@ -14,6 +14,9 @@ class Texture;
 
 enum class LightKind : uint8_t { Directional, Point, Spot };
 
+// Whether a light casts shadows, and how (python/softrast/light.py; shadow.hpp states the rule).
+enum class ShadowMethod : uint8_t { None, Exact };
+
 // One light in world space (python/softrast/light.py, Light._core).
 struct Light {
   LightKind kind = LightKind::Directional;
@@ -22,6 +25,7 @@ struct Light {
   vec3 direction{0.0f, 0.0f, -1.0f};  // unit, the direction the light travels
   bool inverse_square = true;          // point and spot: radiance / r^2
   float cone_scale = 0.0f, cone_offset = 1.0f;  // spot: clamp(cos * scale + offset, 0, 1)^2
+  ShadowMethod shadow = ShadowMethod::None;     // its diffuse and specular terms are shadowed
 };
 
 // How a draw is shaded (a per-triangle choice, shade_models.hpp): a material's reflectance

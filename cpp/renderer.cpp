@@ -366,8 +366,10 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   std::vector<const AlphaTest*> blend_tests(draws.size(), nullptr);
   std::vector<Block> chunk_ranges, blend_ranges;
   const bool blend_read = (options.outputs & (kOutColor | kOutRadiance | kOutAlpha)) != 0;
+  std::vector<uint8_t> casts(draws.size(), 0);  // occluders of shadowed lights (shadow.hpp)
   for (std::size_t d = 0; d < draws.size(); ++d) {
     const AlphaKind kind = alpha_kind(draws[d], options.texture_filter, alpha_tests[d]);
+    casts[d] = kind == AlphaKind::Opaque || kind == AlphaKind::Masked;
     if (kind == AlphaKind::Invisible) continue;
     if (kind == AlphaKind::Blended) {
       if (multisample)
@@ -479,6 +481,13 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   shade.in.lit.ambient_light = options.has_ambient_light ? options.ambient_light
                                : lights                  ? vec3(0.0f)
                                                          : vec3(float(options.ambient));
+  // Shadowed lights: the occluders, once per render, only where colour is shaded.
+  bool shadowed = false;
+  for (const Light& light : options.lights) shadowed |= light.shadow != ShadowMethod::None;
+  if (shadowed && plan.color) {
+    shadows_.build(draws, casts);
+    shade.in.lit.shadows = &shadows_;
+  }
   // The view vector: toward the camera centre (perspective), or along the axis (orthographic).
   const dmat4 camera_to_world = glm::inverse(camera.view);
   shade.in.lit.eye = camera.orthographic ? vec3(to_camera) : vec3(dvec3(camera_to_world[3]));

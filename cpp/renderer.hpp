@@ -12,6 +12,7 @@
 #include "scratch.hpp"
 #include "setup.hpp"
 #include "shade.hpp"
+#include "shadow.hpp"
 #include "thread_pool.hpp"
 
 #include <memory>
@@ -70,6 +71,7 @@ class Renderer {
   std::vector<std::unique_ptr<MultisampleScratch>> multisample_scratch_;  // anti-aliased renders
   std::vector<std::unique_ptr<BlendScratch>> blend_scratch_;  // renders with blended draws
   PrimitiveSetup primitives_;  // lines and points, set up (lines.hpp)
+  ShadowScene shadows_;        // occluders of shadowed lights (renders with one)
   std::vector<std::unique_ptr<PrimitivePixels>> primitive_pixels_;  // per worker, on first use
   std::shared_ptr<BufferPool> buffer_pool_ = std::make_shared<BufferPool>(0);
 };

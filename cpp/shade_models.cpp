@@ -16,9 +16,9 @@ vec3 unit_or_zero(vec3 v) {
   return len2 > 0.0f ? v * (1.0f / std::sqrt(len2)) : vec3(0.0f);
 }
 
-// Does the radiance depend on the position (point lights, or the view vector)?
+// Does the radiance depend on the position (point lights, the view vector, or shadows)?
 bool reads_position(const ShadeInputs& in, const Material& m, Brdf brdf) {
-  if (brdf == Brdf::Pbr) return true;
+  if (brdf == Brdf::Pbr || in.lit.shadows) return true;  // (shadow rays start at the point)
   if ((brdf == Brdf::Phong || brdf == Brdf::BlinnPhong) &&
       (m.ks.x > 0.0f || m.ks.y > 0.0f || m.ks.z > 0.0f))
     return true;

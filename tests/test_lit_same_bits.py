@@ -85,18 +85,45 @@ def test_lit_models_same_bits_for_both_isas_and_threads(shading, frequency):
             assert getattr(f, name).tobytes() == getattr(ref, name).tobytes(), name
 
 
+@pytest.mark.parametrize("shading", ("auto", "phong", "pbr"))
+@pytest.mark.parametrize("frequency", ["pixel", "vertex", "face"])
+def test_shadowed_lit_models_same_bits_for_both_isas_and_threads(shading, frequency):
+    """Exact shadows (every light of the scene, render(shadows=True)) keep the same bits across
+    instruction sets and thread counts, and darken some pixels the unshadowed render lights."""
+    scene = _lit_scene()
+    cam = _camera(orthographic=False)
+    frames = [sr.Renderer(160, 120, threads=t, simd=simd).render(
+                  scene, cam, outputs=OUTPUTS, shading=shading, frequency=frequency, cull="none",
+                  shadows=True)
+              for simd in (True, False) for t in (1, 2, 3)]
+    ref = frames[0]
+    for f in frames[1:]:
+        for name in OUTPUTS:
+            assert getattr(f, name).tobytes() == getattr(ref, name).tobytes(), name
+    plain = sr.Renderer(160, 120).render(scene, cam, outputs=OUTPUTS, shading=shading,
+                                         frequency=frequency, cull="none")
+    darker = (ref.radiance < plain.radiance).any(-1)
+    assert darker.sum() > 50 and not (ref.radiance > plain.radiance).any()
+    for name in OUTPUTS:  # shadows change colour and radiance only
+        if name not in ("color", "radiance"):
+            assert getattr(plain, name).tobytes() == getattr(ref, name).tobytes(), name
+
+
 @pytest.mark.parametrize("path", ["forward", "deferred"])
 @pytest.mark.parametrize("orthographic", [False, True])
 @pytest.mark.parametrize("srgb", [True, False])
 def test_lit_paths_cameras_and_encodings_same_bits(path, orthographic, srgb):
     scene = _lit_scene()
     cam = _camera(orthographic)
-    a, b = (sr.Renderer(211, 97, threads=2, simd=simd).render(
-                scene, cam, outputs=OUTPUTS, shading_path=path, srgb=srgb) for simd in (True, False))
-    auto = sr.Renderer(211, 97, threads=2).render(scene, cam, outputs=OUTPUTS, srgb=srgb)
-    for name in OUTPUTS:
-        assert getattr(a, name).tobytes() == getattr(b, name).tobytes(), name
-        assert getattr(a, name).tobytes() == getattr(auto, name).tobytes(), name
+    for shadows in (None, True):
+        a, b = (sr.Renderer(211, 97, threads=2, simd=simd).render(
+                    scene, cam, outputs=OUTPUTS, shading_path=path, srgb=srgb, shadows=shadows)
+                for simd in (True, False))
+        auto = sr.Renderer(211, 97, threads=2).render(scene, cam, outputs=OUTPUTS, srgb=srgb,
+                                                      shadows=shadows)
+        for name in OUTPUTS:
+            assert getattr(a, name).tobytes() == getattr(b, name).tobytes(), name
+            assert getattr(a, name).tobytes() == getattr(auto, name).tobytes(), name
 
 
 def test_output_subsets_do_not_change_colour_or_radiance():

@@ -221,7 +221,8 @@ def warning_scenes() -> dict[str, tuple[sr.Scene, sr.Camera | None]]:
     lights = sr.Scene()
     lights.add(mesh)
     lights.add(sr.PointLight((1, 1, 1), 2.0, falloff="none"), pose=rigid(0, (0, 1, 0), (0, 0, 3)))
-    lights.add(sr.SpotLight((1, 1, 1), 2.0, outer_cone=0.5, falloff="none"), pose=rigid(0, (0, 1, 0), (0, 0, 3)))
+    lights.add(sr.SpotLight((1, 1, 1), 2.0, outer_cone=0.5, falloff="none", shadows=True),
+               pose=rigid(0, (0, 1, 0), (0, 0, 3)))
     lights.add(sr.DirectionalLight(), pose=np.eye(4), camera_space=True)
     many = sr.Scene()
     many.add(mesh)
@@ -579,10 +580,11 @@ def test_to_pyrender_then_from_pyrender_gives_the_scene_back(results, kind: str)
 
 def test_lights_that_do_not_convert_warn(results) -> None:
     w = results["warn_lights"]["warnings"]
-    assert len(w) == 3, w
+    assert len(w) == 4, w
     assert "light 0 (PointLight): falloff='none' is not converted" in w[0]
     assert "light 1 (SpotLight): falloff='none' is not converted" in w[1]
-    assert "light 2 (DirectionalLight) is in camera space" in w[2] and "not converted" in w[2]
+    assert "light 1 (SpotLight) casts shadows ('exact')" in w[2] and "SHADOWS_SPOT" in w[2]
+    assert "light 2 (DirectionalLight) is in camera space" in w[3] and "not converted" in w[3]
     assert all(x.startswith("UserWarning: to_pyrender: ") for x in w)
     lights = results["warn_lights"]["summary"]["lights"]
     assert [li["type"] for li in lights] == ["PointLight", "SpotLight"]  # converted, 1/r^2 anyway

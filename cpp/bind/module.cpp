@@ -37,6 +37,8 @@ const Name<int> kWrapNames[3] = {{"repeat", int(Wrap::Repeat)}, {"clamp", int(Wr
 const Name<LightKind> kLightKindNames[3] = {{"directional", LightKind::Directional},
                                             {"point", LightKind::Point},
                                             {"spot", LightKind::Spot}};
+const Name<ShadowMethod> kShadowMethodNames[2] = {{"none", ShadowMethod::None},
+                                                  {"exact", ShadowMethod::Exact}};
 
 py::dict& record_docs() {
   static py::dict* docs = new py::dict();  // (made with the GIL held; lives as long as Python)
@@ -97,6 +99,7 @@ PYBIND11_MODULE(_core, m) {
   constant("TEXTURE_FILTERS", names_of(kFilterNames), "a texture's filter, or texture_filter=");
   constant("TEXTURE_WRAPS", names_of(kWrapNames), "a texture's wrap modes");
   constant("LIGHT_KINDS", names_of(kLightKindNames), "Light.kind");
+  constant("SHADOW_METHODS", names_of(kShadowMethodNames), "Light.shadow");
   m.attr("CONSTANT_DOCS") = constants;
 
   bind_mesh(m);

@@ -146,6 +146,9 @@ void bind_light(py::module_& m) {
       .field<float>("cone_offset", "float", "spot: see cone_scale",
           +[](const Light& l) { return l.cone_offset; },
           +[](Light& l, float v) { l.cone_offset = v; })
+      .field<std::string>("shadow", "str", "'none' or 'exact' (cpp/shadow.hpp)",
+          +[](const Light& l) { return std::string(name_of(l.shadow, kShadowMethodNames)); },
+          +[](Light& l, std::string v) { l.shadow = parse_name(v, kShadowMethodNames, "Light: shadow"); })
       .finish();
 }
 

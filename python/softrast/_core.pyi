@@ -36,6 +36,7 @@ REFLECTANCE_MODELS: tuple[str, ...]  # a material's models (Material.model)
 RENDER_OPTIONS: Any  # a render's options: (name, type, required, doc) tuples (RenderOptions)
 SHADING_MODELS: tuple[str, ...]  # render(shading=): 'auto' (each material's model) or one model for every draw
 SHADING_PATHS: tuple[str, ...]  # shading_path=
+SHADOW_METHODS: tuple[str, ...]  # Light.shadow
 SUBPIXEL_BITS: int  # fixed-point precision of snapped window coordinates (8 => 1/256 px)
 TEXTURE_FILTERS: tuple[str, ...]  # a texture's filter, or texture_filter=
 TEXTURE_WRAPS: tuple[str, ...]  # a texture's wrap modes
@@ -95,6 +96,7 @@ class Light:
                  inverse_square: bool = ...,
                  cone_scale: float = ...,
                  cone_offset: float = ...,
+                 shadow: str = ...,
                  ) -> None: ...
     kind: str  # 'directional', 'point' or 'spot'
     radiance: tuple[float, float, float]  # colour times intensity, linear
@@ -103,6 +105,7 @@ class Light:
     inverse_square: bool  # point and spot: radiance / r^2
     cone_scale: float  # spot: clamp(cos * cone_scale + cone_offset, 0, 1)^2
     cone_offset: float  # spot: see cone_scale
+    shadow: str  # 'none' or 'exact' (cpp/shadow.hpp)
 
 class Material:
     """A material (python/softrast/material.py states each field's meaning)."""

@@ -797,6 +797,10 @@ def to_pyrender(scene: Scene, camera: Camera | None = None) -> Any:
         pr_light = _pr_light(pyrender, li.light, label, notes)
         if pr_light is None:
             continue
+        if li.light.shadows:
+            notes.append(f"{label} casts shadows ({li.light.shadows!r}): pyrender takes them per "
+                         "render, as RenderFlags.SHADOWS_DIRECTIONAL / SHADOWS_SPOT (shadow maps; "
+                         "none for point lights)")
         pose = _rigid(np.asarray(li.pose, dtype=np.float64))
         if li.camera_space:
             if cam_node is None:

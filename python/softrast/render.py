@@ -11,6 +11,7 @@ import numpy.typing as npt
 from . import _core
 from ._checks import choice, image_side, integer, real, unit_rgb
 from .camera import Camera
+from .light import shadow_method
 from .limits import check_budget
 from .scene import Scene
 from .texture import FILTERS_WITH_MIPS, check_filter
@@ -322,13 +323,13 @@ def sample_positions(msaa: int = 1, ssaa: int = 1) -> npt.NDArray[np.float64]:
     return np.array(_core._sample_pattern(msaa, ssaa), dtype=np.float64) / (1 << _core.SUBPIXEL_BITS)
 
 
-def _lights(scene: Scene, view: Any) -> list[Any]:
+def _lights(scene: Scene, view: Any, shadows: str | bool | None = None) -> list[Any]:
     """The core's light records (world space) of the scene's lights for one render, cached in the
-    scene for the last view matrix (cameras keep one array per pose): camera-space lights move
-    with it. A scene without lights gets the headlight from the core."""
+    scene for the last view matrix (cameras keep one array per pose) and shadow override:
+    camera-space lights move with it. A scene without lights gets the headlight from the core."""
     cached = scene._render_cache.get("lights")
     version = scene.__dict__.get("_version", 0)
-    if cached is not None and cached[0] == version and cached[1] is view:
+    if cached is not None and cached[0] == version and cached[1] is view and cached[3] == shadows:
         return cached[2]
     records = []
     cam_to_world = None
@@ -338,9 +339,9 @@ def _lights(scene: Scene, view: Any) -> list[Any]:
             if cam_to_world is None:
                 cam_to_world = np.linalg.inv(np.asarray(view, dtype=np.float64))
             pose = cam_to_world @ pose
-        records.append(li.light._core(pose))
+        records.append(li.light._core(pose, shadows))
     # Stored with the version read before the lights were: used only while it is current.
-    scene._render_cache["lights"] = (version, view, records)
+    scene._render_cache["lights"] = (version, view, records, shadows)
     return records
 
 
@@ -557,6 +558,7 @@ class Renderer:
         line_width: float = 1.0,
         cull_double_sided: bool = False,
         normal_kind: str = "interpolated",
+        shadows: bool | str | None = None,
     ) -> Frame:
         """Render ``scene`` seen by ``camera``; only ``outputs`` are allocated and written.
 
@@ -622,6 +624,9 @@ class Renderer:
               draw's model reads positions or uvs (lights, textures), else the snapped
               triangle's, whose point lies within 1/724 px of the pixel's. Meshes without such maps, the vertex and face frequencies, and the
               "uv" and "depth" views give the interpolated normal either way.
+        shadows : None (default: each light's own ``shadows``), False (no light casts shadows)
+              or True / "exact" (every light casts exact shadows: softrast.light states the
+              rule). Shadows darken only the colour and radiance outputs.
         raster : how triangles are filled: "edge" (default; edge functions tested at every
               pixel of a triangle's box) or "scanline" (each row's span found by edge walking,
               the classical algorithm). Both use the same snapped vertices and top-left rule, so
@@ -694,6 +699,7 @@ class Renderer:
         if not 0.0 <= ambient_f <= 1.0:  # NaN fails too
             raise ValueError(f"ambient must be in [0, 1], got {ambient!r}")
         msaa, ssaa = _antialiasing(msaa, ssaa)
+        shadow_override = None if shadows is None else shadow_method(shadows)
 
         if getattr(camera, "_dist", None) is not None:  # an IntrinsicsCamera with lens distortion
             if msaa > 1 or ssaa > 1:
@@ -709,7 +715,8 @@ class Renderer:
                 "normal_kind": normal_kind, "shading": shading,
                 "background": background, "ambient": ambient,
                 "shading_path": shading_path, "frequency": frequency, "srgb": srgb,
-                "texture_filter": texture_filter, "normal_space": normal_space, "raster": raster},
+                "texture_filter": texture_filter, "normal_space": normal_space, "raster": raster,
+                "shadows": shadows},
                 out)
         out_arrays = _out_arrays(out, names)
         new = names if not out_arrays else [n for n in names if n not in out_arrays]  # out= reused
@@ -729,7 +736,7 @@ class Renderer:
             "cull_double_sided": bool(cull_double_sided), "normal_kind": normal_kind,
             "shading": shading,
             "shading_path": shading_path, "background": bg, "ambient": ambient_f, "out": out_arrays,
-            "lights": _lights(scene, view), "ambient_light": scene.ambient_light,
+            "lights": _lights(scene, view, shadow_override), "ambient_light": scene.ambient_light,
             "frequency": frequency, "srgb": bool(srgb), "texture_filter": texture_filter,
             "normal_rotation": None if normal_space == "world" else
             tuple(map(tuple, camera.pose[:3, :3].T.tolist())),

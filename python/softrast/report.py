@@ -805,7 +805,7 @@ _CHECKER_SWEEPS = (_sweep_filter, _sweep_anisotropy)
 
 def _feature_costs(s: Settings) -> list[dict[str, Any]]:
     """Time of the sphere scene with each feature off, then on, in groups: the outputs asked for,
-    a texture, lights, the normal output, the exact surface step, anti-aliasing. Rows: group, setting, time_ms, time_spread_ms,
+    a texture, lights, shadows, the normal output, the exact surface step, anti-aliasing. Rows: group, setting, time_ms, time_spread_ms,
     delta_ms (against the group's first row)."""
     from .light import PointLight
     from .material import Material
@@ -840,6 +840,9 @@ def _feature_costs(s: Settings) -> list[dict[str, Any]]:
                      ("512x512 RGB base colour texture, trilinear", scene_with(textured), colour_depth)]),
         ("lights", [("0 (the headlight)", plain, colour_depth), ("1 point light", scene_with(lights=1), colour_depth),
                     ("4 point lights", scene_with(lights=4), colour_depth)]),
+        ("shadows", [("1 point light", scene_with(lights=1), colour_depth),
+                     ("1 point light, exact shadows (a ray per lit pixel)", scene_with(lights=1),
+                      colour_depth, {"shadows": True})]),
         ("normal output", [("color + depth", plain, colour_depth),
                            ("color + depth + normal", plain, colour_depth + ("normal",))]),
         # the exact surface step (cpp/surface.cpp): each pixel's ray on its face, in double

@@ -1,0 +1,229 @@
+// Exact shadows: the occluders' bounding volume hierarchy and the shadow ray (shadow.hpp).
+#include "shadow.hpp"
+
+#include "pipeline.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace sr {
+
+namespace {
+
+constexpr int kLeafTriangles = 4;   // a leaf holds at most this many, unless they cannot be split
+constexpr int kBins = 16;           // surface-area heuristic: candidate splits per axis
+constexpr int kMaxDepth = 120;      // deeper ranges become leaves (the traversal's stack bound)
+// 2^-19: a triangle whose plane passes within this fraction of its coordinates' magnitude of the
+// shaded point does not shadow it (shadow.hpp).
+constexpr double kOnSurface = 1.0 / 524288.0;
+// The slab test's exit distance is widened by 1 + 2 gamma(3) (PBRT's robust ray-box test): no ray
+// that meets a triangle misses its box by rounding.
+constexpr double kSlabPad = 1.0 + 2.0 * (3.0 * 0x1p-53 / (1.0 - 3.0 * 0x1p-53));
+
+double max_abs(const dvec3& v) {
+  return std::max(std::fabs(v.x), std::max(std::fabs(v.y), std::fabs(v.z)));
+}
+
+double half_area(const dvec3& lo, const dvec3& hi) {
+  const dvec3 e = hi - lo;
+  return e.x * e.y + e.y * e.z + e.z * e.x;
+}
+
+struct Box {
+  dvec3 lo{std::numeric_limits<double>::infinity()};
+  dvec3 hi{-std::numeric_limits<double>::infinity()};
+  void grow(const dvec3& p) { lo = glm::min(lo, p); hi = glm::max(hi, p); }
+  void grow(const Box& b) { lo = glm::min(lo, b.lo); hi = glm::max(hi, b.hi); }
+  double area() const { return lo.x <= hi.x ? half_area(lo, hi) : 0.0; }
+};
+
+}  // namespace
+
+void ShadowScene::build(const std::vector<Draw>& draws, const std::vector<uint8_t>& casts) {
+  tris_.clear();
+  nodes_.clear();
+  std::vector<Box> boxes;
+  std::vector<dvec3> centres;
+  for (std::size_t d = 0; d < draws.size(); ++d) {
+    if (!casts[d]) continue;
+    const MeshData& mesh = *draws[d].mesh;
+    const dmat4& model = draws[d].model;
+    for (const ivec3& f : mesh.faces) {
+      dvec3 v[3];
+      for (int k = 0; k < 3; ++k) v[k] = dvec3(model * dvec4(dvec3(mesh.positions[f[k]]), 1.0));
+      const dvec3 e1 = v[1] - v[0], e2 = v[2] - v[0];
+      const dvec3 n = glm::cross(e1, e2);
+      if (!(std::isfinite(n.x) && std::isfinite(n.y) && std::isfinite(n.z)) || n == dvec3(0.0))
+        continue;
+      tris_.push_back({v[0], e1, e2});
+      Box b;
+      for (int k = 0; k < 3; ++k) b.grow(v[k]);
+      boxes.push_back(b);
+      centres.push_back((b.lo + b.hi) * 0.5);
+    }
+  }
+  if (tris_.empty()) return;
+  std::vector<uint32_t> order(tris_.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = uint32_t(i);
+
+  // Depth first, so that a node's first child follows it; `parent` gets its second child's index.
+  struct Work { uint32_t begin, end, parent; int depth; };
+  std::vector<Work> stack{{0, uint32_t(order.size()), UINT32_MAX, 0}};
+  nodes_.reserve(2 * tris_.size() / kLeafTriangles + 1);
+  while (!stack.empty()) {
+    const Work w = stack.back();
+    stack.pop_back();
+    const uint32_t self = uint32_t(nodes_.size());
+    if (w.parent != UINT32_MAX) nodes_[w.parent].index = self;
+    Box box, centre_box;
+    for (uint32_t i = w.begin; i < w.end; ++i) {
+      box.grow(boxes[order[i]]);
+      centre_box.grow(centres[order[i]]);
+    }
+    nodes_.push_back({box.lo, box.hi, w.begin, w.end - w.begin});
+    const uint32_t count = w.end - w.begin;
+    if (count <= kLeafTriangles || w.depth >= kMaxDepth) continue;
+    // The surface-area heuristic over kBins bins of the centres along each axis (all three: a
+    // floor's large triangles beside a small object separate only along the floor's normal).
+    const dvec3 extent = centre_box.hi - centre_box.lo;
+    double best = std::numeric_limits<double>::infinity();
+    int best_axis = -1, split = -1;
+    for (int axis = 0; axis < 3; ++axis) {
+      if (!(extent[axis] > 0.0)) continue;
+      const double lo = centre_box.lo[axis], scale = kBins / extent[axis];
+      Box bin_box[kBins];
+      uint32_t bin_count[kBins] = {};
+      for (uint32_t i = w.begin; i < w.end; ++i) {
+        const uint32_t t = order[i];
+        const int b = std::min(kBins - 1, int((centres[t][axis] - lo) * scale));
+        bin_box[b].grow(boxes[t]);
+        ++bin_count[b];
+      }
+      // Cost of splitting before bin b: area(left) * n(left) + area(right) * n(right).
+      double right_area[kBins];
+      uint32_t right_count[kBins];
+      Box acc;
+      uint32_t n = 0;
+      for (int b = kBins - 1; b > 0; --b) {
+        acc.grow(bin_box[b]);
+        n += bin_count[b];
+        right_area[b] = acc.area();
+        right_count[b] = n;
+      }
+      Box left;
+      uint32_t left_n = 0;
+      for (int b = 1; b < kBins; ++b) {
+        left.grow(bin_box[b - 1]);
+        left_n += bin_count[b - 1];
+        if (left_n == 0 || right_count[b] == 0) continue;
+        const double cost = left.area() * left_n + right_area[b] * right_count[b];
+        if (cost < best) { best = cost; best_axis = axis; split = b; }
+      }
+    }
+    int axis = best_axis;
+    if (axis < 0) {  // (no split separates the bins: the widest axis's median, or one leaf)
+      axis = extent.x >= extent.y && extent.x >= extent.z ? 0 : extent.y >= extent.z ? 1 : 2;
+      if (!(extent[axis] > 0.0)) continue;  // every centre the same: one leaf
+    }
+    uint32_t middle;
+    if (split > 0) {
+      const double lo = centre_box.lo[axis], scale = kBins / extent[axis];
+      middle = uint32_t(std::partition(order.begin() + w.begin, order.begin() + w.end,
+                                       [&](uint32_t t) {
+                                         return std::min(kBins - 1, int((centres[t][axis] - lo) * scale)) < split;
+                                       }) -
+                        order.begin());
+    } else {
+      middle = w.begin + count / 2;
+      std::nth_element(order.begin() + w.begin, order.begin() + middle, order.begin() + w.end,
+                       [&](uint32_t a, uint32_t b) { return centres[a][axis] < centres[b][axis]; });
+    }
+    nodes_[self].count = 0;
+    stack.push_back({middle, w.end, self, w.depth + 1});   // second child (index patched)
+    stack.push_back({w.begin, middle, UINT32_MAX, w.depth + 1});  // first child: self + 1
+  }
+  std::vector<Tri> sorted(tris_.size());
+  for (std::size_t i = 0; i < order.size(); ++i) sorted[i] = tris_[order[i]];
+  tris_.swap(sorted);
+}
+
+bool ShadowScene::hits(const Tri& tri, const dvec3& o, const dvec3& d, double t_max) const {
+  // Moller-Trumbore, edges included.
+  const dvec3 pvec = glm::cross(d, tri.e2);
+  const double det = glm::dot(tri.e1, pvec);
+  if (det == 0.0 || !std::isfinite(det)) return false;
+  const double inv = 1.0 / det;
+  const dvec3 tvec = o - tri.a;
+  const double u = glm::dot(tvec, pvec) * inv;
+  if (!(u >= 0.0 && u <= 1.0)) return false;
+  const dvec3 qvec = glm::cross(tvec, tri.e1);
+  const double v = glm::dot(d, qvec) * inv;
+  if (!(v >= 0.0 && u + v <= 1.0)) return false;
+  const double t = glm::dot(tri.e2, qvec) * inv;
+  if (!(t > 0.0 && t < t_max)) return false;
+  // A triangle whose plane passes through the shaded point (within its float32 precision) does
+  // not shadow it.
+  // (|n . (o - a)| / |n| <= eps, squared: no square root or division.)
+  const dvec3 n = glm::cross(tri.e1, tri.e2);
+  const double along = glm::dot(n, tvec);
+  const double eps = kOnSurface * std::max(std::max(max_abs(tri.a), max_abs(o)),
+                                           std::max(max_abs(tri.a + tri.e1), max_abs(tri.a + tri.e2)));
+  return !(along * along <= eps * eps * glm::dot(n, n));
+}
+
+bool ShadowScene::blocked(const Light& light, const dvec3& o) const {
+  if (nodes_.empty()) return false;
+  dvec3 d;
+  double t_max;
+  if (light.kind == LightKind::Directional) {
+    d = -dvec3(light.direction);
+    t_max = std::numeric_limits<double>::infinity();
+  } else {
+    d = dvec3(light.position) - o;
+    t_max = 1.0;
+    if (d == dvec3(0.0)) return false;  // (the light at the point: it lights nothing there)
+  }
+  const dvec3 inv = 1.0 / d;
+  uint32_t stack[kMaxDepth + 2];
+  int top = 0;
+  uint32_t node = 0;
+  for (;;) {
+    const Node& n = nodes_[node];
+    double t0 = 0.0, t1 = t_max;
+    bool in = true;
+    for (int a = 0; a < 3 && in; ++a) {
+      double near = (n.lo[a] - o[a]) * inv[a], far = (n.hi[a] - o[a]) * inv[a];
+      if (near > far) std::swap(near, far);
+      far *= kSlabPad;
+      t0 = near > t0 ? near : t0;  // (NaN, 0 * inf on a slab's face: the axis does not narrow)
+      t1 = far < t1 ? far : t1;
+      in = t0 <= t1;
+    }
+    if (in) {
+      if (n.count == 0) {
+        // Both children: the first now, the second later.
+        stack[top++] = n.index;
+        node = node + 1;
+        continue;
+      }
+      for (uint32_t i = n.index; i < n.index + n.count; ++i)
+        if (hits(tris_[i], o, d, t_max)) return true;
+    }
+    if (top == 0) return false;
+    node = stack[--top];
+  }
+}
+
+void shadow_lanes(const ShadowScene& scene, const Light& light, const float* x, const float* y,
+                  const float* z, uint32_t mask, float* out) {
+  for (int i = 0; i < 8; ++i) {
+    out[i] = 1.0f;
+    if (!(mask >> i & 1u)) continue;
+    const dvec3 p(x[i], y[i], z[i]);
+    if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))) continue;
+    if (scene.blocked(light, p)) out[i] = 0.0f;
+  }
+}
+
+}  // namespace sr
