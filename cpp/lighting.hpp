@@ -112,18 +112,30 @@ struct LitInputs {
   const ShadowScene* shadows = nullptr;
 };
 
-// The visibility (0 or 1) of a shadowed light at eight points, in the lanes of `lanes` (1 in the
-// others): shadow.hpp's ray, out of line.
-SR_INLINE simd::f8 light_visibility(const LitInputs& in, const Light& light, const simd::f8 (&p)[3],
-                                    simd::i8 lanes) {
-  alignas(32) float x[8], y[8], z[8], o[8];
+// Every light's visibility (0 or 1) at eight points p with normals n (shadow_lights, out of
+// line): [8 k + i] for light k and lane i, in the calling thread's buffer. Called once before the
+// light loop, so that the loop itself holds no call (across which every vector register would
+// have to be saved). kFacing: cast only where n faces the light (the models that add nothing
+// from behind).
+template <bool kFacing>
+SR_INLINE const float* light_visibilities(const LitInputs& in, const simd::f8 (&n)[3],
+                                          const simd::f8 (&p)[3], const simd::i8* active) {
+  alignas(32) float x[8], y[8], z[8], nx[8], ny[8], nz[8];
   simd::store(x, p[0]);
   simd::store(y, p[1]);
   simd::store(z, p[2]);
-  uint32_t mask = 0;
-  for (int i = 0; i < 8; ++i) mask |= uint32_t(lanes[i] != 0) << i;
-  shadow_lanes(*in.shadows, light, x, y, z, mask, o);
-  return simd::load<simd::f8>(o);
+  if (kFacing) {
+    simd::store(nx, n[0]);
+    simd::store(ny, n[1]);
+    simd::store(nz, n[2]);
+  }
+  uint32_t mask = 0xffu;
+  if (active) {
+    mask = 0;
+    for (int i = 0; i < 8; ++i) mask |= uint32_t((*active)[i] != 0) << i;
+  }
+  return shadow_lights(*in.shadows, in.lights, in.num_lights, x, y, z, kFacing ? nx : nullptr,
+                       ny, nz, mask);
 }
 
 // Radiance of eight pixels: unit normal n (toward the side being lit), world position p, base
@@ -159,7 +171,9 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, const simd::
     for (int c = 0; c < 3; ++c) v[c] *= r;
   }
   const int whole = whole_exponent(m.shininess);  // chosen once: multiplied out, or exp2/log2
-  const i8 shaded = active ? *active : simd::splat(int32_t(-1));
+  // Shadowed lights' visibility, before the loop (null: no light casts shadows).
+  const float* vis = nullptr;
+  if (kPositions && in.shadows) vis = light_visibilities<!kPbr>(in, n, p, active);
   for (int k = 0; k < in.num_lights; ++k) {
     const Light& light = in.lights[k];
     f8 l[3], att = splat(1.0f);
@@ -185,11 +199,9 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, const simd::
         att = apart ? att : f8{};
       }
     }
-    // A shadowed light (reads positions: reads_position says so for every draw).
-    const bool shadowed = kPositions && light.shadow != ShadowMethod::None && in.shadows;
     const f8 ndl = n[0] * l[0] + n[1] * l[1] + n[2] * l[2];
     if constexpr (kPbr) {
-      if (shadowed) att *= light_visibility(in, light, p, shaded);
+      if (vis) att *= simd::load<f8>(vis + 8 * k);
       // pyrender 0.1.45's mesh.frag (PBR_NOTES.md): r = clamp(roughness, 0.04, 1), a = r^2;
       // h = normalize(l + v); nl = clamp(n.l, 0.001, 1) (a light behind the surface still adds
       // a little, as pyrender's does); nv = clamp(|n.v|, 0.001, 1); nh, vh clamped to [0, 1];
@@ -242,8 +254,8 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, const simd::
     // Lights behind the surface add nothing: a group that no light reaches skips the light.
     const i8 front = ndl > f8{};
     if (!any(front)) continue;
-    if (shadowed) {
-      const f8 visible = light_visibility(in, light, p, front & shaded);
+    if (vis) {
+      const f8 visible = simd::load<f8>(vis + 8 * k);
       if (!any(visible > f8{})) continue;  // (every lane in shadow)
       att *= visible;
     }

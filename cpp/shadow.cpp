@@ -215,15 +215,28 @@ bool ShadowScene::blocked(const Light& light, const dvec3& o) const {
   }
 }
 
-void shadow_lanes(const ShadowScene& scene, const Light& light, const float* x, const float* y,
-                  const float* z, uint32_t mask, float* out) {
+const float* shadow_lights(const ShadowScene& scene, const Light* lights, int num_lights,
+                           const float* x, const float* y, const float* z, const float* nx,
+                           const float* ny, const float* nz, uint32_t mask) {
+  static thread_local std::vector<float> out;
+  out.assign(std::size_t(8) * std::size_t(num_lights), 1.0f);
   for (int i = 0; i < 8; ++i) {
-    out[i] = 1.0f;
     if (!(mask >> i & 1u)) continue;
     const dvec3 p(x[i], y[i], z[i]);
     if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))) continue;
-    if (scene.blocked(light, p)) out[i] = 0.0f;
+    for (int k = 0; k < num_lights; ++k) {
+      const Light& light = lights[k];
+      if (light.shadow == ShadowMethod::None) continue;
+      if (nx) {  // (a lane whose normal faces away gets nothing from the light: no ray)
+        const dvec3 n(nx[i], ny[i], nz[i]);
+        const dvec3 l = light.kind == LightKind::Directional ? -dvec3(light.direction)
+                                                            : dvec3(light.position) - p;
+        if (glm::dot(n, l) < -0x1p-20 * glm::length(n) * glm::length(l)) continue;
+      }
+      if (scene.blocked(light, p)) out[std::size_t(8 * k + i)] = 0.0f;
+    }
   }
+  return out.data();
 }
 
 }  // namespace sr

@@ -55,10 +55,14 @@ class ShadowScene {
   std::vector<Tri> tris_;
 };
 
-// The visibility (1 or 0) of `light` at the points (x[i], y[i], z[i]) of the lanes set in `mask`
-// (bit i: lane i), written to out[i]; 1 in the other lanes and at points that are not finite.
-// Arrays cross the call (callers are compiled for AVX2 or not).
-void shadow_lanes(const ShadowScene& scene, const Light& light, const float* x, const float* y,
-                  const float* z, uint32_t mask, float* out);
+// The visibility (1 or 0) of each light at the points (x[i], y[i], z[i]) of the lanes set in
+// `mask` (bit i: lane i), at [8 k + i] for light k, in a buffer of the calling thread (valid
+// until its next call). 1 for lights without shadows, in the other lanes, at points that are not
+// finite, and, given normals (nx, ny, nz; else null), where the normal faces away from the light
+// (n . (to the light) < -2^-20 |n| |to the light|: such a lane adds nothing from that light in
+// the models that pass normals). Arrays cross the call (callers are compiled for AVX2 or not).
+const float* shadow_lights(const ShadowScene& scene, const Light* lights, int num_lights,
+                           const float* x, const float* y, const float* z, const float* nx,
+                           const float* ny, const float* nz, uint32_t mask);
 
 }  // namespace sr
