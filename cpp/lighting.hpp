@@ -124,18 +124,15 @@ SR_INLINE const float* light_visibilities(const LitInputs& in, const simd::f8 (&
   simd::store(x, p[0]);
   simd::store(y, p[1]);
   simd::store(z, p[2]);
-  if (kFacing) {
-    simd::store(nx, n[0]);
-    simd::store(ny, n[1]);
-    simd::store(nz, n[2]);
-  }
+  simd::store(nx, n[0]);
+  simd::store(ny, n[1]);
+  simd::store(nz, n[2]);
   uint32_t mask = 0xffu;
   if (active) {
     mask = 0;
     for (int i = 0; i < 8; ++i) mask |= uint32_t((*active)[i] != 0) << i;
   }
-  return shadow_lights(*in.shadows, in.lights, in.num_lights, x, y, z, kFacing ? nx : nullptr,
-                       ny, nz, mask);
+  return shadow_lights(*in.shadows, in.lights, in.num_lights, x, y, z, nx, ny, nz, kFacing, mask);
 }
 
 // Radiance of eight pixels: unit normal n (toward the side being lit), world position p, base

@@ -7,15 +7,17 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 
 namespace sr {
 
 class Texture;
+struct ShadowMap;  // shadow.hpp
 
 enum class LightKind : uint8_t { Directional, Point, Spot };
 
-// Whether a light casts shadows, and how (python/softrast/light.py; shadow.hpp states the rule).
-enum class ShadowMethod : uint8_t { None, Exact };
+// Whether a light casts shadows, and how (python/softrast/light.py; shadow.hpp states the rules).
+enum class ShadowMethod : uint8_t { None, Exact, Map };
 
 // One light in world space (python/softrast/light.py, Light._core).
 struct Light {
@@ -26,6 +28,7 @@ struct Light {
   bool inverse_square = true;          // point and spot: radiance / r^2
   float cone_scale = 0.0f, cone_offset = 1.0f;  // spot: clamp(cos * scale + offset, 0, 1)^2
   ShadowMethod shadow = ShadowMethod::None;     // its diffuse and specular terms are shadowed
+  std::shared_ptr<const ShadowMap> map;         // ShadowMethod::Map: its depth maps
 };
 
 // How a draw is shaded (a per-triangle choice, shade_models.hpp): a material's reflectance

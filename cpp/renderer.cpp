@@ -482,10 +482,15 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
                                : lights                  ? vec3(0.0f)
                                                          : vec3(float(options.ambient));
   // Shadowed lights: the occluders, once per render, only where colour is shaded.
-  bool shadowed = false;
-  for (const Light& light : options.lights) shadowed |= light.shadow != ShadowMethod::None;
+  // (A shadow-mapped light reads its own maps: the hierarchy is built for exact ones only.)
+  bool shadowed = false, exact = false;
+  for (const Light& light : options.lights) {
+    shadowed |= light.shadow != ShadowMethod::None;
+    exact |= light.shadow == ShadowMethod::Exact;
+  }
   if (shadowed && plan.color) {
-    shadows_.build(draws, casts);
+    if (exact) shadows_.build(draws, casts);
+    else shadows_.clear();
     shade.in.lit.shadows = &shadows_;
   }
   // The view vector: toward the camera centre (perspective), or along the axis (orthographic).

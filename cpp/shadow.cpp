@@ -215,25 +215,81 @@ bool ShadowScene::blocked(const Light& light, const dvec3& o) const {
   }
 }
 
+namespace {
+
+// 1 where the map's texel (i, j) does not shadow a point at depth `compare` (outside the map, or
+// nothing hit there, pass).
+double texel_passes(const ShadowMapFace& f, int i, int j, double compare) {
+  if (i < 0 || j < 0 || i >= f.size || j >= f.size) return 1.0;
+  const float d = f.depth[std::size_t(j) * std::size_t(f.size) + std::size_t(i)];
+  return d <= 0.0f || double(d) >= compare ? 1.0 : 0.0;
+}
+
+}  // namespace
+
+double map_visibility(const ShadowMap& map, const Light& light, const dvec3& p, const dvec3& n) {
+  for (const ShadowMapFace& f : map.faces) {
+    const dvec4 v = f.view * dvec4(p, 1.0);
+    const dvec4 c = f.proj * v;
+    if (!(c.w > 0.0) || std::fabs(c.x) > c.w || std::fabs(c.y) > c.w) continue;
+    const double depth = -v.z;
+    if (c.z > c.w) return 1.0;  // beyond the far plane
+    // Texel-centre coordinates (column x from the left, row y from the top).
+    const double sx = (c.x / c.w * 0.5 + 0.5) * f.size - 0.5;
+    const double sy = (0.5 - c.y / c.w * 0.5) * f.size - 0.5;
+    // The slope-scaled bias: a texel's width at p times tan(normal, light), at most 10.
+    const double texel = f.orthographic ? 2.0 / (f.proj[0][0] * f.size)
+                                        : 2.0 * depth / (f.proj[0][0] * f.size);
+    double slope = 0.0;
+    const double nn = glm::length(n);
+    if (nn > 0.0) {
+      const dvec3 l = light.kind == LightKind::Directional ? -dvec3(light.direction)
+                                                           : dvec3(light.position) - p;
+      const double cosine = std::fabs(glm::dot(n, l)) / (nn * glm::length(l));
+      slope = cosine >= 0.0995 ? std::sqrt(std::max(0.0, 1.0 - cosine * cosine)) / cosine : 10.0;
+    }
+    const double compare = depth - (map.bias + 2.0 * texel * slope);
+    double sum = 0.0;
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const double x = sx + dx, y = sy + dy;
+        const double x0 = std::floor(x), y0 = std::floor(y);
+        const double fx = x - x0, fy = y - y0;
+        const int i = int(x0), j = int(y0);
+        const double top = texel_passes(f, i, j, compare) * (1.0 - fx) + texel_passes(f, i + 1, j, compare) * fx;
+        const double bottom = texel_passes(f, i, j + 1, compare) * (1.0 - fx) +
+                              texel_passes(f, i + 1, j + 1, compare) * fx;
+        sum += top * (1.0 - fy) + bottom * fy;
+      }
+    return sum / 9.0;
+  }
+  return 1.0;
+}
+
 const float* shadow_lights(const ShadowScene& scene, const Light* lights, int num_lights,
                            const float* x, const float* y, const float* z, const float* nx,
-                           const float* ny, const float* nz, uint32_t mask) {
+                           const float* ny, const float* nz, bool facing, uint32_t mask) {
   static thread_local std::vector<float> out;
   out.assign(std::size_t(8) * std::size_t(num_lights), 1.0f);
   for (int i = 0; i < 8; ++i) {
     if (!(mask >> i & 1u)) continue;
     const dvec3 p(x[i], y[i], z[i]);
     if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))) continue;
+    dvec3 n(nx[i], ny[i], nz[i]);
+    if (!(std::isfinite(n.x) && std::isfinite(n.y) && std::isfinite(n.z))) n = dvec3(0.0);
     for (int k = 0; k < num_lights; ++k) {
       const Light& light = lights[k];
       if (light.shadow == ShadowMethod::None) continue;
-      if (nx) {  // (a lane whose normal faces away gets nothing from the light: no ray)
-        const dvec3 n(nx[i], ny[i], nz[i]);
+      if (facing) {  // (a lane whose normal faces away gets nothing from the light: no ray)
         const dvec3 l = light.kind == LightKind::Directional ? -dvec3(light.direction)
                                                             : dvec3(light.position) - p;
         if (glm::dot(n, l) < -0x1p-20 * glm::length(n) * glm::length(l)) continue;
       }
-      if (scene.blocked(light, p)) out[std::size_t(8 * k + i)] = 0.0f;
+      if (light.shadow == ShadowMethod::Map) {
+        if (light.map) out[std::size_t(8 * k + i)] = float(map_visibility(*light.map, light, p, n));
+      } else if (scene.blocked(light, p)) {
+        out[std::size_t(8 * k + i)] = 0.0f;
+      }
     }
   }
   return out.data();

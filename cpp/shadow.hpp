@@ -15,7 +15,19 @@
 //   - the occluders are every triangle of every draw that is drawn opaque or masked (masked by
 //     geometry: the alpha test is not applied to shadow rays), both faces, in the view or not;
 //     blended and invisible draws cast none.
-// A shadowed light's diffuse and specular terms are multiplied by the visibility (0 or 1), in
+// Shadow maps (ShadowMethod::Map, python/softrast/shadow_maps.py renders them): the light's
+// depth (along its view axis, softrast's `depth` output, 0 where nothing was hit) seen from one
+// camera (directional: orthographic, fitted to the occluders; spot: perspective over the cone;
+// point, or a spot wider than 150 degrees: six faces of a cube). A point p is looked up in the
+// first face whose image holds it; its visibility is percentage-closer filtering as pyrender's
+// mesh.frag does it: the mean of 3 x 3 bilinear interpolations, one texel apart, of the 0/1
+// comparisons "the map's depth >= depth(p) - bias" at the four nearest texel centres (texels
+// outside the map, or where nothing was hit, pass). bias = shadow_bias + 2 texels' width at p
+// times tan(angle between the normal and the light), the tangent at most 10 (a slope-scaled
+// bias). A point outside every face, or beyond a face's far plane, is lit.
+//
+// A shadowed light's diffuse and specular terms are multiplied by the visibility (0 or 1 exact,
+// in [0, 1] from a map), in
 // every lit model, at the point where the render's frequency evaluates the light (each pixel,
 // each vertex, each face's centre); ambient and emissive light are not shadowed.
 //
@@ -36,6 +48,23 @@ namespace sr {
 
 struct Draw;
 
+// One camera's depth map of a shadow-mapped light (rows from the top, as softrast's images).
+struct ShadowMapFace {
+  dmat4 view;  // world -> the light camera's view (OpenGL axes: looking down -z)
+  dmat4 proj;  // view -> clip
+  bool orthographic = false;
+  int size = 0;  // size x size texels
+  std::vector<float> depth;
+};
+
+struct ShadowMap {
+  std::vector<ShadowMapFace> faces;
+  double bias = 0.0;  // shadow_bias, scene units
+};
+
+// The visibility in [0, 1] of a shadow-mapped light at p, normal n (zero: no slope term).
+double map_visibility(const ShadowMap& map, const Light& light, const dvec3& p, const dvec3& n);
+
 class ShadowScene {
  public:
   // The occluders: every triangle of each draw d with casts[d], posed in double by its model
@@ -44,6 +73,7 @@ class ShadowScene {
   // Whether an occluder blocks the ray from p toward `light` (the rule above).
   bool blocked(const Light& light, const dvec3& p) const;
   std::size_t size() const { return tris_.size(); }
+  void clear() { tris_.clear(); nodes_.clear(); }
 
  private:
   struct Tri { dvec3 a, e1, e2; };  // corners a, a + e1, a + e2
@@ -60,9 +90,10 @@ class ShadowScene {
 // until its next call). 1 for lights without shadows, in the other lanes, at points that are not
 // finite, and, given normals (nx, ny, nz; else null), where the normal faces away from the light
 // (n . (to the light) < -2^-20 |n| |to the light|: such a lane adds nothing from that light in
-// the models that pass normals). Arrays cross the call (callers are compiled for AVX2 or not).
+// the models that pass `facing`). A shadow-mapped light's visibility is its filtered fraction
+// (map_visibility) in [0, 1]. Arrays cross the call (callers are compiled for AVX2 or not).
 const float* shadow_lights(const ShadowScene& scene, const Light* lights, int num_lights,
                            const float* x, const float* y, const float* z, const float* nx,
-                           const float* ny, const float* nz, uint32_t mask);
+                           const float* ny, const float* nz, bool facing, uint32_t mask);
 
 }  // namespace sr

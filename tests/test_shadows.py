@@ -675,9 +675,9 @@ def test_distorted_camera_shows_the_shadows():
 
 @pytest.mark.parametrize("make", [sr.DirectionalLight, sr.PointLight, sr.SpotLight])
 def test_bad_light_values(make):
-    """Unknown shadow methods, "map" (not yet), a resolution < 1, a negative or non-finite bias:
-    ValueError naming the argument."""
-    for value in ("bogus", "map", ""):
+    """Unknown shadow methods, a resolution < 1, a negative or non-finite bias: ValueError naming
+    the argument."""
+    for value in ("bogus", "maps", ""):
         with pytest.raises(ValueError, match="shadows"):
             make(shadows=value)
     for value in (0, -3):
@@ -689,11 +689,11 @@ def test_bad_light_values(make):
 
 
 def test_bad_render_values():
-    """render(shadows=) takes None, False, True or "exact"; anything else raises ValueError
-    naming shadows."""
+    """render(shadows=) takes None, False, True, "exact" or "map"; anything else raises
+    ValueError naming shadows."""
     scene = square_scene()
     cam = camera(**SQUARE_CAM, w=32, h=24)
-    for value in ("x", "map", "bogus"):
+    for value in ("x", "maps", "bogus"):
         with pytest.raises(ValueError, match="shadows"):
             render(scene, cam, shadows=value, outputs=("color",))
 

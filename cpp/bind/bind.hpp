@@ -54,7 +54,7 @@ extern const Name<int> kNormalKindNames[2];      // 1: RenderOptions::shading_no
 extern const Name<int> kFilterNames[4];          // TextureFilter (texture.hpp)
 extern const Name<int> kWrapNames[3];            // Wrap (texture.hpp)
 extern const Name<LightKind> kLightKindNames[3];
-extern const Name<ShadowMethod> kShadowMethodNames[2];
+extern const Name<ShadowMethod> kShadowMethodNames[3];
 
 // The value named `s` in `names`, or ValueError naming `what` and the choices.
 template <typename E, std::size_t N>

@@ -37,8 +37,9 @@ const Name<int> kWrapNames[3] = {{"repeat", int(Wrap::Repeat)}, {"clamp", int(Wr
 const Name<LightKind> kLightKindNames[3] = {{"directional", LightKind::Directional},
                                             {"point", LightKind::Point},
                                             {"spot", LightKind::Spot}};
-const Name<ShadowMethod> kShadowMethodNames[2] = {{"none", ShadowMethod::None},
-                                                  {"exact", ShadowMethod::Exact}};
+const Name<ShadowMethod> kShadowMethodNames[3] = {{"none", ShadowMethod::None},
+                                                  {"exact", ShadowMethod::Exact},
+                                                  {"map", ShadowMethod::Map}};
 
 py::dict& record_docs() {
   static py::dict* docs = new py::dict();  // (made with the GIL held; lives as long as Python)

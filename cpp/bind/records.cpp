@@ -3,6 +3,7 @@
 // are cached by the Python scene) and read by a render without parsing.
 #include "records.hpp"
 
+#include "../shadow.hpp"
 #include "../texture.hpp"
 
 #include <array>
@@ -123,6 +124,8 @@ void bind_material(py::module_& m) {
 }
 #undef SR_TEXTURE_FIELD
 
+void attach_shadow_map(Light& light, const py::list& faces, double bias);
+
 void bind_light(py::module_& m) {
   Record<Light>(m, "Light", "A light in world space (python/softrast/light.py).")
       .field<std::string>("kind", "str", "'directional', 'point' or 'spot'",
@@ -146,10 +149,45 @@ void bind_light(py::module_& m) {
       .field<float>("cone_offset", "float", "spot: see cone_scale",
           +[](const Light& l) { return l.cone_offset; },
           +[](Light& l, float v) { l.cone_offset = v; })
-      .field<std::string>("shadow", "str", "'none' or 'exact' (cpp/shadow.hpp)",
+      .field<std::string>("shadow", "str", "'none', 'exact' or 'map' (cpp/shadow.hpp)",
           +[](const Light& l) { return std::string(name_of(l.shadow, kShadowMethodNames)); },
           +[](Light& l, std::string v) { l.shadow = parse_name(v, kShadowMethodNames, "Light: shadow"); })
       .finish();
+  m.def("_attach_shadow_map", &attach_shadow_map, py::arg("light"), py::arg("faces"), py::arg("bias"),
+        "Gives a light record its shadow maps (python/softrast/shadow_maps.py): faces of "
+        "(view, proj, orthographic, depth); the depth maps are copied.");
+}
+
+// A light's shadow maps (python/softrast/shadow_maps.py): faces of (view, proj, orthographic,
+// depth), view and proj (4, 4) float64 row-major, depth (n, n) float32; copied.
+void attach_shadow_map(Light& light, const py::list& faces, double bias) {
+  auto map = std::make_shared<ShadowMap>();
+  map->bias = bias;
+  const auto mat = [](const py::handle& obj) {
+    auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
+    if (!a || a.ndim() != 2 || a.shape(0) != 4 || a.shape(1) != 4)
+      throw py::value_error("shadow map: a matrix must be (4, 4)");
+    dmat4 m;
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c) m[c][r] = a.at(r, c);
+    return m;
+  };
+  for (const py::handle& item : faces) {
+    const py::tuple face = py::reinterpret_borrow<py::tuple>(item);
+    if (face.size() != 4) throw py::value_error("shadow map: a face is (view, proj, orthographic, depth)");
+    ShadowMapFace f;
+    f.view = mat(face[0]);
+    f.proj = mat(face[1]);
+    f.orthographic = face[2].cast<bool>();
+    auto depth = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(face[3]);
+    if (!depth || depth.ndim() != 2 || depth.shape(0) != depth.shape(1) || depth.shape(0) < 1)
+      throw py::value_error("shadow map: depth must be a square (n, n) array");
+    f.size = int(depth.shape(0));
+    f.depth.assign(depth.data(), depth.data() + depth.size());
+    map->faces.push_back(std::move(f));
+  }
+  light.shadow = ShadowMethod::Map;
+  light.map = std::move(map);
 }
 
 void bind_draw(py::module_& m) {

@@ -105,7 +105,7 @@ class Light:
     inverse_square: bool  # point and spot: radiance / r^2
     cone_scale: float  # spot: clamp(cos * cone_scale + cone_offset, 0, 1)^2
     cone_offset: float  # spot: see cone_scale
-    shadow: str  # 'none' or 'exact' (cpp/shadow.hpp)
+    shadow: str  # 'none', 'exact' or 'map' (cpp/shadow.hpp)
 
 class Material:
     """A material (python/softrast/material.py states each field's meaning)."""
@@ -227,6 +227,8 @@ class _LensRays:
     """One distorted camera's rays at one image size, checked once (distortion.py's _Rays)."""
     def __init__(self: _LensRays, valid: numpy.ndarray, nearest: numpy.ndarray, corner: numpy.ndarray, view_width: int, view_size: int, pixel: numpy.ndarray, xy: numpy.ndarray, slot: numpy.ndarray, cell_start: numpy.ndarray, nx: int, ny: int, frame: typing.Annotated[collections.abc.Sequence[float], "FixedSize(4)"]) -> None: ...
 
+# Gives a light record its shadow maps (python/softrast/shadow_maps.py): faces of (view, proj, orthographic, depth); the depth maps are copied.
+def _attach_shadow_map(light: Light, faces: list, bias: float) -> None: ...
 # out[p] = the bilinear interpolation of src at pixel p's ray (uint8 rounded half up).
 def _distortion_bilinear(rays: _LensRays, weights: numpy.ndarray, src: numpy.ndarray, out: numpy.ndarray) -> None: ...
 # Per output pixel, the nearest hit of its own ray among every triangle of the draws (float64): the named outputs, flat.

@@ -15,7 +15,9 @@ A scene without lights is lit by a headlight: a white directional light along th
 viewing axis of intensity ``1 - ambient`` (render's ``ambient``) plus an ambient light of
 ``ambient``, which is exactly today's Lambert shading.
 
-Shadows: every light type takes ``shadows=False`` (default), ``True`` or ``"exact"`` (the same).
+Shadows: every light type takes ``shadows=False`` (default), ``True`` or ``"exact"`` (the same),
+or ``"map"``.
+
 An exact shadow is a hard shadow decided where the light is evaluated (each pixel; each vertex or
 face centre at those frequencies) by a ray to the light (toward a point or spot light's position,
 blockers between the point and the light only; along the direction of a directional light),
@@ -25,11 +27,19 @@ There is no bias to tune: a triangle whose plane passes through the shaded point
 float32 precision of its coordinates (2^-19 of their magnitude), does not shadow it, so surfaces
 never shadow themselves (no acne, even at grazing light). A shadowed light is evaluated at
 every pixel (the ray starts there), so a flat face under directional lights, otherwise lit once
-per face, may differ from the unshadowed render in the last float32 bits. A shadowed light's diffuse and specular
-terms are multiplied by 0 in every lit model; ambient and emissive light are not shadowed.
-``render(shadows=...)`` overrides every light's setting for one render. ``shadow_resolution``
-(an int >= 1, default 2048) and ``shadow_bias`` (>= 0, default 0.005) are checked and kept for
-shadow maps, which are not drawn yet (``shadows="map"`` raises ValueError).
+per face, may differ from the unshadowed render in the last float32 bits.
+
+A shadow map is what pyrender and game engines draw: softrast renders the occluders' depth from
+the light (``shadow_resolution`` texels square, default 2048: an orthographic view fitted to the
+occluders for a directional light, a perspective one over the cone for a spot light, a cube of
+six for a point light or a spot wider than 150 degrees; softrast.shadow_maps) once per scene
+state, and filters its comparisons as pyrender does (3 x 3 bilinear percentage-closer
+filtering: soft edges a few texels wide), with a bias of ``shadow_bias`` scene units (default
+0.005) plus a slope-scaled term of two texels (cpp/shadow.hpp).
+
+A shadowed light's diffuse and specular terms are multiplied by its visibility (0 or 1 exact, a
+fraction with maps) in every lit model; ambient and emissive light are not shadowed.
+``render(shadows=...)`` overrides every light's setting for one render.
 """
 from __future__ import annotations
 
@@ -44,9 +54,10 @@ from ._checks import choice, float32_real, real, unit_rgb, unit_vector
 __all__ = ["DirectionalLight", "Light", "PointLight", "SpotLight"]
 
 FALLOFFS = ("inverse_square", "none")
-# A light's `shadows`: False, or the method (True means "exact"). The core's names: "none", "exact".
-SHADOW_METHODS = ("exact",)
-_NO_SHADOW, _EXACT = _core.SHADOW_METHODS
+# A light's `shadows`: False, or the method (True means "exact"). The core's names: "none",
+# "exact", "map".
+SHADOW_METHODS = ("exact", "map")
+_NO_SHADOW, _EXACT, _MAP = _core.SHADOW_METHODS
 # Kinds as the core names them (cpp/bind/module.cpp, Light.kind).
 _DIRECTIONAL, _POINT, _SPOT = _core.LIGHT_KINDS  # "directional", "point", "spot"
 
@@ -58,10 +69,8 @@ def shadow_method(value: Any, name: str = "shadows") -> str | bool:
         return False
     if isinstance(value, (bool, np.bool_)):
         return "exact" if value else False
-    if value == "map":
-        raise ValueError(f"{name}='map': shadow maps are not drawn yet; use {name}='exact' (or True)")
     if not isinstance(value, str) or value not in SHADOW_METHODS:
-        raise ValueError(f"{name} must be False, True or 'exact', got {value!r:.80}")
+        raise ValueError(f"{name} must be False, True, 'exact' or 'map', got {value!r:.80}")
     return value
 
 
@@ -126,13 +135,18 @@ class Light:
         fields = ", ".join(f"{k}={getattr(self, k)!r}" for k in self._fields())
         return f"{type(self).__name__}({fields})"
 
-    def _core(self, pose_world: np.ndarray, shadows: str | bool | None = None) -> Any:
+    def _core(self, pose_world: np.ndarray, shadows: str | bool | None = None,
+              maps: list[tuple[Any, ...]] | None = None) -> Any:
         """The core's light record (``softrast._core.Light``), in world space; ``shadows``
-        (render's override, checked) replaces the light's own setting unless None."""
+        (render's override, checked) replaces the light's own setting unless None; a "map"
+        light's ``maps`` are its faces, (view, proj, orthographic, depth) each."""
         fields = self._record_fields(pose_world)
         method = self.shadows if shadows is None else shadows
-        fields["shadow"] = _EXACT if method else _NO_SHADOW
-        return _core.Light(**fields)
+        fields["shadow"] = {False: _NO_SHADOW, "exact": _EXACT, "map": _MAP}[method]
+        record = _core.Light(**fields)
+        if method == "map":
+            _core._attach_shadow_map(record, list(maps or []), self.shadow_bias)
+        return record
 
     def _record_fields(self, pose_world: np.ndarray) -> dict[str, Any]:
         """The fields of the core's light record, by name, in float64 (the record holds float32;

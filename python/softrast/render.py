@@ -12,6 +12,7 @@ from . import _core
 from ._checks import choice, image_side, integer, real, unit_rgb
 from .camera import Camera
 from .light import shadow_method
+from .shadow_maps import map_cameras, occluder_bounds
 from .limits import check_budget
 from .scene import Scene
 from .texture import FILTERS_WITH_MIPS, check_filter
@@ -323,7 +324,41 @@ def sample_positions(msaa: int = 1, ssaa: int = 1) -> npt.NDArray[np.float64]:
     return np.array(_core._sample_pattern(msaa, ssaa), dtype=np.float64) / (1 << _core.SUBPIXEL_BITS)
 
 
-def _lights(scene: Scene, view: Any, shadows: str | bool | None = None) -> list[Any]:
+def _caster_scene(scene: Scene) -> Scene:
+    """The scene's mesh instances that cast shadows (not blended), without lights, lines or
+    points: what a shadow map sees."""
+    casters = Scene()
+    for inst in scene.instances:
+        if inst.material is None or inst.material.alpha_mode != "blend":
+            casters.add(inst.mesh, pose=inst.pose, instance_id=inst.instance_id, color=inst.color,
+                        material=inst.material)
+    return casters
+
+
+def _light_maps(scene: Scene, li: Any, pose: np.ndarray, threads: int, simd: bool) -> list[Any]:
+    """A shadow-mapped light's faces (view, proj, orthographic, depth), rendered by softrast from
+    the cameras shadow_maps.map_cameras fits to the occluders."""
+    light = li.light
+    corners = occluder_bounds(scene.instances)
+    if corners is None:
+        return []
+    n = light.shadow_resolution
+    fields = light._record_fields(pose)
+    cams = map_cameras(light._kind, np.asarray(fields["position"]),
+                       np.asarray(fields["direction"]), getattr(light, "outer_cone", 0.0),
+                       corners, n)
+    casters = scene._cached("shadow_casters", lambda: _caster_scene(scene))
+    r = Renderer(n, n, threads=threads, simd=simd)
+    faces = []
+    for cam in cams:
+        depth = r.render(casters, cam, outputs=("depth",), cull="none").depth
+        view, proj = cam._render_matrices(n, n)
+        faces.append((view, proj, cam.orthographic, np.ascontiguousarray(depth)))
+    return faces
+
+
+def _lights(scene: Scene, view: Any, shadows: str | bool | None = None,
+            renderer: tuple[int, bool] = (0, True)) -> list[Any]:
     """The core's light records (world space) of the scene's lights for one render, cached in the
     scene for the last view matrix (cameras keep one array per pose) and shadow override:
     camera-space lights move with it. A scene without lights gets the headlight from the core."""
@@ -339,7 +374,16 @@ def _lights(scene: Scene, view: Any, shadows: str | bool | None = None) -> list[
             if cam_to_world is None:
                 cam_to_world = np.linalg.inv(np.asarray(view, dtype=np.float64))
             pose = cam_to_world @ pose
-        records.append(li.light._core(pose, shadows))
+        method = li.light.shadows if shadows is None else shadows
+        if method != "map":
+            records.append(li.light._core(pose, shadows))
+            continue
+        # A shadow-mapped light's record holds its maps: kept in the scene until it changes
+        # (not for a camera-space light, whose pose follows every view).
+        def make(li=li, pose=pose) -> Any:
+            return li.light._core(pose, shadows, _light_maps(scene, li, pose, *renderer))
+        records.append(make() if li.camera_space else
+                       scene._cached(("shadow_map", li.light, pose.tobytes(), shadows), make))
     # Stored with the version read before the lights were: used only while it is current.
     scene._render_cache["lights"] = (version, view, records, shadows)
     return records
@@ -624,9 +668,10 @@ class Renderer:
               draw's model reads positions or uvs (lights, textures), else the snapped
               triangle's, whose point lies within 1/724 px of the pixel's. Meshes without such maps, the vertex and face frequencies, and the
               "uv" and "depth" views give the interpolated normal either way.
-        shadows : None (default: each light's own ``shadows``), False (no light casts shadows)
-              or True / "exact" (every light casts exact shadows: softrast.light states the
-              rule). Shadows darken only the colour and radiance outputs.
+        shadows : None (default: each light's own ``shadows``), False (no light casts shadows),
+              True / "exact" (every light casts exact shadows) or "map" (shadow maps):
+              softrast.light states the rules. Shadows darken only the colour and radiance
+              outputs.
         raster : how triangles are filled: "edge" (default; edge functions tested at every
               pixel of a triangle's box) or "scanline" (each row's span found by edge walking,
               the classical algorithm). Both use the same snapped vertices and top-left rule, so
@@ -736,7 +781,8 @@ class Renderer:
             "cull_double_sided": bool(cull_double_sided), "normal_kind": normal_kind,
             "shading": shading,
             "shading_path": shading_path, "background": bg, "ambient": ambient_f, "out": out_arrays,
-            "lights": _lights(scene, view, shadow_override), "ambient_light": scene.ambient_light,
+            "lights": _lights(scene, view, shadow_override, self._args[2:]),
+            "ambient_light": scene.ambient_light,
             "frequency": frequency, "srgb": bool(srgb), "texture_filter": texture_filter,
             "normal_rotation": None if normal_space == "world" else
             tuple(map(tuple, camera.pose[:3, :3].T.tolist())),

@@ -842,7 +842,9 @@ def _feature_costs(s: Settings) -> list[dict[str, Any]]:
                     ("4 point lights", scene_with(lights=4), colour_depth)]),
         ("shadows", [("1 point light", scene_with(lights=1), colour_depth),
                      ("1 point light, exact shadows (a ray per lit pixel)", scene_with(lights=1),
-                      colour_depth, {"shadows": True})]),
+                      colour_depth, {"shadows": True}),
+                     ("1 point light, shadow map (a cube of six, made once per scene state)",
+                      scene_with(lights=1), colour_depth, {"shadows": "map"})]),
         ("normal output", [("color + depth", plain, colour_depth),
                            ("color + depth + normal", plain, colour_depth + ("normal",))]),
         # the exact surface step (cpp/surface.cpp): each pixel's ray on its face, in double
