@@ -249,18 +249,18 @@ double map_visibility(const ShadowMap& map, const Light& light, const dvec3& p, 
       slope = cosine >= 0.0995 ? std::sqrt(std::max(0.0, 1.0 - cosine * cosine)) / cosine : 10.0;
     }
     const double compare = depth - (map.bias + 2.0 * texel * slope);
+    // The 3 x 3 bilinear taps one texel apart cover 4 x 4 texels, with weights (1 - f, 1, 1, f)
+    // along each axis (f the fraction of the tap's position): 16 comparisons, not 36.
+    const double x0 = std::floor(sx), y0 = std::floor(sy);
+    const double fx = sx - x0, fy = sy - y0;
+    const double wx[4] = {1.0 - fx, 1.0, 1.0, fx}, wy[4] = {1.0 - fy, 1.0, 1.0, fy};
+    const int i0 = int(x0) - 1, j0 = int(y0) - 1;
     double sum = 0.0;
-    for (int dy = -1; dy <= 1; ++dy)
-      for (int dx = -1; dx <= 1; ++dx) {
-        const double x = sx + dx, y = sy + dy;
-        const double x0 = std::floor(x), y0 = std::floor(y);
-        const double fx = x - x0, fy = y - y0;
-        const int i = int(x0), j = int(y0);
-        const double top = texel_passes(f, i, j, compare) * (1.0 - fx) + texel_passes(f, i + 1, j, compare) * fx;
-        const double bottom = texel_passes(f, i, j + 1, compare) * (1.0 - fx) +
-                              texel_passes(f, i + 1, j + 1, compare) * fx;
-        sum += top * (1.0 - fy) + bottom * fy;
-      }
+    for (int b = 0; b < 4; ++b) {
+      double row = 0.0;
+      for (int a = 0; a < 4; ++a) row += wx[a] * texel_passes(f, i0 + a, j0 + b, compare);
+      sum += wy[b] * row;
+    }
     return sum / 9.0;
   }
   return 1.0;
