@@ -41,6 +41,11 @@ struct Box {
 }  // namespace
 
 void ShadowScene::build(const std::vector<Draw>& draws, const std::vector<uint8_t>& casts) {
+  std::vector<std::pair<std::shared_ptr<const MeshData>, dmat4>> from;
+  for (std::size_t d = 0; d < draws.size(); ++d)
+    if (casts[d]) from.emplace_back(draws[d].mesh, draws[d].model);
+  if (!from.empty() && from == built_from_) return;  // (the same occluders: kept)
+  built_from_ = std::move(from);
   tris_.clear();
   nodes_.clear();
   std::vector<Box> boxes;

@@ -42,11 +42,14 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
+#include <utility>
 #include <vector>
 
 namespace sr {
 
 struct Draw;
+struct MeshData;
 
 // One camera's depth map of a shadow-mapped light (rows from the top, as softrast's images).
 struct ShadowMapFace {
@@ -68,12 +71,14 @@ double map_visibility(const ShadowMap& map, const Light& light, const dvec3& p, 
 class ShadowScene {
  public:
   // The occluders: every triangle of each draw d with casts[d], posed in double by its model
-  // matrix. Triangles of zero area (or not finite) are left out: no ray meets them.
+  // matrix. Triangles of zero area (or not finite) are left out: no ray meets them. Kept as it
+  // is when the casting draws are the same meshes under the same matrices as last time (a
+  // dataset's views of one scene build it once); it holds those meshes until the next build.
   void build(const std::vector<Draw>& draws, const std::vector<uint8_t>& casts);
   // Whether an occluder blocks the ray from p toward `light` (the rule above).
   bool blocked(const Light& light, const dvec3& p) const;
   std::size_t size() const { return tris_.size(); }
-  void clear() { tris_.clear(); nodes_.clear(); }
+  void clear() { tris_.clear(); nodes_.clear(); built_from_.clear(); }
 
  private:
   struct Tri { dvec3 a, e1, e2; };  // corners a, a + e1, a + e2
@@ -83,6 +88,7 @@ class ShadowScene {
   bool hits(const Tri& tri, const dvec3& o, const dvec3& d, double t_max) const;
   std::vector<Node> nodes_;
   std::vector<Tri> tris_;
+  std::vector<std::pair<std::shared_ptr<const MeshData>, dmat4>> built_from_;  // (mesh, model)
 };
 
 // The visibility (1 or 0) of each light at the points (x[i], y[i], z[i]) of the lanes set in

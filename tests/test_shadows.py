@@ -653,6 +653,33 @@ def test_blended_draws_cast_no_shadow_masked_draws_do():
 
 # --------------------------------------------------------------------------------- bad values
 
+def test_a_renderer_reused_across_scene_edits_matches_a_fresh_one():
+    """A renderer keeps its occluder hierarchy while the casting meshes and their poses stay the
+    same (a dataset's views build it once). Moving the square, removing the
+    square and adding another mesh: each render equals a fresh renderer's, bit for bit, and the
+    shadow moves."""
+    scene = square_scene()
+    cam = camera(**SQUARE_CAM)
+    kept = sr.Renderer(W, H, threads=2)
+
+    def check(what):
+        got = kept.render(scene, cam, outputs=("radiance",)).radiance
+        want = sr.Renderer(W, H, threads=2).render(scene, cam, outputs=("radiance",)).radiance
+        assert got.tobytes() == want.tobytes(), what
+        return got
+
+    first = check("first")
+    assert check("again").tobytes() == first.tobytes()
+    scene.set_pose(1, at(SQUARE_C[0] + 0.7, SQUARE_H, SQUARE_C[1]))
+    moved = check("square moved")
+    assert moved.tobytes() != first.tobytes()
+    scene.remove(1)
+    gone = check("square removed")
+    assert (gone > 0).any(-1).sum() > (moved > 0).any(-1).sum()  # no shadow left: more lit
+    scene.add(box_mesh((0.5, 0.5, 0.5), material=lambert()), pose=at(0.5, 0.6, 0.3), instance_id=2)
+    check("a box added")
+
+
 def test_distorted_camera_shows_the_shadows():
     """A camera with lens distortion renders colour from an ideal pinhole view: the shadows come
     with it, and render(shadows=False) passes through to that view."""
