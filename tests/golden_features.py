@@ -408,6 +408,24 @@ def _scenes() -> dict[str, tuple[int, int, Build, dict]]:
     add("auto_mixed_materials_coverage_linear", 97, 70, outputs=OUTPUTS, srgb=False,
         cull_double_sided=True)(mixed)
     add("auto_mixed_materials_headlight", 97, 70, ambient=0.3)(lambda m: mixed(m, lights=False))
+    # Shadows: every model under exact shadows from all three lights (the spheres shadow each
+    # other and themselves), and shadow maps of 96 texels (cheap under the sanitizers).
+    add("auto_mixed_materials_shadows_exact", 97, 70, shadows=True)(mixed)
+
+    def mapped(m):
+        sc, cam = mixed(m, lights=False)
+        t = np.zeros(3)
+        sc.add(sr.PointLight(color=(1.0, 0.85, 0.6), intensity=7.0, shadows="map",
+                             shadow_resolution=96), pose=_translate(*(t + (1.6, 1.4, -1.2))))
+        sc.add(sr.SpotLight(color=(0.5, 0.75, 1.0), intensity=12.0, inner_cone=0.12, outer_cone=0.4,
+                            shadows="map", shadow_resolution=64, shadow_bias=0.01),
+               pose=_aim(t + (-1.4, 1.9, 1.6), t))
+        sc.add(sr.DirectionalLight(intensity=0.55, shadows="map", shadow_resolution=80),
+               pose=_aim(t + (0.4, 1.0, 0.7), t))
+        sc.ambient_light = (0.05, 0.045, 0.07)
+        return sc, cam
+
+    add("auto_mixed_materials_shadow_maps", 97, 70)(mapped)
 
     # -- every lit model forced, at every frequency, under every kind of light ------------------
     def lit_spot(m):
