@@ -27,14 +27,9 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def light_pose(position, target) -> np.ndarray:
-    """A pose at `position` whose -z axis points at `target`."""
-    z = np.asarray(position, float) - np.asarray(target, float)
-    z /= np.linalg.norm(z)
-    x = np.cross([0.0, 1.0, 0.0], z)
-    x /= np.linalg.norm(x)
-    pose = np.eye(4)
-    pose[:3, 0], pose[:3, 1], pose[:3, 2], pose[:3, 3] = x, np.cross(z, x), z, position
-    return pose
+    """A pose at `position` whose -z axis points at `target` (a camera's look_at: lights shine
+    along -z as cameras look)."""
+    return sr.PerspectiveCamera().look_at(position, target).pose
 
 
 def scene_of(kind: str) -> tuple[sr.Scene, sr.PerspectiveCamera]:

@@ -27,6 +27,8 @@ from typing import Iterable, NamedTuple
 
 import numpy as np
 
+from shading_reference import pose_at
+
 EPS_SCALE = 2.0 ** -19          # the rule's relative plane distance
 EXCLUDE_BAND = 4.0              # plane distances in [eps / 4, 4 eps] are ambiguous
 PAIRS_PER_CHUNK = 400_000       # points x triangles evaluated at once (bounds memory to ~100 MB)
@@ -43,15 +45,8 @@ class RefLight(NamedTuple):
 
 def light_pose(position=(0.0, 0.0, 0.0), travel=(0.0, -1.0, 0.0)) -> np.ndarray:
     """A rigid light-to-world pose at ``position`` whose -z axis (the way the light travels) is
-    ``travel``."""
-    z = -np.asarray(travel, float)
-    z = z / np.linalg.norm(z)
-    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    x = np.cross(helper, z)
-    x /= np.linalg.norm(x)
-    pose = np.eye(4)
-    pose[:3, 0], pose[:3, 1], pose[:3, 2], pose[:3, 3] = x, np.cross(z, x), z, position
-    return pose
+    ``travel`` (shading_reference.pose_at)."""
+    return pose_at(position, travel)
 
 
 def light_from_pose(kind: str, pose: np.ndarray) -> RefLight:

@@ -43,13 +43,9 @@ AMBIENT = (0.1, 0.1, 0.1)
 
 
 def light_pose(position, target) -> np.ndarray:
-    z = np.asarray(position, float) - np.asarray(target, float)
-    z /= np.linalg.norm(z)
-    x = np.cross([0.0, 1.0, 0.0], z)
-    x /= np.linalg.norm(x)
-    pose = np.eye(4)
-    pose[:3, 0], pose[:3, 1], pose[:3, 2], pose[:3, 3] = x, np.cross(z, x), z, position
-    return pose
+    """A pose at ``position`` whose -z axis points at ``target`` (lights shine along -z as
+    cameras look)."""
+    return sr.PerspectiveCamera().look_at(position, target).pose
 
 
 LIGHTS = {
