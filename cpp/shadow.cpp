@@ -61,7 +61,8 @@ void ShadowScene::build(const std::vector<Draw>& draws, const std::vector<uint8_
       const dvec3 n = glm::cross(e1, e2);
       if (!(std::isfinite(n.x) && std::isfinite(n.y) && std::isfinite(n.z)) || n == dvec3(0.0))
         continue;
-      tris_.push_back({v[0], e1, e2});
+      tris_.push_back({v[0], e1, e2, n, glm::dot(n, n),
+                       std::max(max_abs(v[0]), std::max(max_abs(v[1]), max_abs(v[2])))});
       Box b;
       for (int k = 0; k < 3; ++k) b.grow(v[k]);
       boxes.push_back(b);
@@ -86,7 +87,8 @@ void ShadowScene::build(const std::vector<Draw>& draws, const std::vector<uint8_
       box.grow(boxes[order[i]]);
       centre_box.grow(centres[order[i]]);
     }
-    nodes_.push_back({box.lo, box.hi, w.begin, w.end - w.begin});
+    nodes_.push_back({{{box.lo.x, box.lo.y, box.lo.z}, {box.hi.x, box.hi.y, box.hi.z}},
+                      w.begin, w.end - w.begin});
     const uint32_t count = w.end - w.begin;
     if (count <= kLeafTriangles || w.depth >= kMaxDepth) continue;
     // The surface-area heuristic over kBins bins of the centres along each axis (all three: a
@@ -153,28 +155,29 @@ void ShadowScene::build(const std::vector<Draw>& draws, const std::vector<uint8_
   tris_.swap(sorted);
 }
 
-bool ShadowScene::hits(const Tri& tri, const dvec3& o, const dvec3& d, double t_max) const {
-  // Moller-Trumbore, edges included.
+__attribute__((always_inline)) inline bool ShadowScene::hits(const Tri& tri, const dvec3& o,
+                                                              const dvec3& d, double t_max) const {
+  // The plane first (two dot products): the ray meets it at t = -(n . (o - a)) / (n . d), which
+  // must lie in (0, t_max) (no division: signs and magnitudes).
+  const dvec3 tvec = o - tri.a;
+  const double along = glm::dot(tri.n, tvec), dn = glm::dot(tri.n, d);
+  if (!(along * dn < 0.0)) return false;
+  if (t_max < std::numeric_limits<double>::infinity() && !(std::fabs(along) < t_max * std::fabs(dn)))
+    return false;
+  // A triangle whose plane passes through the shaded point (within its float32 precision) does
+  // not shadow it: |n . (o - a)| / |n| <= eps, squared.
+  const double eps = kOnSurface * std::max(tri.scale, max_abs(o));
+  if (along * along <= eps * eps * tri.nn) return false;
+  // Inside the triangle: Moller-Trumbore's barycentrics, edges included.
   const dvec3 pvec = glm::cross(d, tri.e2);
   const double det = glm::dot(tri.e1, pvec);
   if (det == 0.0 || !std::isfinite(det)) return false;
   const double inv = 1.0 / det;
-  const dvec3 tvec = o - tri.a;
   const double u = glm::dot(tvec, pvec) * inv;
   if (!(u >= 0.0 && u <= 1.0)) return false;
   const dvec3 qvec = glm::cross(tvec, tri.e1);
   const double v = glm::dot(d, qvec) * inv;
-  if (!(v >= 0.0 && u + v <= 1.0)) return false;
-  const double t = glm::dot(tri.e2, qvec) * inv;
-  if (!(t > 0.0 && t < t_max)) return false;
-  // A triangle whose plane passes through the shaded point (within its float32 precision) does
-  // not shadow it.
-  // (|n . (o - a)| / |n| <= eps, squared: no square root or division.)
-  const dvec3 n = glm::cross(tri.e1, tri.e2);
-  const double along = glm::dot(n, tvec);
-  const double eps = kOnSurface * std::max(std::max(max_abs(tri.a), max_abs(o)),
-                                           std::max(max_abs(tri.a + tri.e1), max_abs(tri.a + tri.e2)));
-  return !(along * along <= eps * eps * glm::dot(n, n));
+  return v >= 0.0 && u + v <= 1.0;
 }
 
 bool ShadowScene::blocked(const Light& light, const dvec3& o) const {
@@ -190,22 +193,21 @@ bool ShadowScene::blocked(const Light& light, const dvec3& o) const {
     if (d == dvec3(0.0)) return false;  // (the light at the point: it lights nothing there)
   }
   const dvec3 inv = 1.0 / d;
+  // Per axis, which of a box's corners the ray meets first: the slab test without branches.
+  const int near[3] = {inv.x < 0.0, inv.y < 0.0, inv.z < 0.0};
   uint32_t stack[kMaxDepth + 2];
   int top = 0;
   uint32_t node = 0;
   for (;;) {
     const Node& n = nodes_[node];
     double t0 = 0.0, t1 = t_max;
-    bool in = true;
-    for (int a = 0; a < 3 && in; ++a) {
-      double near = (n.lo[a] - o[a]) * inv[a], far = (n.hi[a] - o[a]) * inv[a];
-      if (near > far) std::swap(near, far);
-      far *= kSlabPad;
-      t0 = near > t0 ? near : t0;  // (NaN, 0 * inf on a slab's face: the axis does not narrow)
-      t1 = far < t1 ? far : t1;
-      in = t0 <= t1;
+    for (int a = 0; a < 3; ++a) {
+      const double enter = (n.bound[near[a]][a] - o[a]) * inv[a];
+      const double leave = (n.bound[1 - near[a]][a] - o[a]) * inv[a] * kSlabPad;
+      t0 = enter > t0 ? enter : t0;  // (NaN, 0 * inf on a slab's face: the axis does not narrow)
+      t1 = leave < t1 ? leave : t1;
     }
-    if (in) {
+    if (t0 <= t1) {
       if (n.count == 0) {
         // Both children: the first now, the second later.
         stack[top++] = n.index;
@@ -234,10 +236,10 @@ double texel_passes(const ShadowMapFace& f, int i, int j, double compare) {
 
 double map_visibility(const ShadowMap& map, const Light& light, const dvec3& p, const dvec3& n) {
   for (const ShadowMapFace& f : map.faces) {
-    const dvec4 v = f.view * dvec4(p, 1.0);
-    const dvec4 c = f.proj * v;
+    const dvec4 c = f.view_proj * dvec4(p, 1.0);
     if (!(c.w > 0.0) || std::fabs(c.x) > c.w || std::fabs(c.y) > c.w) continue;
-    const double depth = -v.z;
+    // The view axis's distance: -(view row 2 . p) (glm: view[column][row]).
+    const double depth = -(f.view[0][2] * p.x + f.view[1][2] * p.y + f.view[2][2] * p.z + f.view[3][2]);
     if (c.z > c.w) return 1.0;  // beyond the far plane
     // Texel-centre coordinates (column x from the left, row y from the top).
     const double sx = (c.x / c.w * 0.5 + 0.5) * f.size - 0.5;
@@ -288,7 +290,8 @@ const float* shadow_lights(const ShadowScene& scene, const Light* lights, int nu
       if (facing) {  // (a lane whose normal faces away gets nothing from the light: no ray)
         const dvec3 l = light.kind == LightKind::Directional ? -dvec3(light.direction)
                                                             : dvec3(light.position) - p;
-        if (glm::dot(n, l) < -0x1p-20 * glm::length(n) * glm::length(l)) continue;
+        const double nl = glm::dot(n, l);  // (n . l < -2^-20 |n| |l|, squared)
+        if (nl < 0.0 && nl * nl > 0x1p-40 * glm::dot(n, n) * glm::dot(l, l)) continue;
       }
       if (light.shadow == ShadowMethod::Map) {
         if (light.map) out[std::size_t(8 * k + i)] = float(map_visibility(*light.map, light, p, n));

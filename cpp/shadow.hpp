@@ -55,6 +55,7 @@ struct MeshData;
 struct ShadowMapFace {
   dmat4 view;  // world -> the light camera's view (OpenGL axes: looking down -z)
   dmat4 proj;  // view -> clip
+  dmat4 view_proj;  // proj * view
   bool orthographic = false;
   int size = 0;  // size x size texels
   std::vector<float> depth;
@@ -81,10 +82,12 @@ class ShadowScene {
   void clear() { tris_.clear(); nodes_.clear(); built_from_.clear(); }
 
  private:
-  struct Tri { dvec3 a, e1, e2; };  // corners a, a + e1, a + e2
+  // Corners a, a + e1, a + e2; n = e1 x e2, nn = n . n, scale = the corners' largest coordinate
+  // magnitude (the on-surface rule's).
+  struct Tri { dvec3 a, e1, e2, n; double nn, scale; };
   // A leaf holds triangles [index, index + count); an inner node (count 0) has its children at
   // this + 1 and at `index`.
-  struct Node { dvec3 lo, hi; uint32_t index, count; };
+  struct Node { double bound[2][3]; uint32_t index, count; };  // bound[0] low, bound[1] high corner
   bool hits(const Tri& tri, const dvec3& o, const dvec3& d, double t_max) const;
   std::vector<Node> nodes_;
   std::vector<Tri> tris_;

@@ -178,6 +178,7 @@ void attach_shadow_map(Light& light, const py::list& faces, double bias) {
     ShadowMapFace f;
     f.view = mat(face[0]);
     f.proj = mat(face[1]);
+    f.view_proj = f.proj * f.view;
     f.orthographic = face[2].cast<bool>();
     auto depth = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(face[3]);
     if (!depth || depth.ndim() != 2 || depth.shape(0) != depth.shape(1) || depth.shape(0) < 1)
