@@ -26,12 +26,6 @@ import softrast as sr
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def light_pose(position, target) -> np.ndarray:
-    """A pose at `position` whose -z axis points at `target` (a camera's look_at: lights shine
-    along -z as cameras look)."""
-    return sr.PerspectiveCamera().look_at(position, target).pose
-
-
 def scene_of(kind: str) -> tuple[sr.Scene, sr.PerspectiveCamera]:
     spot = sr.load_mesh(ROOT / "assets" / "meshes" / "spot.obj")
     scene = sr.Scene(ambient_light=(0.1, 0.1, 0.1))
@@ -41,9 +35,9 @@ def scene_of(kind: str) -> tuple[sr.Scene, sr.PerspectiveCamera]:
                     np.array([[0, 2, 1], [0, 3, 2]]))
     scene.add(floor, material=sr.Material(base_color=(0.7, 0.7, 0.7), model="lambert"))
     if kind == "directional":
-        scene.add(sr.DirectionalLight(intensity=1.2, shadows=True), pose=light_pose((2.0, 3.0, 1.0), (0, 0, 0)))
+        scene.add(sr.DirectionalLight(intensity=1.2, shadows=True), pose=sr.look_at_pose((2.0, 3.0, 1.0), (0, 0, 0)))
     else:
-        scene.add(sr.PointLight(intensity=10.0, shadows=True), pose=light_pose((1.5, 2.5, 1.5), (0, 0, 0)))
+        scene.add(sr.PointLight(intensity=10.0, shadows=True), pose=sr.look_at_pose((1.5, 2.5, 1.5), (0, 0, 0)))
     cam = sr.PerspectiveCamera(fov_y=45.0, near=0.1, far=20.0)
     cam.look_at(eye=(0.3, 1.2, 2.6), target=(0.0, 0.0, 0.0))
     return scene, cam

@@ -42,17 +42,11 @@ EYE, TARGET = (3.0, 3.5, 4.0), (0.0, 0.3, 0.0)
 AMBIENT = (0.1, 0.1, 0.1)
 
 
-def light_pose(position, target) -> np.ndarray:
-    """A pose at ``position`` whose -z axis points at ``target`` (lights shine along -z as
-    cameras look)."""
-    return sr.PerspectiveCamera().look_at(position, target).pose
-
-
 LIGHTS = {
-    "directional": dict(pose=light_pose((-2.5, 3.0, -1.5), (0.0, 0.0, 0.0)), intensity=3.0),
-    "spot": dict(pose=light_pose((-1.5, 3.5, 1.5), (0.2, 0.0, 0.0)), intensity=40.0,
+    "directional": dict(pose=sr.look_at_pose((-2.5, 3.0, -1.5), (0.0, 0.0, 0.0)), intensity=3.0),
+    "spot": dict(pose=sr.look_at_pose((-1.5, 3.5, 1.5), (0.2, 0.0, 0.0)), intensity=40.0,
                  inner=0.3, outer=0.7),
-    "point": dict(pose=light_pose((-1.0, 2.5, 1.2), (0.0, 0.0, 0.0)), intensity=25.0),
+    "point": dict(pose=sr.look_at_pose((-1.0, 2.5, 1.2), (0.0, 0.0, 0.0)), intensity=25.0),
 }
 
 
