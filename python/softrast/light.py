@@ -35,7 +35,10 @@ occluders for a directional light, a perspective one over the cone for a spot li
 six for a point light or a spot wider than 150 degrees; softrast.shadow_maps) once per scene
 state, and filters its comparisons as pyrender does (3 x 3 bilinear percentage-closer
 filtering: soft edges a few texels wide), with a bias of ``shadow_bias`` scene units (default
-0.005) plus a slope-scaled term of two texels (cpp/shadow.hpp).
+0.005) plus a slope-scaled term of two texels (cpp/shadow.hpp). A map is kept with the scene
+until the scene changes (a camera-space light's, which moves with every view, is rendered for
+each render); each face holds resolution² float32 depths (16 MB at 2048, six faces for a cube).
+Lines and points cast no shadow with either method.
 
 A shadowed light's diffuse and specular terms are multiplied by its visibility (0 or 1 exact, a
 fraction with maps) in every lit model; ambient and emissive light are not shadowed.
