@@ -19,6 +19,10 @@
 // (blend_before): nearer first, fragments at equal depth (within 2^-20) in draw order, so
 // coplanar layers composite in the order they were drawn.
 //
+// With ssaa, multisample_tile runs this per sample (each sample's opaque raster and shade, the
+// layers walked and shaded at that sample's position) and averages the composites; msaa, which
+// shares a shade between samples, refuses blended draws (renderer.cpp).
+//
 // Outputs (the README states them): colour and radiance are composited (radiance premultiplied:
 // nothing behind counts 0; colour over the background's linear value); alpha is the total
 // coverage, 1 - the transmittance where no opaque surface is seen; depth, ids, mask, normal and

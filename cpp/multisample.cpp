@@ -1,6 +1,7 @@
 // Anti-aliasing: one raster pass per sample, then the resolve (multisample.hpp states the rules).
 #include "multisample.hpp"
 
+#include "blend.hpp"
 #include "dispatch.hpp"
 #include "lines.hpp"
 #include "outputs.hpp"
@@ -212,13 +213,42 @@ Fn kernel(Isa isa) {
   return dispatch::IsaKernel<K, Fn>::get(isa);
 }
 
+// ssaa with blended draws: composites sample s's blended fragments over its opaque surface
+// (`raster`, and its shade `shaded` when colour is shaded), adds the sample's alpha to
+// ms.blend_alpha, and leaves the composite (premultiplied) in shaded.rgb with the sample's weight
+// set wherever something is seen there, for Accumulate. Scalar, compiled once.
+void blend_sample(const BlendParams& blend, const TileRect& rect, int tile, const TileScratch& raster,
+                  ShadeScratch* shaded, BlendScratch& bs, MultisampleScratch& ms, int s, int n) {
+  for (TileScratch& layer : bs.layer) {
+    layer.sample_x = raster.sample_x;
+    layer.sample_y = raster.sample_y;
+    layer.tie = raster.tie;
+  }
+  // (shaded null: alpha alone; blend_tile then reads no shade)
+  const bool composited = blend_tile(blend, rect, tile, raster, shaded ? *shaded : ms.resolved_shade, bs);
+  const int width = rect.x1 - rect.x0;
+  for (int row = 0; row < n; row += kTileSizePx)
+    for (int i = row; i < row + width; ++i) {
+      if (!composited) {
+        ms.blend_alpha[i] += raster.visible[i] != kNoTriangle ? 1.0f : 0.0f;
+        continue;
+      }
+      ms.blend_alpha[i] += bs.alpha[i];
+      if (shaded && bs.seen[i] != kNoTriangle) {
+        for (int c = 0; c < 3; ++c) shaded->rgb[c][i] = bs.radiance[c][i];
+        ms.weight[s][i] = 1;
+      }
+    }
+}
+
 }  // namespace
 
 void multisample_tile(const ShadeParams& params, const TileKernels& kernels,
                       const Viewport& viewport, int tile, const std::vector<SetupChunk>& chunks,
                       std::size_t num_chunks, bool per_sample, float tie,
                       const vec3& background_linear, MultisampleScratch& ms,
-                      const PrimitiveSetup* primitives, PrimitivePixels* pixels) {
+                      const PrimitiveSetup* primitives, PrimitivePixels* pixels,
+                      const BlendParams* blend, BlendScratch* blend_scratch) {
   const SamplePattern& pattern = viewport.samples;
   const int count = pattern.count;
   const TileRect rect = tile_rect(viewport, tile);
@@ -242,9 +272,18 @@ void multisample_tile(const ShadeParams& params, const TileKernels& kernels,
   kernel<Resolve, void (*)(MultisampleScratch*, int, int, const uint8_t*, bool, bool, bool)>(isa)(
       &ms, n, count, order, kernels.coverage, shading, per_sample);
 
+  // Blended draws (ssaa): every sample composited before the resolve (blend_sample).
+  const bool blending = blend && blend_scratch && per_sample;
+  if (blending) std::fill_n(ms.blend_alpha, n, 0.0f);
   // Shading: pass s shades the pixels where its weight is set (the others are masked off in its
   // visibility buffer, which the resolve no longer reads), and its shade is summed with that
   // weight.
+  if (blending && !blend->shade) {  // (alpha alone: no colour is shaded)
+    for (int s = 0; s < count; ++s)
+      blend_sample(*blend, rect, tile, *passes[s], nullptr, *blend_scratch, ms, s, n);
+    const float inv = 1.0f / float(count);
+    for (int i = 0; i < n; ++i) ms.alpha[i] = ms.blend_alpha[i] * inv;
+  }
   if (shading) {
     const bool normals = params.framebuffer->get<float>(kOutNormal) != nullptr;
     for (int c = 0; c < 3; ++c) std::fill_n(ms.radiance[c], n, 0.0f);
@@ -257,14 +296,22 @@ void multisample_tile(const ShadeParams& params, const TileKernels& kernels,
       ShadeScratch* outs[kShadeBatch];
       int pass[kShadeBatch], m = 0;
       for (int s = first; s < std::min(count, first + kShadeBatch); ++s) {
-        if (!mask(&ms, n, s)) continue;
+        if (!mask(&ms, n, s) && !(blending && blend->shade)) continue;
         rasters[m] = ms.sample[s].get();
         outs[m] = &ms.shaded[m];
         pass[m++] = s;
       }
       if (m == 0) continue;
       kernels.deferred(params, rect, rasters, outs, m);
-      for (int k = 0; k < m; ++k) accumulate(&ms, outs[k], n, pass[k], normals);
+      for (int k = 0; k < m; ++k) {
+        if (blending && blend->shade)
+          blend_sample(*blend, rect, tile, *rasters[k], outs[k], *blend_scratch, ms, pass[k], n);
+        accumulate(&ms, outs[k], n, pass[k], normals);
+      }
+    }
+    if (blending && blend->shade) {  // (alpha: the mean of the samples' coverage, layers included)
+      const float inv = 1.0f / float(count);
+      for (int i = 0; i < n; ++i) ms.alpha[i] = ms.blend_alpha[i] * inv;
     }
     const float background[3] = {background_linear.x, background_linear.y, background_linear.z};
     kernel<Finish, void (*)(MultisampleScratch*, int, int, const float*)>(isa)(&ms, n, count,
@@ -289,8 +336,26 @@ void multisample_tile(const ShadeParams& params, const TileKernels& kernels,
                                tie, pixels};
     draw_primitives_tile(*primitives, rect, tile, target);
   }
+  // With blended layers a pixel shows something where any sample saw an opaque surface or a
+  // layer: write_tile takes colour and radiance from the composite's planes (blend.hpp's), here
+  // the resolved means.
+  BlendScratch* composited = nullptr;
+  if (blending && blend->shade) {
+    composited = blend_scratch;
+    const int width = rect.x1 - rect.x0;
+    for (int row = 0; row < n; row += kTileSizePx)
+      for (int i = row; i < row + width; ++i) {
+        const bool seen = ms.resolved.visible[i] != kNoTriangle || ms.alpha[i] > 0.0f;
+        composited->seen[i] = seen ? 0u : kNoTriangle;
+        composited->alpha[i] = ms.alpha[i];
+        for (int c = 0; c < 3; ++c) {
+          composited->color[c][i] = ms.resolved_shade.rgb[c][i];
+          composited->radiance[c][i] = ms.radiance[c][i];
+        }
+      }
+  }
   write_tile(params, rect, ms.resolved, ms.resolved_shade, isa, &samples,
-             overlay ? pixels : nullptr);
+             overlay ? pixels : nullptr, composited);
 }
 
 }  // namespace sr

@@ -32,6 +32,8 @@ namespace sr {
 
 struct PrimitiveSetup;   // lines.hpp
 struct PrimitivePixels;
+struct BlendParams;      // blend.hpp
+struct BlendScratch;
 
 // The most samples msaa_pattern makes: the resolve of a render shading once per pixel per
 // triangle keeps that many weights per lane group (multisample_tile requires it).
@@ -72,6 +74,7 @@ struct MultisampleScratch {
   uint32_t coverage[kTileScratchPixels];
   int32_t representative[kTileScratchPixels];
   int32_t weight[kMaxSamples][kTilePixels];  // samples one pass's shade stands for (0: none)
+  float blend_alpha[kTileScratchPixels];      // ssaa with blending: alpha summed over samples
 };
 
 // Rasterizes, shades and resolves `tile` with the viewport's sample pattern (count > 1), then
@@ -79,12 +82,16 @@ struct MultisampleScratch {
 // `tie` is the render's tie factor (rasterize.hpp); `background_linear` the background colour's
 // linear value, mixed into partly covered pixels of the colour output. `primitives` (or null):
 // the render's lines and points, drawn over the resolved tile (whole pixels, alpha 1) with
-// `pixels` as their scratch.
+// `pixels` as their scratch. `blend` (ssaa only, with `blend_scratch`): the render's blended
+// draws, composited at every sample over that sample's opaque surface before the resolve
+// (blend.hpp): radiance and colour are the mean of the samples' composites, alpha the mean of
+// their coverage (1 - transmittance where no opaque surface is seen).
 void multisample_tile(const ShadeParams& params, const TileKernels& kernels,
                       const Viewport& viewport, int tile, const std::vector<SetupChunk>& chunks,
                       std::size_t num_chunks, bool per_sample, float tie,
                       const vec3& background_linear, MultisampleScratch& scratch,
                       const PrimitiveSetup* primitives = nullptr,
-                      PrimitivePixels* pixels = nullptr);
+                      PrimitivePixels* pixels = nullptr, const BlendParams* blend = nullptr,
+                      BlendScratch* blend_scratch = nullptr);
 
 }  // namespace sr

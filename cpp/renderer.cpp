@@ -372,11 +372,11 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
     casts[d] = kind == AlphaKind::Opaque || kind == AlphaKind::Masked;
     if (kind == AlphaKind::Invisible) continue;
     if (kind == AlphaKind::Blended) {
-      if (multisample)
+      if (multisample && options.ssaa <= 1)
         throw std::invalid_argument(
-            std::string(options.ssaa > 1 ? "ssaa" : "msaa") + " > 1 is not supported with a "
-            "blended material (alpha_mode='blend', draw " + std::to_string(d) +
-            ") yet: render it with msaa=1 and ssaa=1");
+            "msaa > 1 is not supported with a blended material (alpha_mode='blend', draw " +
+            std::to_string(d) + ") yet: render it with msaa=1, or with ssaa (each sample "
+            "composited)");
       if (!blend_read) continue;
       blend_tests[d] = &alpha_tests[d];
     }
@@ -538,9 +538,14 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
     if (overlay && !primitive_pixels_[worker]) primitive_pixels_[worker].reset(new PrimitivePixels);
     if (multisample) {
       if (!multisample_scratch_[worker]) multisample_scratch_[worker].reset(new MultisampleScratch);
+      BlendScratch* blend_scratch = nullptr;
+      if (blending) {
+        if (!blend_scratch_[worker]) blend_scratch_[worker].reset(new BlendScratch);
+        blend_scratch = blend_scratch_[worker].get();
+      }
       multisample_tile(shade, kernels, viewport, int(tile), chunks_, num_chunks,
                        options.ssaa > 1, tie, background_linear, *multisample_scratch_[worker],
-                       &primitives_, primitive_pixels_[worker].get());
+                       &primitives_, primitive_pixels_[worker].get(), &blend, blend_scratch);
       return;
     }
     if (!shade_scratch_[worker]) shade_scratch_[worker].reset(new ShadeScratch);

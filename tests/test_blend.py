@@ -17,6 +17,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import math
+
 import numpy as np
 import pytest
 import trimesh
@@ -691,15 +693,69 @@ def test_same_bits_for_any_thread_count_instruction_set_and_shading_path() -> No
 # ----------------------------------------------------------------------------- 8. refusals
 
 
-@pytest.mark.parametrize("option, value", [("msaa", 4), ("ssaa", 2)])
-def test_anti_aliasing_with_a_blended_draw_is_refused(option: str, value: int) -> None:
+def test_msaa_with_a_blended_draw_is_refused() -> None:
+    """msaa shades once per pixel per triangle and shares that shade between samples: blending
+    at each sample is not done there yet (ssaa composites every sample, below)."""
     cam, ref_cam = cameras()
     specs = [window_quad(ref_cam, 5, 5, 40, 30, depth=3.0, base_color=(1, 0, 0, 0.5))]
-    with pytest.raises(ValueError, match=option):
-        render(sr_scene(specs), cam, **{option: value})
+    with pytest.raises(ValueError, match="msaa"):
+        render(sr_scene(specs), cam, msaa=4)
     # without the blended draw the same render is fine
     specs[0].blend = False
-    render(sr_scene(specs), cam, **{option: value})
+    render(sr_scene(specs), cam, msaa=4)
+
+
+def _shifted_camera(dx: float, dy: float, w: int = W, h: int = H) -> sr.IntrinsicsCamera:
+    """cameras()'s view with its principal point moved by (dx, dy) pixels: pixel centre
+    (x + 1/2, y + 1/2) then sees what the unshifted camera sees at (x + 1/2 - dx, y + 1/2 - dy)."""
+    f = (h / 2.0) / math.tan(math.radians(FOV) / 2.0)
+    cam = sr.IntrinsicsCamera(f, f, w / 2.0 + dx, h / 2.0 + dy, w, h, near=0.5, far=60.0,
+                              convention="opengl")
+    cam.pose = np.eye(4)
+    return cam
+
+
+@pytest.mark.parametrize("k", [2, 3])
+@pytest.mark.parametrize("backdrop", [True, False], ids=["over_opaque", "over_nothing"])
+def test_ssaa_composites_every_sample_before_the_resolve(k: int, backdrop: bool) -> None:
+    """ssaa = k: every one of a pixel's k x k samples composites its own blended fragments over
+    its own opaque surface, then the samples are averaged. So radiance and alpha are the mean
+    of k^2 single-sample renders whose pixel centres sit at the samples (the principal point
+    moved by each sample's offset, on the pattern's 1/256 grid), and colour is that mean plus
+    (1 - alpha) times the background's linear value, encoded. The same bits for 1, 2 and 3 threads and both
+    instruction sets, and for alpha asked alone."""
+    _, _, specs = random_scene(11, backdrop=backdrop)
+    scene = sr_scene(specs)
+    background = (0.2, 0.5, 0.7)
+    frame = render(scene, _shifted_camera(0.0, 0.0), ssaa=k, background=background,
+                   outputs=("radiance", "alpha", "color"))
+    offsets = [((2 * i + 1) * 256 + k) // (2 * k) / 256.0 for i in range(k)]  # (ssaa_pattern)
+    radiance = np.zeros((H, W, 3))
+    alpha = np.zeros((H, W))
+    for oy in offsets:
+        for ox in offsets:
+            one = render(scene, _shifted_camera(0.5 - ox, 0.5 - oy), outputs=("radiance", "alpha"))
+            radiance += one.radiance
+            alpha += one.alpha
+    radiance /= k * k
+    alpha /= k * k
+    partial = (alpha > 0) & (alpha < 1)
+    assert partial.sum() > 50 and (alpha > 0).mean() > 0.3
+    np.testing.assert_allclose(frame.radiance, radiance, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(frame.alpha, alpha, rtol=0, atol=1e-6)
+    # (the background's linear value: its byte, decoded as the colour output is encoded)
+    byte = np.floor(np.asarray(background) * 255.0 + 0.5) / 255.0
+    bg = np.where(byte <= 0.04045, byte / 12.92, ((byte + 0.055) / 1.055) ** 2.4)
+    lin = np.clip(radiance + (1.0 - alpha)[..., None] * bg, 0.0, 1.0)
+    enc = np.where(lin <= 0.0031308, 12.92 * lin, 1.055 * lin ** (1 / 2.4) - 0.055)
+    assert np.abs(frame.color.astype(np.int64) - np.floor(enc * 255.0 + 0.5)).max() <= 1
+    for threads, simd in ((1, True), (3, True), (2, False)):
+        again = render(scene, _shifted_camera(0.0, 0.0), ssaa=k, background=background,
+                       outputs=("radiance", "alpha", "color"), threads=threads, simd=simd)
+        for name in ("radiance", "alpha", "color"):
+            assert getattr(again, name).tobytes() == getattr(frame, name).tobytes(), (name, threads, simd)
+    alone = render(scene, _shifted_camera(0.0, 0.0), ssaa=k, outputs=("alpha",))
+    assert alone.alpha.tobytes() == frame.alpha.tobytes()
 
 
 def test_unknown_alpha_mode_is_refused() -> None:
