@@ -3,9 +3,11 @@ its own process, so its OpenGL platform never touches the test process."""
 from __future__ import annotations
 
 import os
+import pathlib
+import pickle
 import subprocess
 import sys
-from typing import Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import pytest
 
@@ -34,3 +36,20 @@ def run_pyrender_child(child: os.PathLike[str] | str, args: Sequence[str], timeo
     assert proc.returncode == 0, (f"the pyrender child ({name}) failed (exit {proc.returncode}); "
                                   f"{INSTALL_HINT}\nstderr:\n{proc.stderr[-4000:]}")
     return proc
+
+
+def run_pyrender_script(folder: pathlib.Path, name: str, code: str, job: Any,
+                        timeout: float = 600) -> Any:
+    """Runs the child script ``code`` (written to ``folder``/``name``.py) with run_pyrender_child:
+    its arguments are this tests folder (pyrender_env), softrast's parent folder (the child may
+    import softrast), the pickled ``job`` and the file it pickles its result into, which is
+    returned."""
+    child = folder / f"{name}.py"
+    child.write_text(code)
+    job_path, out_path = folder / f"{name}_job.pkl", folder / f"{name}_out.pkl"
+    job_path.write_bytes(pickle.dumps(job))
+    import softrast  # (the parent folder of the softrast this process imports)
+    tests = str(pathlib.Path(__file__).resolve().parent)
+    parent = str(pathlib.Path(softrast.__file__).resolve().parent.parent)
+    run_pyrender_child(child, [tests, parent, job_path, out_path], timeout=timeout)
+    return pickle.loads(out_path.read_bytes())

@@ -42,14 +42,13 @@ from __future__ import annotations
 
 import math
 import pathlib
-import pickle
 
 import numpy as np
 import pytest
 from scipy import ndimage
 
 import softrast as sr
-from pyrender_runner import run_pyrender_child
+from pyrender_runner import run_pyrender_script
 
 W, H = 160, 120
 FOV_Y = 40.0  # degrees
@@ -158,15 +157,9 @@ def pyrender_job(layers, flat=True, ambient=(0.0, 0.0, 0.0)) -> dict:
 
 
 def run_pyrender(tmp_path: pathlib.Path, jobs: dict) -> dict:
-    child = tmp_path / "blend_child.py"
-    child.write_text(CHILD)
-    jobs_path, out_path = tmp_path / "jobs.pkl", tmp_path / "out.pkl"
-    jobs_path.write_bytes(pickle.dumps({"width": W, "height": H, "jobs": jobs}))
-    tests = str(pathlib.Path(__file__).resolve().parent)
-    parent = str(pathlib.Path(sr.__file__).resolve().parent.parent)
     # the child imports softrast (to_pyrender): it keeps the environment (test_from_pyrender.py)
-    run_pyrender_child(child, [tests, parent, jobs_path, out_path], timeout=300)
-    return pickle.loads(out_path.read_bytes())
+    return run_pyrender_script(tmp_path, "blend_child", CHILD,
+                               {"width": W, "height": H, "jobs": jobs}, timeout=300)
 
 
 def composite(colors) -> np.ndarray:

@@ -25,8 +25,6 @@ The pyrender part FAILS (never skips) without pyrender and OSMesa: see test_pbr_
 from __future__ import annotations
 
 import math
-import pathlib
-import pickle
 
 import numpy as np
 import pytest
@@ -34,7 +32,7 @@ import trimesh
 from scipy import ndimage
 
 import softrast as sr
-from pyrender_runner import run_pyrender_child
+from pyrender_runner import run_pyrender_script
 
 W, H = 200, 150
 NEAR, FAR = 0.1, 50.0
@@ -165,7 +163,7 @@ from pyrender_env import import_pyrender
 import numpy as np
 pyrender, trimesh = import_pyrender("shadow maps child")
 
-with open(sys.argv[2], "rb") as f:
+with open(sys.argv[3], "rb") as f:
     job = pickle.load(f)
 renderer = pyrender.OffscreenRenderer(job["width"], job["height"])
 out = {}
@@ -194,24 +192,19 @@ for kind, light in job["lights"].items():
         color, _ = renderer.render(scene, flags=flags)
         out[(kind, name)] = np.ascontiguousarray(color[..., :3])
 renderer.delete()
-with open(sys.argv[3], "wb") as f:
+with open(sys.argv[4], "wb") as f:
     pickle.dump(out, f)
 """
 
 
 @pytest.fixture(scope="module")
 def pyrender_images(tmp_path_factory) -> dict:
-    tmp = tmp_path_factory.mktemp("shadow_maps")
-    child = tmp / "shadow_maps_child.py"
-    child.write_text(CHILD)
     cam = camera()
     job = {"width": W, "height": H, "ambient": list(AMBIENT), "meshes": meshes(),
            "lights": {k: LIGHTS[k] for k in ("directional", "spot")},
            "camera": {"yfov": math.radians(45.0), "znear": NEAR, "zfar": FAR, "pose": cam.pose}}
-    (tmp / "job.pkl").write_bytes(pickle.dumps(job))
-    tests = str(pathlib.Path(__file__).resolve().parent)
-    run_pyrender_child(child, [tests, tmp / "job.pkl", tmp / "out.pkl"], timeout=600)
-    return pickle.loads((tmp / "out.pkl").read_bytes())
+    return run_pyrender_script(tmp_path_factory.mktemp("shadow_maps"), "shadow_maps_child",
+                               CHILD, job)
 
 
 @pytest.mark.parametrize("kind", ["directional", "spot"])

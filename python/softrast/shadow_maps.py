@@ -53,14 +53,10 @@ def occluder_bounds(instances: Iterable[Any]) -> np.ndarray | None:
 
 
 def _looking(origin: np.ndarray, direction: np.ndarray) -> np.ndarray:
-    """A camera pose at ``origin`` looking along the unit ``direction`` (its -z axis)."""
-    z = -direction
-    up = np.array([0.0, 1.0, 0.0]) if abs(z[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
-    x = np.cross(up, z)
-    x /= np.linalg.norm(x)
-    pose = np.eye(4)
-    pose[:3, 0], pose[:3, 1], pose[:3, 2], pose[:3, 3] = x, np.cross(z, x), z, origin
-    return pose
+    """A camera pose at ``origin`` looking along the unit ``direction`` (its -z axis): the
+    cameras' own look_at, with world y up unless the view runs nearly along it."""
+    up = (0.0, 1.0, 0.0) if abs(direction[1]) < 0.9 else (1.0, 0.0, 0.0)
+    return PerspectiveCamera().look_at(origin, np.asarray(origin) + direction, up).pose.copy()
 
 
 def map_cameras(kind: str, position: np.ndarray, direction: np.ndarray, outer_cone: float,
