@@ -29,8 +29,10 @@ bool blend_tile(const BlendParams& params, const TileRect& rect, int tile,
       s.transmit[row + x] = 1.0f;
       s.sum[0][row + x] = s.sum[1][row + x] = s.sum[2][row + x] = 0.0f;
       s.touched[row + x] = false;
+      s.hit[row + x] = kNoTriangle;
     }
   }
+  const bool colour = params.shade && params.shade->color;
   bool any = false;
   for (bool first = true;; first = false) {
     const int most = gather_blended(*params.chunks, params.begin, params.end, tile, rect,
@@ -61,9 +63,15 @@ bool blend_tile(const BlendParams& params, const TileRect& rect, int tile,
         for (int l = 0; l < n; ++l) {
           const float raw = s.alpha_of[l][i];
           const float a = !(raw > 0.0f) ? 0.0f : raw < 1.0f ? raw : 1.0f;
-          if (params.shade) {
+          if (colour) {
             const float w = t * a;
             for (int c = 0; c < 3; ++c) s.sum[c][i] += w * s.shaded[l].rgb[c][i];
+          }
+          if (params.surfaces && s.hit[i] == kNoTriangle && a >= params.threshold) {
+            s.hit[i] = s.layer[l].visible[i];
+            s.hit_key[i] = s.layer[l].key[i];
+            if (params.normals)
+              for (int c = 0; c < 3; ++c) s.hit_normal[c][i] = s.shaded[l].normal[c][i];
           }
           t *= 1.0f - a;
         }
@@ -106,6 +114,78 @@ bool blend_tile(const BlendParams& params, const TileRect& rect, int tile,
     }
   }
   return true;
+}
+
+namespace {
+
+// Appends the tile's blended records to `raster`'s list: returns the first one's index there.
+uint32_t append_blended(const BlendScratch& s, TileScratch& raster) {
+  const uint32_t base = uint32_t(raster.triangles.size());
+  for (const VisibleTriangle& vt : s.layer[0].triangles) {
+    raster.triangles.push_back(vt);
+    raster.flags |= vt.tri->flags;
+  }
+  return base;
+}
+
+// Whether pixel i (tile-relative x, y) lies in the walked box and has a recorded fragment.
+inline bool has_hit(const BlendScratch& s, const TileRect& rect, int x, int y, int i) {
+  const int px = rect.x0 + x, py = rect.y0 + y;
+  return px >= s.box.x0 && px < s.box.x1 && py >= s.box.y0 && py < s.box.y1 &&
+         s.hit[i] != kNoTriangle;
+}
+
+}  // namespace
+
+void take_blend_surfaces(const BlendParams& params, const TileRect& rect, const BlendScratch& s,
+                         TileScratch& raster, float* const normal[3]) {
+  const uint32_t base = append_blended(s, raster);
+  for (int y = 0; y < rect.y1 - rect.y0; ++y)
+    for (int x = 0; x < rect.x1 - rect.x0; ++x) {
+      const int i = y * kTileSizePx + x;
+      if (!has_hit(s, rect, x, y, i)) continue;
+      raster.visible[i] = base + s.hit[i];
+      raster.key[i] = s.hit_key[i];
+      if (params.normals)
+        for (int c = 0; c < 3; ++c) normal[c][i] = s.hit_normal[c][i];
+    }
+}
+
+void clear_blend_surfaces(const TileRect& rect, BlendScratch& s) {
+  for (int y = 0; y < rect.y1 - rect.y0; ++y)
+    std::fill_n(s.best_rank + y * kTileSizePx, rect.x1 - rect.x0, BlendScratch::kNoRank);
+}
+
+void blend_surface_sample(const BlendParams& params, const TileRect& rect, int rank, BlendScratch& s) {
+  for (int y = 0; y < rect.y1 - rect.y0; ++y)
+    for (int x = 0; x < rect.x1 - rect.x0; ++x) {
+      const int i = y * kTileSizePx + x;
+      if (!has_hit(s, rect, x, y, i) || s.best_rank[i] <= rank) continue;
+      s.best_rank[i] = uint8_t(rank);
+      s.best[i] = s.hit[i];  // (every sample lists the tile's blended records alike)
+      s.best_key[i] = s.hit_key[i];
+      if (params.normals)
+        for (int c = 0; c < 3; ++c) s.best_normal[c][i] = s.hit_normal[c][i];
+    }
+}
+
+void take_blend_surfaces_multisample(const BlendParams& params, const TileRect& rect,
+                                     const BlendScratch& s, const uint8_t* order,
+                                     const uint8_t* rank_of, TileScratch& resolved,
+                                     int32_t* representative, float* const normal[3]) {
+  const uint32_t base = append_blended(s, resolved);
+  for (int y = 0; y < rect.y1 - rect.y0; ++y)
+    for (int x = 0; x < rect.x1 - rect.x0; ++x) {
+      const int i = y * kTileSizePx + x;
+      const int rank = s.best_rank[i];
+      if (rank == BlendScratch::kNoRank) continue;
+      if (resolved.visible[i] != kNoTriangle && rank_of[representative[i]] < rank) continue;
+      resolved.visible[i] = base + s.best[i];
+      resolved.key[i] = s.best_key[i];
+      representative[i] = order[rank];
+      if (params.normals)
+        for (int c = 0; c < 3; ++c) normal[c][i] = s.best_normal[c][i];
+    }
 }
 
 }  // namespace sr

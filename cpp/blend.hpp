@@ -19,14 +19,19 @@
 // (blend_before): nearer first, fragments at equal depth (within 2^-20) in draw order, so
 // coplanar layers composite in the order they were drawn.
 //
-// With ssaa, multisample_tile runs this per sample (each sample's opaque raster and shade, the
-// layers walked and shaded at that sample's position) and averages the composites; msaa, which
-// shares a shade between samples, refuses blended draws (renderer.cpp).
+// With ssaa and msaa, multisample_tile runs this per sample (each sample's opaque raster, the
+// layers walked and shaded at that sample's position) and averages the composites; msaa's
+// opaque shade, shared by a triangle's samples, is weighted by each one's transmittance.
 //
 // Outputs (the README states them): colour and radiance are composited (radiance premultiplied:
 // nothing behind counts 0; colour over the background's linear value); alpha is the total
 // coverage, 1 - the transmittance where no opaque surface is seen; depth, ids, mask, normal and
 // the surface outputs are the nearest opaque surface's, and coverage counts opaque fragments.
+// With an alpha threshold (RenderOptions::alpha_threshold), the nearest blended fragment in front
+// whose alpha (clamped to [0, 1]) reaches it stands for the surface instead: blend_tile records
+// it (BlendScratch::hit), take_blend_surfaces makes it the pixel's entry before write_tile, and
+// with anti-aliasing the pixel's representative is the sample nearest the centre that sees such
+// a fragment or an opaque surface (blend_surface_sample).
 #pragma once
 
 #include "alpha_mask.hpp"
@@ -72,6 +77,19 @@ struct BlendScratch {
   float radiance[3][kTileScratchPixels];  // premultiplied
   float alpha[kTileScratchPixels];
   uint32_t seen[kTileScratchPixels];      // kNoTriangle where nothing at all is seen
+  // With an alpha threshold: per pixel, the nearest fragment reaching it (an index into
+  // layer[0].triangles, or kNoTriangle), its key and (when normals are shaded) its normal.
+  uint32_t hit[kTileScratchPixels];
+  float hit_key[kTileScratchPixels];
+  float hit_normal[3][kTileScratchPixels];
+  // Anti-aliasing: the pixel's best such fragment over the samples so far (blend_surface_sample):
+  // the rank of its sample in the representative order (kNoRank: none), the fragment, key and
+  // normal.
+  static constexpr uint8_t kNoRank = 0xff;
+  uint8_t best_rank[kTileScratchPixels];
+  uint32_t best[kTileScratchPixels];  // an index into layer[0].triangles
+  float best_key[kTileScratchPixels];
+  float best_normal[3][kTileScratchPixels];
 };
 
 // One walk over blended chunks [begin, end) of `tile` (tests: each draw's alpha, by draw
@@ -88,6 +106,9 @@ struct BlendParams {
   std::size_t begin, end;    // the blended chunks
   const AlphaTest* const* tests;
   vec3 background_linear;    // the colour output's background, linear (renderer.cpp)
+  bool surfaces = false;     // record the nearest fragment whose alpha reaches `threshold`
+  float threshold = 1.0f;
+  bool normals = false;      // ... and its normal (`shade` computes the normal output)
 };
 
 // Composites the tile's blended fragments over `opaque` (resolved, with its shade `opaque_shade`
@@ -95,5 +116,24 @@ struct BlendParams {
 // nothing) if no blended fragment is in front of anything in the tile.
 bool blend_tile(const BlendParams& params, const TileRect& rect, int tile,
                 const TileScratch& opaque, const ShadeScratch& opaque_shade, BlendScratch& s);
+
+// After blend_tile returned true with params.surfaces: each pixel with a recorded fragment takes
+// it as its entry in `raster` (the tile's blended records appended to raster.triangles), its key,
+// and (params.normals) its normal in `normal`.
+void take_blend_surfaces(const BlendParams& params, const TileRect& rect, const BlendScratch& s,
+                         TileScratch& raster, float* const normal[3]);
+
+// Anti-aliasing: before a tile's samples, no pixel has a fragment (best_rank = kNoRank).
+void clear_blend_surfaces(const TileRect& rect, BlendScratch& s);
+// After blend_tile for the sample of rank `rank` (in the representative order) returned true:
+// keeps, per pixel, the fragment of the lowest-ranked sample that has one.
+void blend_surface_sample(const BlendParams& params, const TileRect& rect, int rank, BlendScratch& s);
+// After every sample: a pixel whose best fragment's sample ranks before its representative
+// (`rank_of` the representative order's inverse; a pixel without an opaque sample has none)
+// takes it, as take_blend_surfaces does, and that sample becomes its representative.
+void take_blend_surfaces_multisample(const BlendParams& params, const TileRect& rect,
+                                     const BlendScratch& s, const uint8_t* order,
+                                     const uint8_t* rank_of, TileScratch& resolved,
+                                     int32_t* representative, float* const normal[3]);
 
 }  // namespace sr

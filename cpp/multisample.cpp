@@ -218,7 +218,8 @@ Fn kernel(Isa isa) {
 // ms.blend_alpha, and leaves the composite (premultiplied) in shaded.rgb with the sample's weight
 // set wherever something is seen there, for Accumulate. Scalar, compiled once.
 void blend_sample(const BlendParams& blend, const TileRect& rect, int tile, const TileScratch& raster,
-                  ShadeScratch* shaded, BlendScratch& bs, MultisampleScratch& ms, int s, int n) {
+                  ShadeScratch* shaded, BlendScratch& bs, MultisampleScratch& ms, int s, int rank,
+                  int n) {
   for (TileScratch& layer : bs.layer) {
     layer.sample_x = raster.sample_x;
     layer.sample_y = raster.sample_y;
@@ -226,6 +227,7 @@ void blend_sample(const BlendParams& blend, const TileRect& rect, int tile, cons
   }
   // (shaded null: alpha alone; blend_tile then reads no shade)
   const bool composited = blend_tile(blend, rect, tile, raster, shaded ? *shaded : ms.resolved_shade, bs);
+  if (composited && blend.surfaces) blend_surface_sample(blend, rect, rank, bs);
   const int width = rect.x1 - rect.x0;
   for (int row = 0; row < n; row += kTileSizePx)
     for (int i = row; i < row + width; ++i) {
@@ -238,6 +240,78 @@ void blend_sample(const BlendParams& blend, const TileRect& rect, int tile, cons
         for (int c = 0; c < 3; ++c) shaded->rgb[c][i] = bs.radiance[c][i];
         ms.weight[s][i] = 1;
       }
+    }
+}
+
+// msaa with blended draws, before the shading passes mask their visibility buffers: composites
+// every sample's blended layers (shaded at the sample) in front of its opaque surface, adding
+// their premultiplied radiance to ms.blend_sum (times kSumScale) and the sample's alpha to
+// ms.blend_alpha; then sets ms.blend_weight[p] of each pass p that shades a pixel (weight[p] set)
+// to the transmittances in front of the samples its shade stands for (its triangle's), summed:
+// the opaque shade's share of the mean. False (with blend_alpha still summed) where no sample of
+// the tile has a blended fragment in front: the plain weights hold. Scalar, compiled once.
+bool msaa_blend(const BlendParams& blend, const TileRect& rect, int tile, TileScratch* const* passes,
+                int count, const uint8_t* rank_of, BlendScratch& bs, MultisampleScratch& ms, int n) {
+  const int width = rect.x1 - rect.x0;
+  bool any = false;
+  for (int s = 0; s < count; ++s) {
+    const TileScratch& raster = *passes[s];
+    for (TileScratch& layer : bs.layer) {
+      layer.sample_x = raster.sample_x;
+      layer.sample_y = raster.sample_y;
+      layer.tie = raster.tie;
+    }
+    // (The composite's own colour planes are not read: the opaque shade is not known yet, so
+    // any shade stands in for it.)
+    const bool composited = blend_tile(blend, rect, tile, raster, ms.resolved_shade, bs);
+    if (composited && blend.surfaces) blend_surface_sample(blend, rect, rank_of[s], bs);
+    any |= composited;
+    const TileRect& box = bs.box;
+    float* const transmit = ms.blend_weight[s];
+    for (int row = 0; row < n; row += kTileSizePx)
+      for (int i = row; i < row + width; ++i) {
+        const int x = rect.x0 + (i - row), y = rect.y0 + row / kTileSizePx;
+        const bool layers = composited && x >= box.x0 && x < box.x1 && y >= box.y0 &&
+                            y < box.y1 && bs.touched[i];
+        const float t = layers ? bs.transmit[i] : 1.0f;
+        transmit[i] = t;
+        ms.blend_alpha[i] += raster.visible[i] != kNoTriangle ? 1.0f : 1.0f - t;
+        if (layers)
+          for (int c = 0; c < 3; ++c) ms.blend_sum[c][i] += kSumScale * bs.sum[c][i];
+      }
+  }
+  if (!any) return false;
+  for (int row = 0; row < n; row += kTileSizePx)
+    for (int i = row; i < row + width; ++i) {
+      uint32_t visible[kMaxMsaaSamples];
+      float t[kMaxMsaaSamples];
+      for (int s = 0; s < count; ++s) {
+        visible[s] = passes[s]->visible[i];
+        t[s] = ms.blend_weight[s][i];
+      }
+      for (int p = 0; p < count; ++p) {
+        float w = 0.0f;
+        if (ms.weight[p][i] != 0)
+          for (int s = 0; s < count; ++s) w += visible[s] == visible[p] ? t[s] : 0.0f;
+        ms.blend_weight[p][i] = w;
+      }
+    }
+  return true;
+}
+
+// Accumulate with msaa_blend's weights (scalar): pass s's shade times its blend_weight. Where
+// every transmittance is 1 the weight is the sample count, and the sum the same bits as
+// Accumulate's.
+void accumulate_blended(MultisampleScratch& ms, const ShadeScratch& shaded, const TileRect& rect,
+                        int n, int s, bool normals) {
+  const int width = rect.x1 - rect.x0;
+  for (int row = 0; row < n; row += kTileSizePx)
+    for (int i = row; i < row + width; ++i) {
+      if (ms.weight[s][i] == 0) continue;
+      const float w = ms.blend_weight[s][i] * kSumScale;
+      for (int c = 0; c < 3; ++c) ms.radiance[c][i] += w * shaded.rgb[c][i];
+      if (normals && ms.representative[i] == s)
+        for (int c = 0; c < 3; ++c) ms.resolved_shade.normal[c][i] = shaded.normal[c][i];
     }
 }
 
@@ -266,21 +340,33 @@ void multisample_tile(const ShadeParams& params, const TileKernels& kernels,
   }
   kernels.raster_samples(rect, tile, chunks, num_chunks, passes, count);
 
-  uint8_t order[kMaxSamples];
+  uint8_t order[kMaxSamples], rank_of[kMaxSamples];
   representative_order(pattern, order);
+  for (int r = 0; r < count; ++r) rank_of[order[r]] = uint8_t(r);
   const bool shading = kernels.deferred != nullptr;
   kernel<Resolve, void (*)(MultisampleScratch*, int, int, const uint8_t*, bool, bool, bool)>(isa)(
       &ms, n, count, order, kernels.coverage, shading, per_sample);
 
-  // Blended draws (ssaa): every sample composited before the resolve (blend_sample).
-  const bool blending = blend && blend_scratch && per_sample;
+  // Blended draws: every sample composited before the resolve (ssaa: blend_sample, after each
+  // pass is shaded; msaa: msaa_blend, here, while every pass's visibility is whole).
+  const bool blending = blend && blend_scratch;
+  // (Layers shaded for the normal output alone, with an alpha threshold, composite no colour.)
+  const bool blend_colour = blending && blend->shade && blend->shade->color;
   if (blending) std::fill_n(ms.blend_alpha, n, 0.0f);
+  if (blending && blend->surfaces) clear_blend_surfaces(rect, *blend_scratch);
   // Shading: pass s shades the pixels where its weight is set (the others are masked off in its
   // visibility buffer, which the resolve no longer reads), and its shade is summed with that
   // weight.
-  if (blending && !blend->shade) {  // (alpha alone: no colour is shaded)
+  if (blending && !blend_colour) {  // (alpha alone: no colour is shaded)
     for (int s = 0; s < count; ++s)
-      blend_sample(*blend, rect, tile, *passes[s], nullptr, *blend_scratch, ms, s, n);
+      blend_sample(*blend, rect, tile, *passes[s], nullptr, *blend_scratch, ms, s, rank_of[s], n);
+  }
+  bool msaa_layers = false;  // msaa: some sample has a blended fragment in front
+  if (blend_colour && !per_sample) {
+    for (int c = 0; c < 3; ++c) std::fill_n(ms.blend_sum[c], n, 0.0f);
+    msaa_layers = msaa_blend(*blend, rect, tile, passes, count, rank_of, *blend_scratch, ms, n);
+  }
+  if (blending && (!blend_colour || !per_sample)) {
     const float inv = 1.0f / float(count);
     for (int i = 0; i < n; ++i) ms.alpha[i] = ms.blend_alpha[i] * inv;
   }
@@ -296,7 +382,7 @@ void multisample_tile(const ShadeParams& params, const TileKernels& kernels,
       ShadeScratch* outs[kShadeBatch];
       int pass[kShadeBatch], m = 0;
       for (int s = first; s < std::min(count, first + kShadeBatch); ++s) {
-        if (!mask(&ms, n, s) && !(blending && blend->shade)) continue;
+        if (!mask(&ms, n, s) && !(blend_colour && per_sample)) continue;
         rasters[m] = ms.sample[s].get();
         outs[m] = &ms.shaded[m];
         pass[m++] = s;
@@ -304,12 +390,20 @@ void multisample_tile(const ShadeParams& params, const TileKernels& kernels,
       if (m == 0) continue;
       kernels.deferred(params, rect, rasters, outs, m);
       for (int k = 0; k < m; ++k) {
-        if (blending && blend->shade)
-          blend_sample(*blend, rect, tile, *rasters[k], outs[k], *blend_scratch, ms, pass[k], n);
+        if (msaa_layers) {
+          accumulate_blended(ms, *outs[k], rect, n, pass[k], normals);
+          continue;
+        }
+        if (blend_colour)
+          blend_sample(*blend, rect, tile, *rasters[k], outs[k], *blend_scratch, ms, pass[k],
+                       rank_of[pass[k]], n);
         accumulate(&ms, outs[k], n, pass[k], normals);
       }
     }
-    if (blending && blend->shade) {  // (alpha: the mean of the samples' coverage, layers included)
+    if (msaa_layers)  // (the layers' share of the mean)
+      for (int c = 0; c < 3; ++c)
+        for (int i = 0; i < n; ++i) ms.radiance[c][i] += ms.blend_sum[c][i];
+    if (blend_colour && per_sample) {  // (alpha: the mean of the samples' coverage, layers included)
       const float inv = 1.0f / float(count);
       for (int i = 0; i < n; ++i) ms.alpha[i] = ms.blend_alpha[i] * inv;
     }
@@ -322,6 +416,13 @@ void multisample_tile(const ShadeParams& params, const TileKernels& kernels,
   // tile's triangles, which every pass built alike: take sample 0's.
   std::swap(ms.resolved.triangles, ms.sample[0]->triangles);
   ms.resolved.flags = ms.sample[0]->flags;
+  // With an alpha threshold: blended fragments reaching it stand for the surface (blend.hpp).
+  if (blending && blend->surfaces) {
+    float* const normal[3] = {ms.resolved_shade.normal[0], ms.resolved_shade.normal[1],
+                              ms.resolved_shade.normal[2]};
+    take_blend_surfaces_multisample(*blend, rect, *blend_scratch, order, rank_of, ms.resolved,
+                                    ms.representative, normal);
+  }
   const ResolvedSamples samples{ms.representative, &pattern, ms.alpha,
                                 {ms.radiance[0], ms.radiance[1], ms.radiance[2]},
                                 ms.coverage};
@@ -340,7 +441,7 @@ void multisample_tile(const ShadeParams& params, const TileKernels& kernels,
   // layer: write_tile takes colour and radiance from the composite's planes (blend.hpp's), here
   // the resolved means.
   BlendScratch* composited = nullptr;
-  if (blending && blend->shade) {
+  if (blend_colour) {
     composited = blend_scratch;
     const int width = rect.x1 - rect.x0;
     for (int row = 0; row < n; row += kTileSizePx)

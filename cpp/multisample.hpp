@@ -21,6 +21,8 @@
 //    shade, computed at the representative sample if the triangle owns it, else at the
 //    triangle's lowest-index sample of the pixel (always a covered point: no extrapolation past
 //    the triangle's edges), weighted by the number of samples. ssaa shades every sample.
+//  - Blended draws (blend.hpp) composite per sample before the resolve, with either: each
+//    sample's layers, shaded at that sample, over its opaque surface.
 #pragma once
 
 #include "shade.hpp"
@@ -74,7 +76,12 @@ struct MultisampleScratch {
   uint32_t coverage[kTileScratchPixels];
   int32_t representative[kTileScratchPixels];
   int32_t weight[kMaxSamples][kTilePixels];  // samples one pass's shade stands for (0: none)
-  float blend_alpha[kTileScratchPixels];      // ssaa with blending: alpha summed over samples
+  float blend_alpha[kTileScratchPixels];      // blending: alpha summed over samples
+  // msaa with blending: the blended layers' premultiplied radiance summed over samples (times
+  // kSumScale), and per pass first each sample's transmittance, then the weight of the pass's
+  // shade: the transmittances of the samples it stands for, summed.
+  float blend_sum[3][kTileScratchPixels];
+  float blend_weight[kMaxMsaaSamples][kTilePixels];
 };
 
 // Rasterizes, shades and resolves `tile` with the viewport's sample pattern (count > 1), then
@@ -82,10 +89,12 @@ struct MultisampleScratch {
 // `tie` is the render's tie factor (rasterize.hpp); `background_linear` the background colour's
 // linear value, mixed into partly covered pixels of the colour output. `primitives` (or null):
 // the render's lines and points, drawn over the resolved tile (whole pixels, alpha 1) with
-// `pixels` as their scratch. `blend` (ssaa only, with `blend_scratch`): the render's blended
-// draws, composited at every sample over that sample's opaque surface before the resolve
-// (blend.hpp): radiance and colour are the mean of the samples' composites, alpha the mean of
-// their coverage (1 - transmittance where no opaque surface is seen).
+// `pixels` as their scratch. `blend` (with `blend_scratch`): the render's blended draws,
+// composited at every sample over that sample's opaque surface before the resolve (blend.hpp):
+// radiance and colour are the mean of the samples' composites, alpha the mean of their coverage
+// (1 - transmittance where no opaque surface is seen). Blended layers are shaded at each sample
+// they cover, with msaa too; msaa's opaque shade, shared by a triangle's samples in a pixel, is
+// weighted by the transmittance in front of each of those samples.
 void multisample_tile(const ShadeParams& params, const TileKernels& kernels,
                       const Viewport& viewport, int tile, const std::vector<SetupChunk>& chunks,
                       std::size_t num_chunks, bool per_sample, float tie,

@@ -179,6 +179,11 @@ struct RenderOptions {
   // pixel per triangle) or an ssaa x ssaa grid (each sample shaded); not both above 1.
   int msaa = 1;
   int ssaa = 1;
+  // Blended draws (blend.hpp): depth, ids, mask, normal and the surface outputs from the nearest
+  // blended fragment whose alpha reaches `alpha_threshold`, in front of the opaque surface
+  // (Blender's pass alpha threshold); off: the nearest opaque surface's.
+  bool surface_threshold = false;
+  float alpha_threshold = 1.0f;  // [0, 1]
 };
 
 // Per-vertex result of the transform stage (one draw).

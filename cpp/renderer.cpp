@@ -360,23 +360,19 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   // A masked draw's chunks carry its alpha test; a draw whose one alpha is below its cutoff
   // has none.
   // A blended draw's chunks follow every opaque one (blend.hpp), set up only where some output
-  // reads them (colour, radiance, alpha).
+  // reads them (colour, radiance, alpha; any, with an alpha threshold).
   std::vector<AlphaTest> alpha_tests(draws.size());
   std::vector<const AlphaTest*> alpha(draws.size(), nullptr);
   std::vector<const AlphaTest*> blend_tests(draws.size(), nullptr);
   std::vector<Block> chunk_ranges, blend_ranges;
-  const bool blend_read = (options.outputs & (kOutColor | kOutRadiance | kOutAlpha)) != 0;
+  const bool blend_read =
+      (options.outputs & (kOutColor | kOutRadiance | kOutAlpha)) != 0 || options.surface_threshold;
   std::vector<uint8_t> casts(draws.size(), 0);  // occluders of shadowed lights (shadow.hpp)
   for (std::size_t d = 0; d < draws.size(); ++d) {
     const AlphaKind kind = alpha_kind(draws[d], options.texture_filter, alpha_tests[d]);
     casts[d] = kind == AlphaKind::Opaque || kind == AlphaKind::Masked;
     if (kind == AlphaKind::Invisible) continue;
     if (kind == AlphaKind::Blended) {
-      if (multisample && options.ssaa <= 1)
-        throw std::invalid_argument(
-            "msaa > 1 is not supported with a blended material (alpha_mode='blend', draw " +
-            std::to_string(d) + ") yet: render it with msaa=1, or with ssaa (each sample "
-            "composited)");
       if (!blend_read) continue;
       blend_tests[d] = &alpha_tests[d];
     }
@@ -520,14 +516,21 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   const float tie = camera.orthographic ? kTieFactorOrthographic : kTieFactorPerspective;
   const std::size_t num_chunks = num_opaque_chunks;
   const TileKernels kernels = select_tile_kernels(plan, viewport, isa_, kind);
-  // Blended layers shade colour only (blend.hpp).
+  // Blended layers shade colour only (blend.hpp), and the normal output where the nearest
+  // fragment reaching an alpha threshold gives it.
+  const bool blend_normals = options.surface_threshold && plan.normal;
   ShadeParams blend_shade = shade;
-  blend_shade.normal = false;
-  blend_shade.work = uint16_t(shade.work & ~kWorkNormalOut);
-  blend_shade.in.shading_normals = false;
-  const BlendParams blend{plan.color && kernels.deferred ? &blend_shade : nullptr, &kernels,
-                          &chunks_, num_opaque_chunks, chunk_ranges.size(), blend_tests.data(),
-                          background_linear};
+  if (!blend_normals) {
+    blend_shade.normal = false;
+    blend_shade.work = uint16_t(shade.work & ~kWorkNormalOut);
+    blend_shade.in.shading_normals = false;
+  }
+  BlendParams blend{(plan.color || blend_normals) && kernels.deferred ? &blend_shade : nullptr,
+                    &kernels, &chunks_, num_opaque_chunks, chunk_ranges.size(),
+                    blend_tests.data(), background_linear};
+  blend.surfaces = options.surface_threshold;
+  blend.threshold = options.alpha_threshold;
+  blend.normals = blend_normals && blend.shade;
   const bool blending = chunk_ranges.size() > num_opaque_chunks;
   // Every tile is one sequence: rasterize (and shade, forward) -> shade (deferred) -> lines and
   // points over the shaded tile -> write the outputs. Anti-aliased tiles run it per sample pass
@@ -583,8 +586,13 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
     BlendScratch* blended = nullptr;
     if (blending) {
       if (!blend_scratch_[worker]) blend_scratch_[worker].reset(new BlendScratch);
-      if (blend_tile(blend, rect, int(tile), raster, shaded, *blend_scratch_[worker]))
+      if (blend_tile(blend, rect, int(tile), raster, shaded, *blend_scratch_[worker])) {
         blended = blend_scratch_[worker].get();
+        if (blend.surfaces) {
+          float* const normal[3] = {shaded.normal[0], shaded.normal[1], shaded.normal[2]};
+          take_blend_surfaces(blend, rect, *blended, raster, normal);
+        }
+      }
     }
     write_tile(shade, rect, raster, shaded, kernels.isa, nullptr, pixels, blended);
   });

@@ -370,3 +370,22 @@ def composite(frags: Fragments, depth_tol: float = 1e-5) -> Composite:
 def render(tris: list[Tri], cam: RefCamera, weights: str = "snapped", margin: float = 0.01,
            depth_tol: float = 1e-5) -> Composite:
     return composite(fragments(tris, cam, weights, margin), depth_tol)
+
+
+def threshold_surface(frags: Fragments, threshold: float) -> tuple[np.ndarray, np.ndarray]:
+    """What ``render(alpha_threshold=threshold)`` reports as each pixel's surface: the nearest
+    fragment (depth order, ties in ``tris`` order) that is opaque or blended with an alpha of at
+    least ``threshold``. Returns (h, w) arrays: its index into ``tris`` (-1: none) and its depth
+    (inf: none)."""
+    h, w = frags.height, frags.width
+    qualifies = ~frags.blend[frags.tri] | (frags.rgba[:, 3] >= threshold)
+    order = np.lexsort((frags.tri, frags.depth, frags.pixel))
+    order = order[qualifies[order]]
+    pix = frags.pixel[order]
+    first = np.ones(len(pix), bool)
+    first[1:] = pix[1:] != pix[:-1]
+    tri = np.full(h * w, -1)
+    depth = np.full(h * w, np.inf)
+    tri[pix[first]] = frags.tri[order[first]]
+    depth[pix[first]] = frags.depth[order[first]]
+    return tri.reshape(h, w), depth.reshape(h, w)

@@ -630,6 +630,29 @@ def _scenes() -> dict[str, tuple[int, int, Build, dict]]:
                instance_id=4)  # a two-channel (grey, alpha) float texture
         return _lights(sc), cam
 
+    # -- alpha blending: textured, vertex and material alpha over a lit mesh; msaa and ssaa with
+    # an alpha threshold (depth and ids from a blended fragment); a depth-only render with one
+    def blended(m):
+        sc = sr.Scene()
+        cam = _spot_cam()
+        sc.add(m["spot"], material=SHINY, instance_id=1)
+        glass = sr.Material(base_color=(1.0, 1.0, 1.0, 1.0), alpha_mode="blend", double_sided=True,
+                            base_color_texture=sr.Texture(lattice_rgba(), filter="bilinear"))
+        sc.add(m["plane"], pose=cam.pose @ _translate(0.3, 0.0, -1.8, 0.35), material=glass,
+               instance_id=2)
+        sc.add(m["plane_colors"], pose=cam.pose @ _translate(-0.55, 0.3, -2.4, 0.3),  # vertex alpha
+               material=sr.Material(alpha_mode="blend", model="unlit", double_sided=True), instance_id=3)
+        sc.add(m["ball"], pose=cam.pose @ _translate(-0.25, -0.3, -2.1, 0.3),  # front and back faces
+               material=sr.Material(base_color=(0.3, 0.6, 0.9, 0.45), alpha_mode="blend", model="pbr",
+                                    roughness=0.4, double_sided=True), instance_id=4)
+        return _lights(sc), cam
+
+    add("blend_lit", 75, 55, cull="none", outputs=OUTPUTS)(blended)
+    add("blend_msaa4_alpha_threshold", 75, 55, cull="none", outputs=OUTPUTS, msaa=4,
+        alpha_threshold=0.4)(blended)
+    add("blend_ssaa2_alpha_threshold_depth_ids", 75, 55, cull="none", ssaa=2, alpha_threshold=0.4,
+        outputs=("depth", "instance_id", "normal"))(blended)
+
     add("alpha_mask_coverage", 75, 55, cull="none", outputs=OUTPUTS)(masked)
     add("alpha_mask_depth_only", 75, 55, cull="none", outputs=("depth",))(masked)
     add("alpha_mask_ids_no_shading", 75, 55, cull="none",

@@ -655,6 +655,132 @@ def test_a_lens_distorted_camera_sees_opaque_surfaces_through_blended_ones() -> 
     assert (f.alpha[f.mask] == 1).all() and (f.alpha[0, 60:] == 0).all()
 
 
+# ----------------------------------------------------------------------------- alpha threshold
+
+
+def _threshold_reference(specs: list[Spec], ref_cam: bref.RefCamera, threshold: float):
+    """The reference's surface at ``threshold`` as (instance_id, triangle_id, depth) images."""
+    tris = [t for d, s in enumerate(specs) for t in s.tris(ref_cam, d, "back")]
+    tri, depth = bref.threshold_surface(bref.fragments(tris, ref_cam), threshold)
+    ids = np.array([specs[t.draw].instance_id for t in tris] + [-1])
+    faces = np.array([t.face for t in tris] + [-1])
+    return ids[tri], faces[tri], depth
+
+
+@pytest.mark.parametrize("threshold", [0.0, 0.3, 0.5, 0.75, 0.95])
+def test_alpha_threshold_takes_the_nearest_fragment_reaching_it(threshold: float) -> None:
+    """alpha_threshold=t: depth, ids and mask are the nearest fragment's, blended or opaque,
+    whose alpha is >= t (the reference sorts every fragment); colour, radiance, alpha and
+    coverage are the same bits as without a threshold; a render of ids or depth alone (no
+    colour) gives the same; the same bits for any thread count and instruction set."""
+    cam, ref_cam, specs = _mixed_scene()
+    alphas = np.array([s.base_color[3] for s in specs if s.blend])
+    assert np.abs(alphas - threshold).min() > 1e-3  # (no fragment's alpha is a near tie)
+    scene = sr_scene(specs)
+    outs = ("color", "radiance", "alpha", "coverage", "depth", "mask", "instance_id", "triangle_id")
+    plain = render(scene, cam, outputs=outs, background=(0.2, 0.2, 0.2))
+    frame = render(scene, cam, outputs=outs, background=(0.2, 0.2, 0.2), alpha_threshold=threshold)
+    for name in ("color", "radiance", "alpha", "coverage"):
+        assert getattr(frame, name).tobytes() == getattr(plain, name).tobytes(), name
+    ref = ref_render(specs, ref_cam)
+    ok = ~ref.ambiguous
+    ids, faces, depth = _threshold_reference(specs, ref_cam, threshold)
+    np.testing.assert_array_equal(frame.instance_id[ok], ids[ok])
+    np.testing.assert_array_equal(frame.triangle_id[ok], faces[ok])
+    np.testing.assert_array_equal(frame.mask[ok], ids[ok] >= 0)
+    seen = ok & (ids >= 0)
+    np.testing.assert_allclose(frame.depth[seen], depth[seen], rtol=1e-5)
+    blended_ids = {s.instance_id for s in specs if s.blend}
+    taken = np.isin(frame.instance_id, list(blended_ids))
+    if threshold > alphas.max():  # (0.95: above every blended alpha: the opaque surfaces alone)
+        assert not taken.any() and frame.depth.tobytes() == plain.depth.tobytes()
+    else:
+        assert taken.sum() > 200
+    for kw in (dict(outputs=("depth",)), dict(outputs=("instance_id", "triangle_id", "mask")),
+               dict(threads=3), dict(simd=False, threads=2), dict(shading_path="deferred")):
+        kw = {"outputs": outs, **kw}
+        again = render(scene, cam, background=(0.2, 0.2, 0.2), alpha_threshold=threshold, **kw)
+        for name in kw["outputs"]:
+            assert getattr(again, name).tobytes() == getattr(frame, name).tobytes(), (name, kw)
+
+
+def test_alpha_threshold_surface_outputs_are_the_fragments_own() -> None:
+    """Where a blended fragment stands for the surface, normal and the surface outputs
+    (barycentric, uv, position, ray_depth) are the ones its draw gives rendered alone, opaque;
+    ids and depth too."""
+    cam, ref_cam, specs = _mixed_scene(22)
+    scene = sr_scene(specs)
+    frame = render(scene, cam, outputs=sr.OUTPUTS, alpha_threshold=0.0)
+    checked = 0
+    for d, spec in enumerate(specs):
+        if not spec.blend:
+            continue
+        mine = frame.instance_id == spec.instance_id
+        if not mine.any():
+            continue
+        alone = Spec(**{**spec.__dict__, "blend": False})
+        single = render(sr_scene([alone]), cam, outputs=sr.OUTPUTS)
+        for name in ("normal", "barycentric", "uv", "position", "ray_depth", "depth", "triangle_id"):
+            assert getattr(frame, name)[mine].tobytes() == getattr(single, name)[mine].tobytes(), (name, d)
+        checked += int(mine.sum())
+    assert checked > 300
+
+
+@pytest.mark.parametrize("aa", [dict(msaa=4), dict(msaa=8), dict(ssaa=2)])
+def test_alpha_threshold_with_antialiasing_takes_the_nearest_sample_that_sees_a_surface(aa) -> None:
+    """With msaa / ssaa, ids and mask come from the pixel's representative sample: of its
+    samples nearest the pixel centre first (ties: the lower index), the first that sees an opaque
+    surface or a blended fragment reaching the threshold. Checked against single-sample renders
+    at each sample (the principal point moved by the sample's offset). Colour, radiance and alpha
+    are the same bits as without a threshold."""
+    _, _, specs = random_scene(13, backdrop=True)
+    scene = sr_scene(specs)
+    cam = _shifted_camera(0.0, 0.0)
+    outs = ("radiance", "alpha", "instance_id", "triangle_id", "mask")
+    frame = render(scene, cam, outputs=outs, alpha_threshold=0.5, **aa)
+    plain = render(scene, cam, outputs=outs, **aa)
+    for name in ("radiance", "alpha"):
+        assert getattr(frame, name).tobytes() == getattr(plain, name).tobytes(), name
+    if "msaa" in aa:
+        offsets = [(ox / 16.0, oy / 16.0) for ox, oy in MSAA_OFFSETS[aa["msaa"]]]
+    else:
+        k = aa["ssaa"]
+        grid = [((2 * i + 1) * 256 + k) // (2 * k) / 256.0 - 0.5 for i in range(k)]
+        offsets = [(ox, oy) for oy in grid for ox in grid]
+    # representative order: nearest the centre first, ties to the lower index (stable sort)
+    order = sorted(range(len(offsets)), key=lambda s: offsets[s][0] ** 2 + offsets[s][1] ** 2)
+    ids = np.full((H, W), -1)
+    faces = np.full((H, W), -1)
+    for s in reversed(order):  # the most preferred last: it wins
+        one = render(scene, _shifted_camera(-offsets[s][0], -offsets[s][1]),
+                     outputs=("instance_id", "triangle_id", "mask"), alpha_threshold=0.5)
+        ids = np.where(one.mask, one.instance_id, ids)
+        faces = np.where(one.mask, one.triangle_id, faces)
+    np.testing.assert_array_equal(frame.instance_id, ids)
+    np.testing.assert_array_equal(frame.triangle_id, faces)
+    np.testing.assert_array_equal(frame.mask, ids >= 0)
+    blended = {s.instance_id for s in specs if s.blend}
+    assert np.isin(frame.instance_id, list(blended)).sum() > 200
+    assert (frame.instance_id != plain.instance_id).sum() > 200
+
+
+def test_alpha_threshold_is_checked() -> None:
+    cam, ref_cam = cameras()
+    scene = sr_scene([window_quad(ref_cam, 5, 5, 40, 30, depth=3.0, base_color=(1, 0, 0, 0.5))])
+    for bad in (-0.1, 1.5, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="alpha_threshold"):
+            render(scene, cam, alpha_threshold=bad)
+    for bad in ("0.5", True, [0.5]):
+        with pytest.raises(TypeError, match="alpha_threshold"):
+            render(scene, cam, alpha_threshold=bad)
+    K = np.array([[50.0, 0, 32], [0, 50.0, 24], [0, 0, 1]])
+    lens = sr.IntrinsicsCamera.from_opencv(K, np.eye(3), np.zeros(3), W, H, dist=[-0.2, 0.05, 0, 0])
+    with pytest.raises(ValueError, match="alpha_threshold"):
+        render(scene, lens, alpha_threshold=0.5)
+    render(scene, lens, alpha_threshold=None)
+    assert render(scene, cam, alpha_threshold=0.5, outputs=("mask",)).mask.sum() > 500
+
+
 # ----------------------------------------------------------------------------- 7. same bits
 
 
@@ -693,16 +819,75 @@ def test_same_bits_for_any_thread_count_instruction_set_and_shading_path() -> No
 # ----------------------------------------------------------------------------- 8. refusals
 
 
-def test_msaa_with_a_blended_draw_is_refused() -> None:
-    """msaa shades once per pixel per triangle and shares that shade between samples: blending
-    at each sample is not done there yet (ssaa composites every sample, below)."""
-    cam, ref_cam = cameras()
-    specs = [window_quad(ref_cam, 5, 5, 40, 30, depth=3.0, base_color=(1, 0, 0, 0.5))]
-    with pytest.raises(ValueError, match="msaa"):
-        render(sr_scene(specs), cam, msaa=4)
-    # without the blended draw the same render is fine
-    specs[0].blend = False
-    render(sr_scene(specs), cam, msaa=4)
+# msaa's sample offsets in 1/16 px from the pixel centre, y down (multisample.cpp, Direct3D's)
+MSAA_OFFSETS = {2: [(4, 4), (-4, -4)], 4: [(-2, -6), (6, -2), (-6, 2), (2, 6)],
+                8: [(1, -3), (-1, 3), (5, 1), (-3, -5), (-5, 5), (-7, -1), (3, 7), (7, -7)]}
+
+
+@pytest.mark.parametrize("k", [2, 4, 8])
+@pytest.mark.parametrize("backdrop", [True, False], ids=["over_opaque", "over_nothing"])
+def test_msaa_composites_every_sample_before_the_resolve(k: int, backdrop: bool) -> None:
+    """msaa = k: each sample composites the blended fragments in front of it (shaded at the
+    sample) over its own opaque surface, and the samples are averaged. Over a backdrop of one
+    colour (so msaa's shared opaque shade is every sample's), radiance and alpha are the mean of
+    k single-sample renders whose pixel centres sit at the samples. The same bits for 1, 2 and 3
+    threads and both instruction sets, and for alpha asked alone."""
+    _, _, specs = random_scene(11, backdrop=backdrop)
+    if backdrop:
+        specs[-1].colors = None
+        specs[-1].base_color = (0.3, 0.6, 0.2, 1.0)
+    scene = sr_scene(specs)
+    background = (0.2, 0.5, 0.7)
+    frame = render(scene, _shifted_camera(0.0, 0.0), msaa=k, background=background,
+                   outputs=("radiance", "alpha", "color"))
+    radiance = np.zeros((H, W, 3))
+    alpha = np.zeros((H, W))
+    for ox, oy in MSAA_OFFSETS[k]:
+        one = render(scene, _shifted_camera(-ox / 16.0, -oy / 16.0), outputs=("radiance", "alpha"))
+        radiance += one.radiance
+        alpha += one.alpha
+    radiance /= k
+    alpha /= k
+    partial = (alpha > 0) & (alpha < 1)
+    assert partial.sum() > 300 and (alpha > 0).mean() > 0.3
+    np.testing.assert_allclose(frame.radiance, radiance, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(frame.alpha, alpha, rtol=0, atol=1e-6)
+    for threads, simd in ((1, True), (3, True), (2, False)):
+        again = render(scene, _shifted_camera(0.0, 0.0), msaa=k, background=background,
+                       outputs=("radiance", "alpha", "color"), threads=threads, simd=simd)
+        for name in ("radiance", "alpha", "color"):
+            assert getattr(again, name).tobytes() == getattr(frame, name).tobytes(), (name, threads, simd)
+    alone = render(scene, _shifted_camera(0.0, 0.0), msaa=k, outputs=("alpha",))
+    assert alone.alpha.tobytes() == frame.alpha.tobytes()
+
+
+@pytest.mark.parametrize("k", [4, 8])
+def test_msaa_weights_the_shared_opaque_shade_by_each_samples_transmittance(k: int) -> None:
+    """msaa shades an opaque triangle once per pixel and shares it among its samples; behind a
+    blended quad of alpha a over the whole view, every sample lets 1 - a through. So radiance is
+    a c + (1 - a) times the opaque scene's own msaa radiance, over a backdrop of varying
+    colour and random opaque triangles (edges inside pixels); where nothing blended lies in
+    front, the bits are the opaque scene's."""
+    _, ref_cam, specs = random_scene(12, n=20)
+    for spec in specs:
+        spec.blend = False  # every triangle opaque: pixels shared by several triangles
+    rgb, a = np.array([0.9, 0.4, 0.1]), 0.35
+    veil = window_quad(ref_cam, -4, -4, W + 4, H + 4, depth=1.5, base_color=(*rgb, a), instance_id=7)
+    cam = _shifted_camera(0.0, 0.0)
+    opaque = render(sr_scene(specs), cam, msaa=k, outputs=("radiance", "alpha", "depth"))
+    assert ((opaque.alpha > 0) & (opaque.alpha < 1)).sum() > 100
+    frame = render(sr_scene([veil] + specs), cam, msaa=k, outputs=("radiance", "alpha", "depth"))
+    np.testing.assert_allclose(frame.radiance, a * rgb + (1 - a) * opaque.radiance, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(frame.alpha, a + (1 - a) * opaque.alpha, rtol=0, atol=1e-6)
+    np.testing.assert_array_equal(frame.depth, opaque.depth)
+    # a blended quad over part of the view: outside it, the opaque scene's bits
+    part = window_quad(ref_cam, 20, 10, 44, 30, depth=1.5, base_color=(*rgb, a), instance_id=7)
+    frame = render(sr_scene([part] + specs), cam, msaa=k, outputs=("radiance", "alpha"))
+    outside = np.ones((H, W), bool)
+    outside[9:31, 19:45] = False
+    assert frame.radiance[outside].tobytes() == opaque.radiance[outside].tobytes()
+    assert frame.alpha[outside].tobytes() == opaque.alpha[outside].tobytes()
+    assert not np.array_equal(frame.radiance[~outside], opaque.radiance[~outside])
 
 
 def _shifted_camera(dx: float, dy: float, w: int = W, h: int = H) -> sr.IntrinsicsCamera:

@@ -27,7 +27,7 @@ enum OptionKey {
   k_view, k_proj, k_orthographic, k_near, k_far, k_outputs, k_cull, k_shading, k_shading_path,
   k_background, k_ambient, k_out, k_lights, k_ambient_light, k_frequency, k_srgb,
   k_texture_filter, k_normal_rotation, k_raster, k_msaa, k_ssaa, k_primitives, k_line_algorithm,
-  k_lit_kernel, k_cull_double_sided, k_normal_kind, kNumOptions
+  k_lit_kernel, k_cull_double_sided, k_normal_kind, k_alpha_threshold, kNumOptions
 };
 struct OptionDoc {
   const char* key;
@@ -72,6 +72,10 @@ constexpr OptionDoc kOptions[kNumOptions] = {
     {"normal_kind", "str", false,
      "NORMAL_KINDS: the normal output's 'interpolated' vertex normal (default) or the 'shading' "
      "normal (normal and bump maps applied)"},
+    {"alpha_threshold", "float | None", false,
+     "[0, 1]: depth, ids, mask, normal and the surface outputs from the nearest blended "
+     "fragment whose alpha reaches it, in front of the opaque surface; None (default): the "
+     "nearest opaque surface's"},
 };
 
 // The options' keys, interned once (a lookup by a C string would build and hash a new Python
@@ -233,6 +237,13 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::dict& sp
   // Anti-aliasing (1: off); counts are checked by Renderer::render.
   if (given(k_msaa)) options.msaa = get(k_msaa).cast<int>();
   if (given(k_ssaa)) options.ssaa = get(k_ssaa).cast<int>();
+  if (given(k_alpha_threshold)) {
+    const double t = get(k_alpha_threshold).cast<double>();
+    if (!(t >= 0.0 && t <= 1.0))
+      throw py::value_error("alpha_threshold must be in [0, 1], got " + std::to_string(t));
+    options.surface_threshold = true;
+    options.alpha_threshold = float(t);
+  }
   // Lines and points (none by default), and how lines are stepped.
   std::vector<PrimitiveDraw> primitives;
   if (given(k_primitives))

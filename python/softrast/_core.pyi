@@ -70,6 +70,7 @@ class RenderOptions(TypedDict, total=False):
     lit_kernel: bool  # tests and benchmarks: shade with the lit kernel even where a plain one serves (the same bits; default False)
     cull_double_sided: bool  # cull the draws of double-sided materials too (default False: they are never culled)
     normal_kind: str  # NORMAL_KINDS: the normal output's 'interpolated' vertex normal (default) or the 'shading' normal (normal and bump maps applied)
+    alpha_threshold: float | None  # [0, 1]: depth, ids, mask, normal and the surface outputs from the nearest blended fragment whose alpha reaches it, in front of the opaque surface; None (default): the nearest opaque surface's
 
 class Draw:
     """One mesh instance: its mesh, pose, id, colour and material."""

@@ -603,6 +603,7 @@ class Renderer:
         cull_double_sided: bool = False,
         normal_kind: str = "interpolated",
         shadows: bool | str | None = None,
+        alpha_threshold: float | None = None,
     ) -> Frame:
         """Render ``scene`` seen by ``camera``; only ``outputs`` are allocated and written.
 
@@ -672,6 +673,17 @@ class Renderer:
               True / "exact" (every light casts exact shadows) or "map" (shadow maps):
               softrast.light states the rules. Shadows darken only the colour and radiance
               outputs.
+        alpha_threshold : None (default) or a number in [0, 1]. Where blended materials
+              (``alpha_mode="blend"``) lie in front of the nearest opaque surface, ``color``,
+              ``radiance`` and ``alpha`` are always composited; ``depth``, ``mask``, the ids,
+              ``normal`` and the surface outputs (``barycentric``, ``uv``, ``position``,
+              ``ray_depth``) describe by default the nearest opaque surface (seen through the
+              glass). With a threshold they describe the nearest fragment, blended or opaque,
+              whose alpha (clamped to [0, 1]) is at least ``alpha_threshold``, as Blender's
+              "pass alpha threshold" does (0.5 there); 0 takes the nearest blended fragment of
+              any alpha. With msaa / ssaa the representative sample is then the sample nearest
+              the centre that sees such a fragment or an opaque surface. ``coverage`` still
+              counts opaque fragments. Not with a lens-distorted camera.
         raster : how triangles are filled: "edge" (default; edge functions tested at every
               pixel of a triangle's box) or "scanline" (each row's span found by edge walking,
               the classical algorithm). Both use the same snapped vertices and top-left rule, so
@@ -745,6 +757,11 @@ class Renderer:
             raise ValueError(f"ambient must be in [0, 1], got {ambient!r}")
         msaa, ssaa = _antialiasing(msaa, ssaa)
         shadow_override = None if shadows is None else shadow_method(shadows)
+        if alpha_threshold is not None:
+            threshold = real(alpha_threshold, "alpha_threshold")
+            if not 0.0 <= threshold <= 1.0:  # NaN fails too
+                raise ValueError(f"alpha_threshold must be None or in [0, 1], got {alpha_threshold!r}")
+            alpha_threshold = threshold
 
         if getattr(camera, "_dist", None) is not None:  # an IntrinsicsCamera with lens distortion
             if msaa > 1 or ssaa > 1:
@@ -753,6 +770,9 @@ class Renderer:
             if scene.primitives or wireframe:
                 raise ValueError("scene: lines and points (and wireframe) are not supported with "
                                  "a camera with lens distortion")
+            if alpha_threshold is not None:
+                raise ValueError("alpha_threshold: not supported with a camera with lens distortion "
+                                 "(its depth and ids are ray cast against opaque surfaces only)")
             from .distortion import render_distorted
 
             return render_distorted(self, scene, camera, names, {
@@ -787,7 +807,7 @@ class Renderer:
             "normal_rotation": None if normal_space == "world" else
             tuple(map(tuple, camera.pose[:3, :3].T.tolist())),
             "raster": raster, "msaa": msaa, "ssaa": ssaa, "primitives": primitives,
-            "line_algorithm": line_algorithm})
+            "line_algorithm": line_algorithm, "alpha_threshold": alpha_threshold})
         return Frame(buffers)
 
     def render_many(self, scene: Scene, cameras: Iterable[Camera], outputs: str | Sequence[str] = ("color", "depth"),
