@@ -813,7 +813,9 @@ def test_golden_bytes():
             png_chunks(data)
             assert _decode_cv2(data) is not None
         elif name.startswith("tiff"):
-            assert tifffile.imread(pyio.BytesIO(data)).shape[:2] == (67, 91)
+            # (libtiff, through OpenCV: tifffile >= 2026 decodes predictor 3 only with
+            # imagecodecs, which is not a test dependency)
+            assert _decode_cv2(data).shape[:2] == (67, 91)
         else:
             inflate(data)
     got = {name: hashlib.sha256(data).hexdigest() for name, data in images.items()}
