@@ -183,7 +183,7 @@ def test_quick_report_csv_is_long_format(quick_report):
     assert len(keys) == len(set(keys)), "one row per (knob, value, metric)"
     knobs = {r["knob"] for r in rows}
     assert knobs == {"tessellation", "frequency", "shading_model", "threads", "texture_filter", "max_anisotropy",
-                     "msaa", "ssaa"}
+                     "msaa", "ssaa", "shadow_resolution"}
     for knob in knobs:
         values = {k[1] for k in keys if k[0] == knob}
         metrics = {k[2] for k in keys if k[0] == knob}
@@ -287,6 +287,20 @@ def test_antialiasing_errors_fall(quick_report, knob, values):
     # Point sampling (1) against 16 msaa samples / 4x4 ssaa: several times lower.
     cov = _series(rows, knob, "coverage_mean")
     assert cov[values[-1]] < cov["1"] / 3
+
+
+def test_shadow_map_errors_fall_with_resolution(quick_report):
+    # Shadow maps against the exact method on the sphere casting onto a backdrop: each doubling
+    # of the resolution lowers both errors; the finest map misplaces under 0.2% of the pixels.
+    _, _, rows = quick_report
+    values = tuple(str(r) for r in report.QUICK.shadow_resolutions) + ("exact",)
+    for metric in ("rmse", "shadow_mismatch"):
+        series = _series(rows, "shadow_resolution", metric)
+        assert tuple(series) == values
+        errors = [series[v] for v in values[:-1]]
+        assert all(b < a for a, b in zip(errors, errors[1:])), (metric, series)
+        assert series["exact"] == 0.0
+    assert _series(rows, "shadow_resolution", "shadow_mismatch")[values[-2]] < 0.002
 
 
 def test_softrast_imports_without_the_report_dependencies():

@@ -19,6 +19,9 @@ Scenes and their exact references (NumPy float64):
   models' formulas (``softrast.material``) applied to that normal give the colour. Only the
   box-filtered shaded sphere (metric ``rmse_box``, what msaa / ssaa are measured against) has
   no closed form: its reference is a 16 x 16-supersampled render, labelled so.
+  The same sphere casting a shadow onto a backdrop plane measures shadow maps' resolution
+  (``shadow_resolution``) against the exact method, a ray per pixel (errors in radiance and in
+  pixels lit or shadowed differently).
 * **checker**: a plane at a grazing angle carrying a 64 x 64 checkerboard texture (8 x 8 texels
   a check, so the texture is exactly the checker function), unlit. ``checker_box_filter``
   integrates the checker function over each pixel square exactly: the camera's x axis is
@@ -426,6 +429,7 @@ class Settings:
     cost_size: tuple[int, int] = (640, 480)
     cost_subdivision: int = 6
     cost_repeats: int = 11
+    shadow_resolutions: tuple[int, ...] = (64, 128, 256, 512, 1024, 2048)
 
 
 QUICK = Settings(size=128, repeats=7, subdivisions=(1, 2, 3, 4, 5, 6, 7), fixed_subdivision=4,
@@ -433,7 +437,8 @@ QUICK = Settings(size=128, repeats=7, subdivisions=(1, 2, 3, 4, 5, 6, 7), fixed_
                  cost_subdivision=6, cost_repeats=9)
 FULL = Settings(size=512, repeats=25, subdivisions=(1, 2, 3, 4, 5, 6, 7, 8), fixed_subdivision=4,
                 threads_subdivision=7, supersampled_subdivision=8, anisotropy=(1, 2, 4, 8, 16),
-                cost_subdivision=6, cost_repeats=31)
+                cost_subdivision=6, cost_repeats=31,
+                shadow_resolutions=(64, 128, 256, 512, 1024, 2048, 4096))
 
 # The sphere scene: a unit sphere 5 units in front of the camera (its silhouette fills ~3/4 of
 # the image height), one grey directional light from the upper left front and an ambient light,
@@ -796,8 +801,55 @@ def _sweep_anisotropy(s: Settings, checker: _Checker, renderer: Any) -> list[Row
     return _knob_rows("max_anisotropy", "checker", cases, s.repeats)
 
 
+def _shadow_scene(sphere: _Sphere, subdivisions: int, shadows: Any, resolution: int = 2048) -> Any:
+    """The sphere (lambert) over a backdrop plane at z = -1.2 facing the camera, its light
+    casting ``shadows``: the sphere's shadow falls on the backdrop's lower right."""
+    from .light import DirectionalLight
+    from .material import Material
+    from .mesh import Mesh
+    from .scene import Scene
+
+    scene = Scene(ambient_light=(_AMBIENT,) * 3)
+    scene.add(sphere.mesh(subdivisions), material=sphere.material("lambert"))
+    h, z = 3.0, -1.2
+    scene.add(Mesh([[-h, -h, z], [h, -h, z], [h, h, z], [-h, h, z]], [[0, 1, 2], [0, 2, 3]]),
+              material=Material(base_color=(1.0, 1.0, 1.0), model="lambert"))
+    scene.add(DirectionalLight(intensity=_LIGHT, shadows=shadows, shadow_resolution=resolution),
+              pose=_light_pose(_LIGHT_DIR))
+    return scene
+
+
+def _sweep_shadow_resolution(s: Settings, sphere: _Sphere, renderer: Any) -> list[Row]:
+    """Shadow maps of growing resolution against the exact method (a ray per pixel), on the
+    sphere casting onto a backdrop: radiance RMSE, and the share of pixels whose radiance
+    differs by over 0.05 (lit against shadowed: the maps' filtered edges and their texels).
+    The value "exact" is the reference itself (error 0), for its time."""
+    from .render import Renderer
+
+    k = s.fixed_subdivision
+    size = f"ico{k} over a plane, lambert, {sphere.width}x{sphere.height}"
+    # (its own renderer: it keeps the occluders' hierarchy between renders, as a loop over views
+    # of one scene does, which renders of the map scenes in between would drop)
+    exact, exact_timer = _frame_and_timer(Renderer(sphere.width, sphere.height),
+                                          _shadow_scene(sphere, k, "exact"), sphere.camera, ("radiance",))
+    reference = exact.radiance[..., 0].astype(np.float64)
+    label = "exact shadows (a ray per pixel), the same renderer"
+    cases = []
+    for resolution in s.shadow_resolutions:
+        frame, timer = _frame_and_timer(renderer, _shadow_scene(sphere, k, "map", resolution),
+                                        sphere.camera, ("radiance",))
+        diff = np.abs(frame.radiance[..., 0].astype(np.float64) - reference)
+        cases.append((resolution, f"{resolution}x{resolution} map, {size}", [
+            ("rmse", float(np.sqrt(np.mean(diff ** 2))), "linear radiance", label, "lower"),
+            ("shadow_mismatch", float(np.mean(diff > 0.05)), "pixel fraction", label, "lower")], timer))
+    cases.append(("exact", f"exact, {size}", [
+        ("rmse", 0.0, "linear radiance", label, "lower"),
+        ("shadow_mismatch", 0.0, "pixel fraction", label, "lower")], exact_timer))
+    return _knob_rows("shadow_resolution", "sphere", cases, s.repeats)
+
+
 _SPHERE_SWEEPS = (_sweep_tessellation, _sweep_frequency, _sweep_shading, _sweep_threads,
-                  _sweep_antialiasing)
+                  _sweep_antialiasing, _sweep_shadow_resolution)
 _CHECKER_SWEEPS = (_sweep_filter, _sweep_anisotropy)
 
 
@@ -1013,7 +1065,7 @@ def _plot(path: str, rows: Sequence[Row], title: str) -> None:
     axes = fig.subplots(2, 3).ravel()
     colours = {"tessellation": "tab:blue", "frequency": "tab:orange", "shading_model": "tab:green",
                "threads": "tab:red", "texture_filter": "tab:purple", "max_anisotropy": "tab:brown",
-               "msaa": "tab:cyan", "ssaa": "tab:pink"}
+               "msaa": "tab:cyan", "ssaa": "tab:pink", "shadow_resolution": "tab:olive"}
     groups = _front_groups(rows)
     for ax, (scene, metric, panel_title) in zip(axes, _PANELS):
         prows = [r for r in rows if r.scene == scene and r.metric == metric and r.error > 0.0
