@@ -485,7 +485,10 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
     exact |= light.shadow == ShadowMethod::Exact;
   }
   if (shadowed && plan.color) {
-    if (exact) shadows_.build(draws, casts);
+    if (exact) {
+      shadows_.build(draws, casts);
+      shadows_.prepare(options.lights);
+    }
     else shadows_.clear();
     shade.in.lit.shadows = &shadows_;
   }

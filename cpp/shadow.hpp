@@ -76,10 +76,13 @@ class ShadowScene {
   // is when the casting draws are the same meshes under the same matrices as last time (a
   // dataset's views of one scene build it once); it holds those meshes until the next build.
   void build(const std::vector<Draw>& draws, const std::vector<uint8_t>& casts);
+  // After build: a grid across each exactly shadowed directional light's direction (below), kept
+  // while the occluders and the direction stay.
+  void prepare(const std::vector<Light>& lights);
   // Whether an occluder blocks the ray from p toward `light` (the rule above).
   bool blocked(const Light& light, const dvec3& p) const;
   std::size_t size() const { return tris_.size(); }
-  void clear() { tris_.clear(); nodes_.clear(); built_from_.clear(); }
+  void clear() { tris_.clear(); nodes_.clear(); built_from_.clear(); grids_.clear(); }
 
  private:
   // Corners a, a + e1, a + e2; n = e1 x e2, nn = n . n, scale = the corners' largest coordinate
@@ -89,6 +92,29 @@ class ShadowScene {
   // this + 1 and at `index`.
   struct Node { double bound[2][3]; uint32_t index, count; };  // bound[0] low, bound[1] high corner
   bool hits(const Tri& tri, const dvec3& o, const dvec3& d, double t_max) const;
+  // A directional light's rays are parallel: a triangle can block one only where the ray's
+  // point, projected along the light onto a plane across it, lies in the triangle's projection.
+  // The grid lists, per cell of that plane, the triangles whose projected bounding box (padded
+  // past rounding) meets the cell; a ray tests its cell's list, the same triangles' test as the
+  // hierarchy's (so the same decisions: any listed triangle that blocks, none missed). A cell of
+  // more than kGridCellMax triangles (a scene much wider than its detail) is left to the
+  // hierarchy.
+  struct DirectionGrid {
+    vec3 direction;  // the light's, as given (the key)
+    dvec3 u, v;      // the plane's axes (unit, across the direction)
+    double s0 = 0.0, t0 = 0.0, inv_cell = 0.0;
+    int nx = 0, ny = 0;
+    std::vector<uint32_t> start;  // cell c's triangles: items[start[c], start[c + 1])
+    std::vector<uint32_t> items;  // each cell's nearest the light first (by `reach`)
+    // Per item, how far toward the light its triangle reaches (its corners' largest w . x,
+    // padded): a ray from a point beyond it (w . o greater) cannot meet it, nor the rest.
+    std::vector<double> reach;
+    dvec3 w;  // toward the light (unit)
+    std::vector<uint8_t> crowded;  // per cell: left to the hierarchy
+  };
+  void build_grid(DirectionGrid& grid) const;
+  bool blocked_in_grid(const DirectionGrid& grid, const dvec3& o, const dvec3& d) const;
+  std::vector<DirectionGrid> grids_;
   std::vector<Node> nodes_;
   std::vector<Tri> tris_;
   std::vector<std::pair<std::shared_ptr<const MeshData>, dmat4>> built_from_;  // (mesh, model)

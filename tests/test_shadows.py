@@ -394,6 +394,32 @@ def test_point_and_spot_shadows_match_reference(kind):
     assert (unlimited & ~blocked).sum() > 1000, "the lid would not shadow anything anyway"
 
 
+@pytest.mark.parametrize("floor", [14.0, 4.0e4], ids=["floor_14", "floor_4e4"])
+def test_directional_shadows_match_reference(floor):
+    """A slanted sun over the blockers: at every pixel it reaches, the render is dark exactly
+    where the reference is blocked (the lid and the out-of-view box cast too: a directional
+    light's rays are unlimited). Directional rays are looked up in a grid across the light
+    (shadow.hpp); under a floor 4e4 wide the detail crowds a few cells, which are left to the
+    hierarchy. The decisions are the rule's either way."""
+    mat = lambert()
+    scene = sr.Scene(ambient_light=(0.0, 0.0, 0.0))
+    scene.add(plane_mesh(floor, 6, material=mat), instance_id=0)
+    scene.add(box_mesh((1.0, 0.8, 1.0), mat), pose=at(-0.8, 0.6, 0.2), instance_id=1)
+    scene.add(box_mesh((0.6, 1.2, 0.6), mat), pose=at(1.2, 0.6, -0.8), instance_id=2)
+    scene.add(sphere_mesh(0.5, 3, mat), pose=at(0.6, 1.6, 1.0), instance_id=3)
+    scene.add(box_mesh((0.3, 0.3, 0.3), mat), pose=at(2.6, 2.2, 0.9), instance_id=4)
+    scene.add(sr.DirectionalLight(intensity=2.0, shadows=True),
+              pose=ref.light_pose((0.0, 5.0, 0.0), np.array([-0.55, -1.0, -0.35])))
+    cam = camera(**BLOCKERS_CAM)
+    fs = render(scene, cam)
+    fu = render(scene, cam, shadows=False)
+    sel = (fu.radiance > 0).any(axis=-1)
+    dark, _ = observed(fs, fu, sel)
+    blocked, margin = reference_at_pixels(scene, fs, sel)
+    assert blocked.sum() > 1000 and (~blocked).sum() > 3000
+    compare(blocked, dark, margin, f"directional light, floor {floor}", np.argwhere(sel))
+
+
 # ---------------------------------------------------------------------------- every lit model
 
 def _model_material(model):
