@@ -1,6 +1,6 @@
 """What blending costs: a frame with blended layers over the same frame drawn opaque, one run.
 
-    python3 benchmarks/bench_blend.py [--quick] [--png DIR]
+    python3 benchmarks/bench_blend.py [--quick] [--png DIR] [--msaa N | --ssaa K]
 
 Scene: Spot (assets/meshes/spot.obj, no texture, Blinn-Phong, one point light) filling about half
 of the image, and four translucent quads (alpha 0.5, Blinn-Phong, different colours) stacked in
@@ -9,6 +9,7 @@ blended layers. Rows: 640x480 and 1024x1024, two threads, colour + depth. Column
 same draws, alpha_mode "opaque"), "blend" (alpha_mode "blend") and their ratio; cells alternate
 in rounds so that they share the machine's noise; times are medians in ms per frame, steady
 state (scene uploaded once, renderer reused). Issue 35's goal: blend / opaque <= 1.5.
+``--msaa N`` / ``--ssaa K`` render both columns anti-aliased (each sample composites its layers).
 """
 from __future__ import annotations
 
@@ -21,6 +22,7 @@ import numpy as np
 import softrast as sr
 
 ROOT = Path(__file__).resolve().parents[1]
+AA: dict = {"msaa": 1, "ssaa": 1}  # (main sets it from --msaa / --ssaa)
 
 
 def scene_of(mode: str) -> tuple[sr.Scene, sr.PerspectiveCamera]:
@@ -48,7 +50,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--png", type=Path)
+    ap.add_argument("--msaa", type=int, default=1)
+    ap.add_argument("--ssaa", type=int, default=1)
     args = ap.parse_args()
+    global AA
+    AA = {"msaa": args.msaa, "ssaa": args.ssaa}
     sizes = [(640, 480)] + ([] if args.quick else [(1024, 1024)])
     rounds = 5 if args.quick else 11
     print(f"{'size':>10} {'opaque ms':>10} {'blend ms':>10} {'ratio':>7} {'layered px':>11}")
@@ -57,7 +63,7 @@ def main() -> None:
         for mode in ("opaque", "blend"):
             scene, cam = scene_of(mode)
             r = sr.Renderer(w, h, threads=2)
-            frame = r.render(scene, cam, outputs=("color", "depth"))
+            frame = r.render(scene, cam, outputs=("color", "depth"), **AA)
             cells[mode] = (r, scene, cam, frame)
         # The share of covered pixels with a blended layer (the quads' own coverage).
         _, scene_o, cam_o, _ = cells["opaque"]
@@ -85,7 +91,7 @@ def _time(cell, n: int) -> float:
     r, scene, cam, frame = cell
     t0 = time.perf_counter()
     for _ in range(n):
-        r.render(scene, cam, outputs=("color", "depth"), out=frame)
+        r.render(scene, cam, outputs=("color", "depth"), out=frame, **AA)
     return (time.perf_counter() - t0) / n
 
 
