@@ -819,6 +819,28 @@ def test_same_bits_for_any_thread_count_instruction_set_and_shading_path() -> No
 # ----------------------------------------------------------------------------- 8. refusals
 
 
+def _check_resolved(scene, frame, radiance, alpha, background, **aa) -> None:
+    """An anti-aliased blended frame against the mean of single-sample renders (radiance and
+    alpha within 1e-6; colour that mean plus (1 - alpha) times the background's linear value,
+    encoded, within one step), and the same bits for 1, 2 and 3 threads, both instruction sets,
+    and for alpha asked alone."""
+    np.testing.assert_allclose(frame.radiance, radiance, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(frame.alpha, alpha, rtol=0, atol=1e-6)
+    # (the background's linear value: its byte, decoded as the colour output is encoded)
+    byte = np.floor(np.asarray(background) * 255.0 + 0.5) / 255.0
+    bg = np.where(byte <= 0.04045, byte / 12.92, ((byte + 0.055) / 1.055) ** 2.4)
+    lin = np.clip(radiance + (1.0 - alpha)[..., None] * bg, 0.0, 1.0)
+    enc = np.where(lin <= 0.0031308, 12.92 * lin, 1.055 * lin ** (1 / 2.4) - 0.055)
+    assert np.abs(frame.color.astype(np.int64) - np.floor(enc * 255.0 + 0.5)).max() <= 1
+    for threads, simd in ((1, True), (3, True), (2, False)):
+        again = render(scene, _shifted_camera(0.0, 0.0), background=background,
+                       outputs=("radiance", "alpha", "color"), threads=threads, simd=simd, **aa)
+        for name in ("radiance", "alpha", "color"):
+            assert getattr(again, name).tobytes() == getattr(frame, name).tobytes(), (name, threads, simd)
+    alone = render(scene, _shifted_camera(0.0, 0.0), outputs=("alpha",), **aa)
+    assert alone.alpha.tobytes() == frame.alpha.tobytes()
+
+
 # msaa's sample offsets in 1/16 px from the pixel centre, y down (multisample.cpp, Direct3D's)
 MSAA_OFFSETS = {2: [(4, 4), (-4, -4)], 4: [(-2, -6), (6, -2), (-6, 2), (2, 6)],
                 8: [(1, -3), (-1, 3), (5, 1), (-3, -5), (-5, 5), (-7, -1), (3, 7), (7, -7)]}
@@ -850,15 +872,7 @@ def test_msaa_composites_every_sample_before_the_resolve(k: int, backdrop: bool)
     alpha /= k
     partial = (alpha > 0) & (alpha < 1)
     assert partial.sum() > 300 and (alpha > 0).mean() > 0.3
-    np.testing.assert_allclose(frame.radiance, radiance, rtol=0, atol=1e-6)
-    np.testing.assert_allclose(frame.alpha, alpha, rtol=0, atol=1e-6)
-    for threads, simd in ((1, True), (3, True), (2, False)):
-        again = render(scene, _shifted_camera(0.0, 0.0), msaa=k, background=background,
-                       outputs=("radiance", "alpha", "color"), threads=threads, simd=simd)
-        for name in ("radiance", "alpha", "color"):
-            assert getattr(again, name).tobytes() == getattr(frame, name).tobytes(), (name, threads, simd)
-    alone = render(scene, _shifted_camera(0.0, 0.0), msaa=k, outputs=("alpha",))
-    assert alone.alpha.tobytes() == frame.alpha.tobytes()
+    _check_resolved(scene, frame, radiance, alpha, background, msaa=k)
 
 
 @pytest.mark.parametrize("k", [4, 8])
@@ -926,21 +940,7 @@ def test_ssaa_composites_every_sample_before_the_resolve(k: int, backdrop: bool)
     alpha /= k * k
     partial = (alpha > 0) & (alpha < 1)
     assert partial.sum() > 50 and (alpha > 0).mean() > 0.3
-    np.testing.assert_allclose(frame.radiance, radiance, rtol=0, atol=1e-6)
-    np.testing.assert_allclose(frame.alpha, alpha, rtol=0, atol=1e-6)
-    # (the background's linear value: its byte, decoded as the colour output is encoded)
-    byte = np.floor(np.asarray(background) * 255.0 + 0.5) / 255.0
-    bg = np.where(byte <= 0.04045, byte / 12.92, ((byte + 0.055) / 1.055) ** 2.4)
-    lin = np.clip(radiance + (1.0 - alpha)[..., None] * bg, 0.0, 1.0)
-    enc = np.where(lin <= 0.0031308, 12.92 * lin, 1.055 * lin ** (1 / 2.4) - 0.055)
-    assert np.abs(frame.color.astype(np.int64) - np.floor(enc * 255.0 + 0.5)).max() <= 1
-    for threads, simd in ((1, True), (3, True), (2, False)):
-        again = render(scene, _shifted_camera(0.0, 0.0), ssaa=k, background=background,
-                       outputs=("radiance", "alpha", "color"), threads=threads, simd=simd)
-        for name in ("radiance", "alpha", "color"):
-            assert getattr(again, name).tobytes() == getattr(frame, name).tobytes(), (name, threads, simd)
-    alone = render(scene, _shifted_camera(0.0, 0.0), ssaa=k, outputs=("alpha",))
-    assert alone.alpha.tobytes() == frame.alpha.tobytes()
+    _check_resolved(scene, frame, radiance, alpha, background, ssaa=k)
 
 
 def test_unknown_alpha_mode_is_refused() -> None:
