@@ -59,7 +59,16 @@ struct ShadowMapFace {
   bool orthographic = false;
   int size = 0;  // size x size texels
   std::vector<float> depth;
+  // For the eight-lane lookup (finish_face): the view's rotation rows, the light camera's
+  // position (world), the projection's rows, and a texel's width over the view depth
+  // (orthographic: the width itself).
+  float rot[3][3];
+  vec3 eye;
+  float proj_rows[4][4];
+  float texel_scale;
 };
+// Sets a face's view_proj and the lookup's float copies from its view, proj and size.
+void finish_face(ShadowMapFace& f);
 
 struct ShadowMap {
   std::vector<ShadowMapFace> faces;
@@ -68,6 +77,11 @@ struct ShadowMap {
 
 // The visibility in [0, 1] of a shadow-mapped light at p, normal n (zero: no slope term).
 double map_visibility(const ShadowMap& map, const Light& light, const dvec3& p, const dvec3& n);
+// The same for the eight points (x, y, z) with normals (nx, ny, nz) of a map of one face, in
+// float: the lanes set in `lanes` get their visibility in out[i] (the others are not written).
+void map_visibility8(const ShadowMap& map, const Light& light, const float* x, const float* y,
+                     const float* z, const float* nx, const float* ny, const float* nz,
+                     uint32_t lanes, float* out);
 
 class ShadowScene {
  public:

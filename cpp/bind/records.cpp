@@ -178,13 +178,13 @@ void attach_shadow_map(Light& light, const py::list& faces, double bias) {
     ShadowMapFace f;
     f.view = mat(face[0]);
     f.proj = mat(face[1]);
-    f.view_proj = f.proj * f.view;
     f.orthographic = face[2].cast<bool>();
     auto depth = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(face[3]);
     if (!depth || depth.ndim() != 2 || depth.shape(0) != depth.shape(1) || depth.shape(0) < 1)
       throw py::value_error("shadow map: depth must be a square (n, n) array");
     f.size = int(depth.shape(0));
     f.depth.assign(depth.data(), depth.data() + depth.size());
+    finish_face(f);
     map->faces.push_back(std::move(f));
   }
   light.shadow = ShadowMethod::Map;
