@@ -406,7 +406,7 @@ def test_directional_shadows_match_reference(floor):
     scene.add(plane_mesh(floor, 6, material=mat), instance_id=0)
     scene.add(box_mesh((1.0, 0.8, 1.0), mat), pose=at(-0.8, 0.6, 0.2), instance_id=1)
     scene.add(box_mesh((0.6, 1.2, 0.6), mat), pose=at(1.2, 0.6, -0.8), instance_id=2)
-    scene.add(sphere_mesh(0.5, 3, mat), pose=at(0.6, 1.6, 1.0), instance_id=3)
+    scene.add(sphere_mesh(0.5, 2, mat), pose=at(0.6, 1.6, 1.0), instance_id=3)
     scene.add(box_mesh((0.3, 0.3, 0.3), mat), pose=at(2.6, 2.2, 0.9), instance_id=4)
     scene.add(sr.DirectionalLight(intensity=2.0, shadows=True),
               pose=ref.light_pose((0.0, 5.0, 0.0), np.array([-0.55, -1.0, -0.35])))
