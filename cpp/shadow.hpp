@@ -39,6 +39,7 @@
 
 #include "materials.hpp"
 #include "math.hpp"
+#include "simd.hpp"
 
 #include <cstddef>
 #include <cstdint>
@@ -133,6 +134,117 @@ class ShadowScene {
   std::vector<Tri> tris_;
   std::vector<std::pair<std::shared_ptr<const MeshData>, dmat4>> built_from_;  // (mesh, model)
 };
+
+// The 4 x 4 filtered taps of map_lanes at a lookup near the map's border (texels outside pass).
+float map_filtered(const ShadowMapFace& f, float sx, float sy, float compare);
+
+namespace shadow_lanes {
+
+// Comparisons of eight lanes as two halves of four: GCC lowers a comparison of 256-bit vectors
+// to one scalar compare per lane on a target without AVX (the generic kernels'), but a 128-bit one to
+// one SSE2 instruction.
+using simd::f4;
+using simd::f8;
+using simd::i4;
+using simd::i8;
+SR_INLINE f4 lo4(f8 v) { return __builtin_shufflevector(v, v, 0, 1, 2, 3); }
+SR_INLINE f4 hi4(f8 v) { return __builtin_shufflevector(v, v, 4, 5, 6, 7); }
+SR_INLINE i4 lo4(i8 v) { return __builtin_shufflevector(v, v, 0, 1, 2, 3); }
+SR_INLINE i4 hi4(i8 v) { return __builtin_shufflevector(v, v, 4, 5, 6, 7); }
+SR_INLINE i8 join(i4 lo, i4 hi) { return __builtin_shufflevector(lo, hi, 0, 1, 2, 3, 4, 5, 6, 7); }
+SR_INLINE i8 gt(f8 a, f8 b) { return join(lo4(a) > lo4(b), hi4(a) > hi4(b)); }
+SR_INLINE i8 ge(f8 a, f8 b) { return join(lo4(a) >= lo4(b), hi4(a) >= hi4(b)); }
+SR_INLINE i8 lt(f8 a, f8 b) { return join(lo4(a) < lo4(b), hi4(a) < hi4(b)); }
+SR_INLINE i8 le(f8 a, f8 b) { return join(lo4(a) <= lo4(b), hi4(a) <= hi4(b)); }
+SR_INLINE i8 ge(i8 a, i8 b) { return join(lo4(a) >= lo4(b), hi4(a) >= hi4(b)); }
+SR_INLINE i8 lt(i8 a, i8 b) { return join(lo4(a) < lo4(b), hi4(a) < hi4(b)); }
+SR_INLINE i8 eq(f8 a, f8 b) { return join(lo4(a) == lo4(b), hi4(a) == hi4(b)); }
+SR_INLINE i8 ne(i8 a, i8 b) { return join(lo4(a) != lo4(b), hi4(a) != hi4(b)); }
+// A select as bit operations (a vector ?: of floats becomes a branch per lane there too).
+SR_INLINE f8 select(i8 m, f8 a, f8 b) { return f8((i8(a) & m) | (i8(b) & ~m)); }
+
+}  // namespace shadow_lanes
+
+// map_visibility8's lookup on vectors, inlined into the lighting kernels (lighting.hpp) for
+// their instruction set: the same operations, so the same bits on either.
+SR_INLINE void map_lanes(const ShadowMap& map, const Light& light, const simd::f8 (&p)[3],
+                         const simd::f8 (&n)[3], uint32_t lanes, float* out) {
+  using namespace simd;
+  using namespace shadow_lanes;
+  const ShadowMapFace& f = map.faces[0];
+  // The point in the light camera's view, from its eye (small numbers, float), then clip space.
+  const f8 r[3] = {p[0] - f.eye.x, p[1] - f.eye.y, p[2] - f.eye.z};
+  f8 v[3];
+  for (int k = 0; k < 3; ++k) v[k] = f.rot[k][0] * r[0] + f.rot[k][1] * r[1] + f.rot[k][2] * r[2];
+  f8 c[4];
+  for (int k = 0; k < 4; ++k)
+    c[k] = f.proj_rows[k][0] * v[0] + f.proj_rows[k][1] * v[1] + f.proj_rows[k][2] * v[2] + f.proj_rows[k][3];
+  const f8 zero = splat(0.0f);
+  const f8 depth = -v[2];
+  const f8 inv_w = f.orthographic ? splat(1.0f) : 1.0f / c[3];
+  const float half = 0.5f * float(f.size);
+  const f8 sx = (c[0] * inv_w + 1.0f) * half - 0.5f;
+  const f8 sy = (1.0f - c[1] * inv_w) * half - 0.5f;
+  // The slope-scaled bias (map_visibility's, in float): tan(normal, light), at most 10.
+  const f8 texel = f.orthographic ? splat(f.texel_scale) : depth * f.texel_scale;
+  f8 l[3];
+  for (int k = 0; k < 3; ++k)
+    l[k] = light.kind == LightKind::Directional ? splat(-light.direction[k])
+                                                : light.position[k] - p[k];
+  const f8 n2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+  const f8 dot = n[0] * l[0] + n[1] * l[1] + n[2] * l[2];
+  const f8 nl = f8(i8(dot) & 0x7fffffff);  // |dot|
+  const f8 nl2 = n2 * (l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
+  const f8 rest = nl2 - nl * nl;
+  const f8 tangent = simd::sqrt(f8(i8(rest) & gt(rest, zero))) / nl;
+  const i8 steep = gt(nl, zero) & ge(nl * nl, splat(0.0995f * 0.0995f) * nl2);
+  const f8 slope = f8(i8(select(steep, tangent, splat(10.0f))) & gt(n2, zero));
+  const f8 compare = depth - (float(map.bias) + 2.0f * texel * slope);
+  // The taps' texels, in lanes: the 4 x 4 block from (i0, j0), its fractions (fx, fy). (Lanes
+  // outside the image, or not finite, are clamped first: only lanes inside are read, and the
+  // conversion to integers must not overflow.)
+  const f8 low = splat(-2.0f), high = splat(float(f.size) + 2.0f);
+  const f8 cx = select(le(select(ge(sx, low), sx, low), high), select(ge(sx, low), sx, low), high);
+  const f8 cy = select(le(select(ge(sy, low), sy, low), high), select(ge(sy, low), sy, low), high);
+  const i8 xt = __builtin_convertvector(cx, i8), yt = __builtin_convertvector(cy, i8);  // (trunc)
+  const i8 xf = xt + lt(cx, to_float(xt)), yf = yt + lt(cy, to_float(yt));  // floor (true is -1)
+  const f8 fx = cx - to_float(xf), fy = cy - to_float(yf);
+  const i8 i0 = xf - 1, j0 = yf - 1;
+  const i8 izero = splat(0), last = splat(f.size - 3);
+  const i8 inside_block = ge(i0, izero) & ge(j0, izero) & lt(i0, last) & lt(j0, last);
+  // Outside the face's image, or beyond its far plane: lit (not written).
+  const f8 w = c[3];
+  const i8 seen = gt(w, zero) & le(c[0], w) & le(-c[0], w) & le(c[1], w) & le(-c[1], w) & le(c[2], w);
+  alignas(32) int32_t use[8], block[8], first[8];
+  alignas(32) float fxs[8], fys[8], limit[8];
+  store(use, seen);
+  store(block, inside_block);
+  store(first, j0 * f.size + i0);
+  store(fxs, fx);
+  store(fys, fy);
+  store(limit, compare);
+  for (int i = 0; i < 8; ++i) {
+    if (!(lanes >> i & 1u) || !use[i]) continue;
+    if (!block[i]) {  // (at the map's border: texels outside pass)
+      out[i] = map_filtered(f, sx[i], sy[i], compare[i]);
+      continue;
+    }
+    // A row of four texels as one vector: its passing texels' weights, times the row's.
+    using simd::f4;
+    using simd::i4;
+    const float* row = f.depth.data() + first[i];
+    const f4 weights = {1.0f - fxs[i], 1.0f, 1.0f, fxs[i]};
+    const float wy[4] = {1.0f - fys[i], 1.0f, 1.0f, fys[i]};
+    const f4 cut = simd::broadcast<f4>(limit[i]);
+    f4 acc = {};
+    for (int b = 0; b < 4; ++b, row += f.size) {
+      const f4 d = simd::load<f4>(row);
+      const i4 pass = (d <= f4{}) | (d >= cut);
+      acc += wy[b] * f4(pass & i4(weights));
+    }
+    out[i] = ((acc[0] + acc[1]) + (acc[2] + acc[3])) * (1.0f / 9.0f);
+  }
+}
 
 // The visibility (1 or 0) of each light at the points (x[i], y[i], z[i]) of the lanes set in
 // `mask` (bit i: lane i), at [8 k + i] for light k, in a buffer of the calling thread (valid
