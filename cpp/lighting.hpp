@@ -110,7 +110,7 @@ struct LitInputs {
   float eye_point;   // 1 for a perspective camera (v = eye - p), 0 for orthographic (v = eye)
   // The occluders, where some light casts shadows (else null: every light's visibility is 1).
   const ShadowScene* shadows = nullptr;
-  // Every shadowed light is a shadow map of one camera, and there are at most kInlineMapLights
+  // Every shadowed light is a shadow map, and there are at most kInlineMapLights
   // lights: light_visibilities looks them up inline (map_lanes), without shadow_lights' call.
   bool maps_inline = false;
 };

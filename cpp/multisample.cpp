@@ -217,17 +217,27 @@ Fn kernel(Isa isa) {
 // (`raster`, and its shade `shaded` when colour is shaded), adds the sample's alpha to
 // ms.blend_alpha, and leaves the composite (premultiplied) in shaded.rgb with the sample's weight
 // set wherever something is seen there, for Accumulate. Scalar, compiled once.
-void blend_sample(const BlendParams& blend, const TileRect& rect, int tile, const TileScratch& raster,
-                  ShadeScratch* shaded, BlendScratch& bs, MultisampleScratch& ms, int s, int rank,
-                  int n) {
+// blend_tile at one sample (its raster `raster`, of rank `rank` in the representative order): the
+// layers walked and shaded at the sample's position, and with an alpha threshold the sample's
+// fragments reaching it kept (blend_surface_sample).
+bool blend_at_sample(const BlendParams& blend, const TileRect& rect, int tile,
+                     const TileScratch& raster, const ShadeScratch& shade, int rank, BlendScratch& bs) {
   for (TileScratch& layer : bs.layer) {
     layer.sample_x = raster.sample_x;
     layer.sample_y = raster.sample_y;
     layer.tie = raster.tie;
   }
-  // (shaded null: alpha alone; blend_tile then reads no shade)
-  const bool composited = blend_tile(blend, rect, tile, raster, shaded ? *shaded : ms.resolved_shade, bs);
+  const bool composited = blend_tile(blend, rect, tile, raster, shade, bs);
   if (composited && blend.surfaces) blend_surface_sample(blend, rect, rank, bs);
+  return composited;
+}
+
+void blend_sample(const BlendParams& blend, const TileRect& rect, int tile, const TileScratch& raster,
+                  ShadeScratch* shaded, BlendScratch& bs, MultisampleScratch& ms, int s, int rank,
+                  int n) {
+  // (shaded null: alpha alone; blend_tile then reads no shade)
+  const bool composited =
+      blend_at_sample(blend, rect, tile, raster, shaded ? *shaded : ms.resolved_shade, rank, bs);
   const int width = rect.x1 - rect.x0;
   for (int row = 0; row < n; row += kTileSizePx)
     for (int i = row; i < row + width; ++i) {
@@ -256,15 +266,9 @@ bool msaa_blend(const BlendParams& blend, const TileRect& rect, int tile, TileSc
   bool any = false;
   for (int s = 0; s < count; ++s) {
     const TileScratch& raster = *passes[s];
-    for (TileScratch& layer : bs.layer) {
-      layer.sample_x = raster.sample_x;
-      layer.sample_y = raster.sample_y;
-      layer.tie = raster.tie;
-    }
     // (The composite's own colour planes are not read: the opaque shade is not known yet, so
     // any shade stands in for it.)
-    const bool composited = blend_tile(blend, rect, tile, raster, ms.resolved_shade, bs);
-    if (composited && blend.surfaces) blend_surface_sample(blend, rect, rank_of[s], bs);
+    const bool composited = blend_at_sample(blend, rect, tile, raster, ms.resolved_shade, rank_of[s], bs);
     any |= composited;
     const TileRect& box = bs.box;
     float* const transmit = ms.blend_weight[s];

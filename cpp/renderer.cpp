@@ -485,11 +485,8 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
     exact |= light.shadow == ShadowMethod::Exact;
   }
   if (shadowed && plan.color) {
-    // Only one-camera maps (and few lights): looked up inline in the light loop's kernels.
-    bool inline_maps = !exact && options.lights.size() <= std::size_t(kInlineMapLights);
-    for (const Light& light : options.lights)
-      inline_maps &= light.shadow != ShadowMethod::Map || !light.map || light.map->faces.size() == 1;
-    shade.in.lit.maps_inline = inline_maps;
+    // Only maps (and few lights): looked up inline in the light loop's kernels.
+    shade.in.lit.maps_inline = !exact && options.lights.size() <= std::size_t(kInlineMapLights);
     if (exact) {
       shadows_.build(draws, casts);
       shadows_.prepare(options.lights);

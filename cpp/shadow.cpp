@@ -283,12 +283,8 @@ void ShadowScene::build_grid(DirectionGrid& g) const {
   }
 }
 
-bool ShadowScene::blocked_in_grid(const DirectionGrid& g, const dvec3& o, const dvec3& d) const {
-  const double s = (glm::dot(o, g.u) - g.s0) * g.inv_cell, t = (glm::dot(o, g.v) - g.t0) * g.inv_cell;
-  // Outside the grid (with a cell's margin for rounding): no triangle's projection holds it.
-  if (!(s >= -1.0 && t >= -1.0 && s < g.nx + 1.0 && t < g.ny + 1.0)) return false;
-  const int x = std::clamp(int(s), 0, g.nx - 1), y = std::clamp(int(t), 0, g.ny - 1);
-  const std::size_t c = std::size_t(y) * g.nx + x;
+bool ShadowScene::blocked_in_grid(const DirectionGrid& g, std::size_t c, const dvec3& o,
+                                  const dvec3& d) const {
   const double inf = std::numeric_limits<double>::infinity();
   // A triangle reaching no farther toward the light than the point lies behind the ray's start
   // (the ray meets a plane only at t > 0: beyond the point, toward the light), and so do the
@@ -310,10 +306,12 @@ bool ShadowScene::blocked(const Light& light, const dvec3& o) const {
     for (const DirectionGrid& g : grids_)
       if (g.direction == light.direction) {
         const double s = (glm::dot(o, g.u) - g.s0) * g.inv_cell, t = (glm::dot(o, g.v) - g.t0) * g.inv_cell;
-        const bool crowded = s >= 0.0 && t >= 0.0 && s < g.nx && t < g.ny &&
-                             g.crowded[std::size_t(int(t)) * g.nx + std::size_t(int(s))];
-        if (!crowded) return blocked_in_grid(g, o, d);
-        break;
+        // Outside the grid (with a cell's margin for rounding): no triangle's projection holds it.
+        if (!(s >= -1.0 && t >= -1.0 && s < g.nx + 1.0 && t < g.ny + 1.0)) return false;
+        const int x = std::clamp(int(s), 0, g.nx - 1), y = std::clamp(int(t), 0, g.ny - 1);
+        const std::size_t c = std::size_t(y) * g.nx + x;
+        if (!g.crowded[c]) return blocked_in_grid(g, c, o, d);
+        break;  // (a crowded cell: the hierarchy)
       }
   } else {
     d = dvec3(light.position) - o;
@@ -348,71 +346,6 @@ bool ShadowScene::blocked(const Light& light, const dvec3& o) const {
     if (top == 0) return false;
     node = stack[--top];
   }
-}
-
-namespace {
-
-// 1 where the map's texel (i, j) does not shadow a point at depth `compare` (outside the map, or
-// nothing hit there, pass).
-double texel_passes(const ShadowMapFace& f, int i, int j, double compare) {
-  if (i < 0 || j < 0 || i >= f.size || j >= f.size) return 1.0;
-  const float d = f.depth[std::size_t(j) * std::size_t(f.size) + std::size_t(i)];
-  return d <= 0.0f || double(d) >= compare ? 1.0 : 0.0;
-}
-
-}  // namespace
-
-double map_visibility(const ShadowMap& map, const Light& light, const dvec3& p, const dvec3& n) {
-  for (const ShadowMapFace& f : map.faces) {
-    const dvec4 c = f.view_proj * dvec4(p, 1.0);
-    if (!(c.w > 0.0) || std::fabs(c.x) > c.w || std::fabs(c.y) > c.w) continue;
-    if (c.z > c.w) return 1.0;  // beyond the far plane
-    // The view axis's distance: -(view row 2 . p) (glm: view[column][row]).
-    const double depth = -(f.view[0][2] * p.x + f.view[1][2] * p.y + f.view[2][2] * p.z + f.view[3][2]);
-    // Texel-centre coordinates (column x from the left, row y from the top).
-    const double half = 0.5 * f.size, inv_w = f.orthographic ? 1.0 : 1.0 / c.w;
-    const double sx = (c.x * inv_w + 1.0) * half - 0.5;
-    const double sy = (1.0 - c.y * inv_w) * half - 0.5;
-    // The slope-scaled bias: a texel's width at p times tan(normal, light), at most 10
-    // (tan = sqrt(|n|^2 |l|^2 - (n.l)^2) / |n.l|; 10 where cos < 0.0995).
-    const double texel = f.orthographic ? 2.0 / (f.proj[0][0] * f.size)
-                                        : 2.0 * depth / (f.proj[0][0] * f.size);
-    // (In float: a bias term, and float's square root and division take half as long.)
-    float slope = 0.0f;
-    const float n2 = float(glm::dot(n, n));
-    if (n2 > 0.0f) {
-      const dvec3 l = light.kind == LightKind::Directional ? -dvec3(light.direction)
-                                                           : dvec3(light.position) - p;
-      const float nl = float(std::fabs(glm::dot(n, l))), nl2 = n2 * float(glm::dot(l, l));
-      slope = nl * nl >= 0.0995f * 0.0995f * nl2 ? std::sqrt(std::max(0.0f, nl2 - nl * nl)) / nl : 10.0f;
-    }
-    const double compare = depth - (map.bias + 2.0 * texel * slope);
-    // The 3 x 3 bilinear taps one texel apart cover 4 x 4 texels, with weights (1 - f, 1, 1, f)
-    // along each axis (f the fraction of the tap's position): 16 comparisons, not 36.
-    const double x0 = std::floor(sx), y0 = std::floor(sy);
-    const double fx = sx - x0, fy = sy - y0;
-    const double wx[4] = {1.0 - fx, 1.0, 1.0, fx}, wy[4] = {1.0 - fy, 1.0, 1.0, fy};
-    const int i0 = int(x0) - 1, j0 = int(y0) - 1;
-    double sum = 0.0;
-    if (i0 >= 0 && j0 >= 0 && i0 + 3 < f.size && j0 + 3 < f.size) {
-      // Inside the map: the same tests without bounds or branches.
-      const float* row = f.depth.data() + std::size_t(j0) * std::size_t(f.size) + std::size_t(i0);
-      for (int b = 0; b < 4; ++b, row += f.size) {
-        double line = 0.0;
-        for (int a = 0; a < 4; ++a)
-          line += (row[a] <= 0.0f) | (double(row[a]) >= compare) ? wx[a] : 0.0;
-        sum += wy[b] * line;
-      }
-      return sum * (1.0 / 9.0);
-    }
-    for (int b = 0; b < 4; ++b) {
-      double line = 0.0;
-      for (int a = 0; a < 4; ++a) line += wx[a] * texel_passes(f, i0 + a, j0 + b, compare);
-      sum += wy[b] * line;
-    }
-    return sum * (1.0 / 9.0);
-  }
-  return 1.0;
 }
 
 void finish_face(ShadowMapFace& f) {
@@ -465,15 +398,6 @@ float map_filtered(const ShadowMapFace& f, float sx, float sy, float compare) {
 }
 
 
-void map_visibility8(const ShadowMap& map, const Light& light, const float* x, const float* y,
-                     const float* z, const float* nx, const float* ny, const float* nz,
-                     uint32_t lanes, float* out) {
-  using simd::load;
-  const simd::f8 p[3] = {load<simd::f8>(x), load<simd::f8>(y), load<simd::f8>(z)};
-  const simd::f8 n[3] = {load<simd::f8>(nx), load<simd::f8>(ny), load<simd::f8>(nz)};
-  map_lanes(map, light, p, n, lanes, out);
-}
-
 const float* shadow_lights(const ShadowScene& scene, const Light* lights, int num_lights,
                            const float* x, const float* y, const float* z, const float* nx,
                            const float* ny, const float* nz, bool facing, uint32_t mask) {
@@ -496,10 +420,14 @@ const float* shadow_lights(const ShadowScene& scene, const Light* lights, int nu
     if (light.shadow == ShadowMethod::None || (light.shadow == ShadowMethod::Map && !light.map))
       continue;
     float* vis = out.data() + 8 * k;
-    // A map of one camera: eight lanes at a time, in float. (Lanes facing away from the light
-    // get a visibility too: it multiplies nothing.)
-    if (light.shadow == ShadowMethod::Map && light.map->faces.size() == 1) {
-      map_visibility8(*light.map, light, x, y, z, m[0], m[1], m[2], finite, vis);
+    // A map: eight lanes at a time, in float. (Lanes facing away from the light get a
+    // visibility too: it multiplies nothing.)
+    if (light.shadow == ShadowMethod::Map) {
+      using simd::f8;
+      using simd::load;
+      const f8 p[3] = {load<f8>(x), load<f8>(y), load<f8>(z)};
+      const f8 n[3] = {load<f8>(m[0]), load<f8>(m[1]), load<f8>(m[2])};
+      map_lanes(*light.map, light, p, n, finite, vis);
       continue;
     }
     for (int i = 0; i < 8; ++i) {
@@ -511,10 +439,7 @@ const float* shadow_lights(const ShadowScene& scene, const Light* lights, int nu
         const double nl = glm::dot(n, l);  // (n . l < -2^-20 |n| |l|, squared)
         if (nl < 0.0 && nl * nl > 0x1p-40 * glm::dot(n, n) * glm::dot(l, l)) continue;
       }
-      if (light.shadow == ShadowMethod::Map)
-        vis[i] = float(map_visibility(*light.map, light, p, n));
-      else if (scene.blocked(light, p))
-        vis[i] = 0.0f;
+      if (scene.blocked(light, p)) vis[i] = 0.0f;
     }
   }
   return out.data();

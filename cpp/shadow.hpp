@@ -76,13 +76,6 @@ struct ShadowMap {
   double bias = 0.0;  // shadow_bias, scene units
 };
 
-// The visibility in [0, 1] of a shadow-mapped light at p, normal n (zero: no slope term).
-double map_visibility(const ShadowMap& map, const Light& light, const dvec3& p, const dvec3& n);
-// The same for the eight points (x, y, z) with normals (nx, ny, nz) of a map of one face, in
-// float: the lanes set in `lanes` get their visibility in out[i] (the others are not written).
-void map_visibility8(const ShadowMap& map, const Light& light, const float* x, const float* y,
-                     const float* z, const float* nx, const float* ny, const float* nz,
-                     uint32_t lanes, float* out);
 
 class ShadowScene {
  public:
@@ -128,7 +121,8 @@ class ShadowScene {
     std::vector<uint8_t> crowded;  // per cell: left to the hierarchy
   };
   void build_grid(DirectionGrid& grid) const;
-  bool blocked_in_grid(const DirectionGrid& grid, const dvec3& o, const dvec3& d) const;
+  // The ray from o along d against cell c's list (not crowded).
+  bool blocked_in_grid(const DirectionGrid& grid, std::size_t c, const dvec3& o, const dvec3& d) const;
   std::vector<DirectionGrid> grids_;
   std::vector<Node> nodes_;
   std::vector<Tri> tris_;
@@ -165,13 +159,13 @@ SR_INLINE f8 select(i8 m, f8 a, f8 b) { return f8((i8(a) & m) | (i8(b) & ~m)); }
 
 }  // namespace shadow_lanes
 
-// map_visibility8's lookup on vectors, inlined into the lighting kernels (lighting.hpp) for
-// their instruction set: the same operations, so the same bits on either.
-SR_INLINE void map_lanes(const ShadowMap& map, const Light& light, const simd::f8 (&p)[3],
-                         const simd::f8 (&n)[3], uint32_t lanes, float* out) {
+// One face of map_lanes: writes out[i] for the lanes in `lanes` whose point the face's image
+// holds (those beyond its far plane are left lit), and returns those lanes.
+SR_INLINE uint32_t map_face_lanes(const ShadowMapFace& f, double bias, const Light& light,
+                                  const simd::f8 (&p)[3], const simd::f8 (&n)[3], uint32_t lanes,
+                                  float* out) {
   using namespace simd;
   using namespace shadow_lanes;
-  const ShadowMapFace& f = map.faces[0];
   // The point in the light camera's view, from its eye (small numbers, float), then clip space.
   const f8 r[3] = {p[0] - f.eye.x, p[1] - f.eye.y, p[2] - f.eye.z};
   f8 v[3];
@@ -185,7 +179,8 @@ SR_INLINE void map_lanes(const ShadowMap& map, const Light& light, const simd::f
   const float half = 0.5f * float(f.size);
   const f8 sx = (c[0] * inv_w + 1.0f) * half - 0.5f;
   const f8 sy = (1.0f - c[1] * inv_w) * half - 0.5f;
-  // The slope-scaled bias (map_visibility's, in float): tan(normal, light), at most 10.
+  // The slope-scaled bias: a texel's width at p times tan(normal, light), at most 10 (tan =
+  // sqrt(|n|^2 |l|^2 - (n.l)^2) / |n.l|; 10 where cos < 0.0995).
   const f8 texel = f.orthographic ? splat(f.texel_scale) : depth * f.texel_scale;
   f8 l[3];
   for (int k = 0; k < 3; ++k)
@@ -199,7 +194,7 @@ SR_INLINE void map_lanes(const ShadowMap& map, const Light& light, const simd::f
   const f8 tangent = simd::sqrt(f8(i8(rest) & gt(rest, zero))) / nl;
   const i8 steep = gt(nl, zero) & ge(nl * nl, splat(0.0995f * 0.0995f) * nl2);
   const f8 slope = f8(i8(select(steep, tangent, splat(10.0f))) & gt(n2, zero));
-  const f8 compare = depth - (float(map.bias) + 2.0f * texel * slope);
+  const f8 compare = depth - (float(bias) + 2.0f * texel * slope);
   // The taps' texels, in lanes: the 4 x 4 block from (i0, j0), its fractions (fx, fy). (Lanes
   // outside the image, or not finite, are clamped first: only lanes inside are read, and the
   // conversion to integers must not overflow.)
@@ -212,19 +207,23 @@ SR_INLINE void map_lanes(const ShadowMap& map, const Light& light, const simd::f
   const i8 i0 = xf - 1, j0 = yf - 1;
   const i8 izero = splat(0), last = splat(f.size - 3);
   const i8 inside_block = ge(i0, izero) & ge(j0, izero) & lt(i0, last) & lt(j0, last);
-  // Outside the face's image, or beyond its far plane: lit (not written).
+  // In the face's image; beyond its far plane, lit (not written).
   const f8 w = c[3];
-  const i8 seen = gt(w, zero) & le(c[0], w) & le(-c[0], w) & le(c[1], w) & le(-c[1], w) & le(c[2], w);
-  alignas(32) int32_t use[8], block[8], first[8];
+  const i8 held = gt(w, zero) & le(c[0], w) & le(-c[0], w) & le(c[1], w) & le(-c[1], w);
+  alignas(32) int32_t in_image[8], near[8], block[8], first[8];
   alignas(32) float fxs[8], fys[8], limit[8];
-  store(use, seen);
+  store(in_image, held);
+  store(near, le(c[2], w));
   store(block, inside_block);
   store(first, j0 * f.size + i0);
   store(fxs, fx);
   store(fys, fy);
   store(limit, compare);
+  uint32_t inside = 0;
   for (int i = 0; i < 8; ++i) {
-    if (!(lanes >> i & 1u) || !use[i]) continue;
+    if (!(lanes >> i & 1u) || !in_image[i]) continue;
+    inside |= 1u << i;
+    if (!near[i]) continue;
     if (!block[i]) {  // (at the map's border: texels outside pass)
       out[i] = map_filtered(f, sx[i], sy[i], compare[i]);
       continue;
@@ -244,6 +243,19 @@ SR_INLINE void map_lanes(const ShadowMap& map, const Light& light, const simd::f
     }
     out[i] = ((acc[0] + acc[1]) + (acc[2] + acc[3])) * (1.0f / 9.0f);
   }
+  return inside;
+}
+
+// A shadow-mapped light's visibility in [0, 1] at eight points p with normals n (zero: no slope
+// term), in float: out[i] for the lanes in `lanes`, from the first face whose image holds the
+// point (the others are left as they are: lit). Inlined into the lighting kernels (lighting.hpp)
+// for their instruction set and into shadow_lights: the same operations, the same bits.
+SR_INLINE void map_lanes(const ShadowMap& map, const Light& light, const simd::f8 (&p)[3],
+                         const simd::f8 (&n)[3], uint32_t lanes, float* out) {
+  for (const ShadowMapFace& f : map.faces) {
+    if (!lanes) return;
+    lanes &= ~map_face_lanes(f, map.bias, light, p, n, lanes, out);
+  }
 }
 
 // The visibility (1 or 0) of each light at the points (x[i], y[i], z[i]) of the lanes set in
@@ -252,7 +264,7 @@ SR_INLINE void map_lanes(const ShadowMap& map, const Light& light, const simd::f
 // finite, and, given normals (nx, ny, nz; else null), where the normal faces away from the light
 // (n . (to the light) < -2^-20 |n| |to the light|: such a lane adds nothing from that light in
 // the models that pass `facing`). A shadow-mapped light's visibility is its filtered fraction
-// (map_visibility) in [0, 1]. Arrays cross the call (callers are compiled for AVX2 or not).
+// (map_lanes) in [0, 1]. Arrays cross the call (callers are compiled for AVX2 or not).
 const float* shadow_lights(const ShadowScene& scene, const Light* lights, int num_lights,
                            const float* x, const float* y, const float* z, const float* nx,
                            const float* ny, const float* nz, bool facing, uint32_t mask);
