@@ -110,42 +110,16 @@ struct LitInputs {
   float eye_point;   // 1 for a perspective camera (v = eye - p), 0 for orthographic (v = eye)
   // The occluders, where some light casts shadows (else null: every light's visibility is 1).
   const ShadowScene* shadows = nullptr;
-  // Every shadowed light is a shadow map, and there are at most kInlineMapLights
-  // lights: light_visibilities looks them up inline (map_lanes), without shadow_lights' call.
-  bool maps_inline = false;
 };
-constexpr int kInlineMapLights = 8;
 
 // Every light's visibility (0 or 1) at eight points p with normals n (shadow_lights, out of
 // line): [8 k + i] for light k and lane i, in the calling thread's buffer. Called once before the
 // light loop, so that the loop itself holds no call (across which every vector register would
 // have to be saved). kFacing: cast only where n faces the light (the models that add nothing
 // from behind).
-// With in.maps_inline, computed here into `local` (8 kInlineMapLights floats), the same values as
-// shadow_lights gives (lanes whose point is not finite get 1; normals that are not finite count
-// as none).
 template <bool kFacing>
 SR_INLINE const float* light_visibilities(const LitInputs& in, const simd::f8 (&n)[3],
-                                          const simd::f8 (&p)[3], const simd::i8* active,
-                                          float* local) {
-  if (in.maps_inline) {
-    using namespace simd;
-    using shadow_lanes::eq;
-    const f8 zero = splat(0.0f);
-    i8 use = eq(p[0] - p[0], zero) & eq(p[1] - p[1], zero) & eq(p[2] - p[2], zero);
-    if (active) use &= shadow_lanes::ne(*active, splat(0));
-    const i8 normal = eq(n[0] - n[0], zero) & eq(n[1] - n[1], zero) & eq(n[2] - n[2], zero);
-    const f8 nn[3] = {f8(i8(n[0]) & normal), f8(i8(n[1]) & normal), f8(i8(n[2]) & normal)};
-    uint32_t lanes = 0;
-    for (int i = 0; i < 8; ++i) lanes |= uint32_t(use[i] != 0) << i;
-    for (int k = 0; k < in.num_lights; ++k) {
-      const Light& light = in.lights[k];
-      store(local + 8 * k, splat(1.0f));
-      if (lanes && light.shadow == ShadowMethod::Map && light.map)
-        map_lanes(*light.map, light, p, nn, lanes, local + 8 * k);
-    }
-    return local;
-  }
+                                          const simd::f8 (&p)[3], const simd::i8* active) {
   alignas(32) float x[8], y[8], z[8], nx[8], ny[8], nz[8];
   simd::store(x, p[0]);
   simd::store(y, p[1]);
@@ -196,8 +170,7 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, const simd::
   const int whole = whole_exponent(m.shininess);  // chosen once: multiplied out, or exp2/log2
   // Shadowed lights' visibility, before the loop (null: no light casts shadows).
   const float* vis = nullptr;
-  alignas(32) float local[8 * kInlineMapLights];
-  if (kPositions && in.shadows) vis = light_visibilities<!kPbr>(in, n, p, active, local);
+  if (kPositions && in.shadows) vis = light_visibilities<!kPbr>(in, n, p, active);
   for (int k = 0; k < in.num_lights; ++k) {
     const Light& light = in.lights[k];
     f8 l[3], att = splat(1.0f);

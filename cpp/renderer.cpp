@@ -485,8 +485,6 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
     exact |= light.shadow == ShadowMethod::Exact;
   }
   if (shadowed && plan.color) {
-    // Only maps (and few lights): looked up inline in the light loop's kernels.
-    shade.in.lit.maps_inline = !exact && options.lights.size() <= std::size_t(kInlineMapLights);
     if (exact) {
       shadows_.build(draws, casts);
       shadows_.prepare(options.lights);

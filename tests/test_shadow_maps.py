@@ -155,22 +155,6 @@ def test_map_same_bits_for_threads_and_instruction_sets(kind):
         assert got.tobytes() == ref.tobytes(), (threads, simd)
 
 
-@pytest.mark.parametrize("kind", ["spot", "directional"])
-def test_inline_and_out_of_line_map_lookups_agree(kind):
-    """A render whose shadowed lights are all one-camera maps looks them up inside the lighting
-    kernels (map_lanes inlined for the instruction set); a light with exact shadows in the scene
-    sends every light through shadow_lights (out of line, generic). An extra light of intensity
-    0 adds exactly 0: the radiance keeps its bits either way."""
-    outs = ("radiance",)
-    for simd in (True, False):
-        scene = softrast_scene(kind, shadows="map")
-        inline = sr.Renderer(W, H, simd=simd).render(scene, camera(), outputs=outs).radiance
-        scene.add(sr.PointLight(intensity=0.0, shadows="exact"), pose=LIGHTS["point"]["pose"])
-        out_of_line = sr.Renderer(W, H, simd=simd).render(scene, camera(), outputs=outs).radiance
-        assert inline.tobytes() == out_of_line.tobytes(), simd
-        assert (inline > 0).any()
-
-
 # ------------------------------------------------------------------------------------- pyrender
 
 CHILD = r"""
