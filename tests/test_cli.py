@@ -169,7 +169,7 @@ def test_render_explicit_camera_depth(tmp_path):
     depth = imread(tmp_path / "d.exr")
     hit = depth > 0
     assert hit.any()
-    from softrast.mesh import load_mesh
+    from softrast import load_mesh
     z = load_mesh(SPOT_PATH).bounds[:, 2]
     assert depth[hit].min() >= 5 - z[1] - 1e-4 and depth[hit].max() <= 5 - z[0] + 1e-4
 

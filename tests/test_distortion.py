@@ -15,7 +15,7 @@ import pytest
 import trimesh
 
 import softrast as sr
-from softrast.distortion import check_dist, distort, undistort
+from softrast.lens import check_dist, distort, undistort
 
 W, H = 320, 240
 K = np.array([[220.0, 0.0, 161.3], [0.0, 215.0, 118.6], [0.0, 0.0, 1.0]])

@@ -3,6 +3,7 @@ materials, parts and node transforms, and a warning for everything dropped."""
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import struct
 import warnings
@@ -13,7 +14,7 @@ import pytest
 import trimesh
 
 import softrast as sr
-from softrast.loaders import srgb_to_linear
+from softrast.files.context import srgb_to_linear
 
 ROOT = Path(__file__).resolve().parents[1]
 ASSETS = ROOT / "assets" / "meshes"
@@ -335,6 +336,53 @@ def test_glb_load_scene_keeps_materials_exactly_and_node_transforms(tmp_path, no
     # the meshes are in object space: the pose places them
     np.testing.assert_allclose(by_name["paint"].mesh.bounds, [[-0.5] * 3, [0.5] * 3])
     assert sorted(inst.instance_id for inst in scene) == [0, 1]
+
+
+def test_glb_materials_with_equal_names_and_factors_are_told_apart(tmp_path, no_warnings):
+    # Two materials called "paint" with the same base colour (to 8 bits), metallic, roughness and
+    # doubleSided: trimesh keeps no index, so only the primitive's own "material" index tells
+    # which is which. The second differs in what trimesh does not compare (its exact base colour,
+    # its emissive factor, its alpha mode).
+    def edit(doc):
+        chrome = next(i for i, m in enumerate(doc["materials"]) if m["name"] == "chrome")
+        twin = json.loads(json.dumps(next(m for m in doc["materials"] if m["name"] == "paint")))
+        twin["pbrMetallicRoughness"]["baseColorFactor"] = [0.3, 0.6001, 0.9, 0.5]
+        twin["emissiveFactor"] = [0.0, 0.0, 0.5]
+        twin["alphaMode"] = "MASK"
+        doc["materials"][chrome] = twin
+
+    path, move, turn = _two_material_glb(tmp_path, edit)
+    twin = PAINT.replace(base_color=(0.3, 0.6001, 0.9, 0.5), emissive=(0.0, 0.0, 0.5), alpha_mode="mask")
+    for _ in range(2):  # the file's material order must not matter either
+        scene = sr.load_scene(path)
+        by_faces = {inst.mesh.num_faces: inst.material for inst in scene}
+        assert by_faces == {12: PAINT, 80: twin}
+        doc, rest = _glb_parts(path.read_bytes())
+        doc["materials"].reverse()
+        for m in doc["meshes"]:
+            for p in m["primitives"]:
+                p["material"] = len(doc["materials"]) - 1 - p["material"]
+        path.write_bytes(_glb(doc, rest))
+
+
+def test_gltf_files_are_read_once(tmp_path, monkeypatch, no_warnings):
+    import builtins
+
+    path, _, _ = _two_material_glb(tmp_path)
+    gltf = tmp_path / "box.gltf"
+    gltf.write_bytes(BOX_TEXTURED.read_bytes())
+    opened = []
+    real_open = builtins.open
+
+    def counting_open(file, *args, **kwargs):
+        opened.append(os.path.abspath(os.fspath(file)) if isinstance(file, (str, os.PathLike)) else file)
+        return real_open(file, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "open", counting_open)
+    for f in (path, gltf):
+        opened.clear()
+        sr.load_scene(f)
+        assert opened.count(os.path.abspath(f)) == 1
 
 
 def test_glb_load_mesh_merges_with_a_warning(tmp_path):

@@ -10,7 +10,7 @@ import pytest
 import trimesh
 
 import softrast as sr
-from softrast.render import _SAVE_FORMATS
+from softrast.frame import _SAVE_FORMATS
 
 
 def _frame(instance_id=5):

@@ -12,7 +12,8 @@ import pytest
 import trimesh
 
 import softrast as sr
-from softrast.mesh import Mesh, load_mesh
+from softrast import load_mesh
+from softrast.mesh import Mesh
 
 SPOT_PATH = pathlib.Path(__file__).resolve().parents[1] / "assets" / "meshes" / "spot.obj"
 TRI_POS = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
@@ -144,9 +145,8 @@ def test_core_data_is_built_once_with_contract_arguments(monkeypatch):
     calls = []
     fake = types.ModuleType("softrast._core")
     fake.MeshData = lambda *args: calls.append(args) or object()
-    monkeypatch.setitem(sys.modules, "softrast._core", fake)
-    import softrast
-    monkeypatch.setattr(softrast, "_core", fake, raising=False)
+    import softrast.mesh
+    monkeypatch.setattr(softrast.mesh, "_core", fake)  # the module Mesh builds its MeshData with
 
     colors = np.full((4, 3), 128, np.uint8)
     mesh = Mesh(TRI_POS, TRI_FACES, colors=colors, uvs=np.zeros((4, 2)))

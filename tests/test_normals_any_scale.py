@@ -23,7 +23,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 import softrast as sr
-from softrast.loaders import face_normals, unit_rows, vertex_normals
+from softrast.normals import face_normals, unit_rows, vertex_normals
 
 FAN = np.array([[0, 1, 2], [1, 3, 2]])
 # The far vertex (3) at each corner of the second face: as corner 0 both its edges round to the

@@ -7,7 +7,7 @@ import pytest
 import trimesh
 
 import softrast as sr
-from softrast.loaders import vertex_normals
+from softrast.normals import vertex_normals
 
 
 def _wedge() -> trimesh.Trimesh:

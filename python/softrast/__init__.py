@@ -12,9 +12,9 @@ from .interop import from_pyrender, to_pyrender
 from .io import imread, imwrite
 from .light import DirectionalLight, Light, PointLight, SpotLight
 from .limits import get_memory_budget, set_memory_budget
-from .loaders import load_scene
+from .files.load import load_mesh, load_scene
 from .material import Material
-from .mesh import Mesh, PrecisionWarning, load_mesh
+from .mesh import Mesh, PrecisionWarning
 from .primitives import Lines, Points
 from .poses import look_at_pose, orbit, sphere_poses
 from .render import Frame, Renderer, sample_positions

@@ -57,6 +57,10 @@ from typing import Any, Iterable, NamedTuple, Sequence
 import numpy as np
 
 from . import _core
+from ._dataset_writing import (WrittenViews, _interrupt_between_views, _progress_bar,
+                               _remove_stale_temporaries, _write_frames)
+from .cameras_json import _write_cameras_json
+from .frame import _check_output_names
 from .io import _write_bytes
 
 GROUP = "views.zarr"
@@ -274,10 +278,6 @@ def write_views(scene: Any, cams: Sequence[Any], directory: str, outputs: Sequen
                 renderer: Any, n_writers: int, progress: bool, resume: bool, first: int,
                 cameras_json: bool, formats: dict[str, str], options: dict[str, Any]) -> Any:
     """``write_dataset`` for store="zarr" (its arguments checked there)."""
-    from .dataset import (WrittenViews, _interrupt_between_views, _progress_bar,
-                          _remove_stale_temporaries, _write_cameras_json, _write_frames)
-    from .render import _check_output_names
-
     _blosc()
     if formats:
         raise ValueError("formats: for store='files' only (store='zarr' keeps each output in its "
@@ -338,8 +338,6 @@ def prepare_job(job: Any) -> None:
     if len(sizes) != 1 or None in next(iter(sizes)):
         raise ValueError(f"cameras: all must have one image size, got {sorted(sizes, key=str)}")
     (w, h), = sizes
-    from .render import _check_output_names
-
     wanted = set(_check_output_names(job.outputs))
     names = tuple(n for n in _core.OUTPUTS if n in wanted)
     for m in range(len(job.meshes)):

@@ -224,7 +224,7 @@ def _outputs(text: str) -> tuple[str, ...]:
 
 
 def _formats(text: str) -> dict[str, str]:
-    from .render import _SAVE_FORMATS
+    from .frame import _SAVE_FORMATS
 
     out = {}
     for item in (t.strip() for t in text.split(",") if t.strip()):
@@ -271,7 +271,7 @@ def _render(args: argparse.Namespace) -> None:
 
     from .camera import PerspectiveCamera
     from .io import imwrite
-    from .mesh import load_mesh
+    from .files.load import load_mesh
     from .scene import Scene
 
     width, height = args.size
@@ -344,7 +344,7 @@ def _mesh_bytes(mesh) -> int:
 def _load_poses(path: str) -> np.ndarray:
     """``--poses``: (n, 4, 4) camera-to-world poses (OpenGL axes), each checked as a camera pose,
     their number checked against the memory budget before they are read."""
-    from .camera import _check_pose
+    from .camera_base import _check_pose
     from .dataset import load_cameras
     from .limits import _human, get_memory_budget
 
@@ -404,7 +404,7 @@ def _batch(args: argparse.Namespace) -> None:
     from .camera import IntrinsicsCamera, PerspectiveCamera
     from .dataset import write_dataset
     from .limits import _human, check_budget, get_memory_budget
-    from .mesh import load_mesh
+    from .files.load import load_mesh
     from .poses import orbit, sphere_poses
     from .render import _OUTPUT_BYTES, Renderer
     from .scene import Scene

@@ -41,152 +41,23 @@ written once every view is). ``softrast._zarr_store`` has the details.
 from __future__ import annotations
 
 import concurrent.futures
-import contextlib
-import json
 import os
-import signal
-import threading
 import time
 from dataclasses import dataclass, field
 from typing import Any, Iterable, Sequence
 
-import numpy as np
-
-from . import _core
-from .camera import Camera, IntrinsicsCamera, OrthographicCamera
-from .render import Frame, Renderer, _default_format
+from ._dataset_writing import (WrittenViews, _interrupt_between_views, _intact, _progress_bar,
+                               _remove_stale_temporaries, _write_frames)
+from ._zarr_store import prepare_job, write_views
+from .camera import Camera
+from .cameras_json import _in_output_order, _write_cameras_json, camera_record, load_cameras
+from .files.load import load_mesh
+from .frame import Frame, _default_format
+from .render import Renderer
 from .scene import Scene
 
 __all__ = ["write_dataset", "load_cameras", "camera_record", "DatasetJob", "render_dataset",
            "WrittenViews"]
-
-_GL_FROM_CV = np.diag([1.0, -1.0, -1.0, 1.0])
-_OUTPUT_INDEX = {name: k for k, name in enumerate(_core.OUTPUTS)}
-_FORMAT = "softrast cameras 1"
-_CONVENTIONS = ("K: OpenCV, the centre of pixel (row i, col j) at (u, v) = (j, i). pose_opencv: "
-                "camera-to-world, camera axes x right, y down, z forward; pose_opengl: the same "
-                "pose with axes x right, y up, z backward (pyrender's, softrast's default). "
-                "near, far: clipping distances along the viewing axis; depth images hold the "
-                "distance along it.")
-
-
-def camera_record(camera: Camera, width: int | None = None, height: int | None = None) -> dict[str, Any]:
-    """The ``cameras.json`` entry of one camera (without ``stem`` and ``files``)."""
-    w, h = camera._render_size(width, height)
-    pose_cv = camera.pose @ _GL_FROM_CV if camera.convention == "opengl" else camera.pose
-    pose_gl = pose_cv @ _GL_FROM_CV
-    rec: dict[str, Any] = {"width": w, "height": h, "near": camera.near, "far": camera.far,
-                           "orthographic": bool(camera.orthographic), "K": None, "dist": None,
-                           "xmag": None, "ymag": None}
-    if camera.orthographic:
-        p = camera.projection_matrix(w, h)
-        rec["xmag"], rec["ymag"] = 1.0 / p[0, 0], 1.0 / p[1, 1]
-    else:
-        rec["K"] = camera.intrinsics(w, h).tolist()
-        dist = getattr(camera, "dist", None)
-        rec["dist"] = None if dist is None else dist.tolist()
-    rec["pose_opencv"] = pose_cv.tolist()
-    rec["pose_opengl"] = pose_gl.tolist()
-    return rec
-
-
-def load_cameras(path: str | os.PathLike[str]) -> list[Camera]:
-    """The cameras of a ``cameras.json`` (a file, or the dataset directory holding one), in frame
-    order: ``IntrinsicsCamera(convention="opencv")`` from K (the same projection as the camera
-    that rendered the frame, to float64 rounding) or ``OrthographicCamera``, posed, with the
-    frame's image size, near and far.
-
-    A file that is not a softrast cameras.json (not UTF-8 JSON, no ``frames`` list, a record
-    that is not a camera) raises ValueError naming it."""
-    p = os.fspath(path)
-    if os.path.isdir(p):
-        p = os.path.join(p, "cameras.json")
-    with open(p, "rb") as f:
-        data = f.read()
-    try:
-        doc = json.loads(data.decode("utf-8"))
-    except UnicodeDecodeError as e:
-        raise ValueError(f"{p}: not a softrast cameras.json (not UTF-8 text: {e})") from None
-    except json.JSONDecodeError as e:
-        raise ValueError(f"{p}: not a softrast cameras.json (invalid JSON: {e})") from None
-    except RecursionError:
-        raise ValueError(f"{p}: not a softrast cameras.json (JSON nested too deeply)") from None
-    if not isinstance(doc, dict) or doc.get("format") != _FORMAT:
-        raise ValueError(f"{p}: not a softrast cameras.json (format {_FORMAT!r})")
-    frames = doc.get("frames")
-    if not isinstance(frames, list):
-        raise ValueError(f"{p}: \"frames\" must be a list of camera records, got "
-                         f"{'nothing' if 'frames' not in doc else type(frames).__name__}")
-    cams: list[Camera] = []
-    for k, rec in enumerate(frames):
-        try:
-            if rec["orthographic"]:
-                cam: Camera = OrthographicCamera(rec["xmag"], rec["ymag"], width=rec["width"],
-                                                 height=rec["height"], near=rec["near"], far=rec["far"])
-                cam.pose = np.asarray(rec["pose_opengl"], dtype=np.float64)
-            else:
-                K = np.asarray(rec["K"], dtype=np.float64)
-                cam = IntrinsicsCamera(K[0, 0], K[1, 1], K[0, 2], K[1, 2], rec["width"], rec["height"],
-                                       near=rec["near"], far=rec["far"], convention="opencv",
-                                       dist=rec.get("dist"))
-                cam.pose = np.asarray(rec["pose_opencv"], dtype=np.float64)
-        except (KeyError, TypeError, ValueError, IndexError, RecursionError) as e:
-            raise ValueError(f"{p}: frame {k} is not a valid camera record: {e!s:.200}") from None
-        cams.append(cam)
-    return cams
-
-
-def _remove_stale_temporaries(directory: str, stems: Sequence[str]) -> None:
-    """Removes the hidden temporary files a killed run left (imwrite's ``.{file}.{pid}-{id}.tmp*``
-    and cameras.json's ``cameras.json.{pid}.tmp``) for this dataset's views: an interrupted
-    write never replaced a file, so they hold nothing."""
-    prefixes = tuple(f".{stem}_" for stem in stems)
-    for name in os.listdir(directory):
-        if (name.startswith(prefixes) and ".tmp" in name) or \
-                (name.startswith("cameras.json.") and name.endswith(".tmp")):
-            try:
-                os.remove(os.path.join(directory, name))
-            except FileNotFoundError:
-                pass
-
-
-def _intact(path: str, name: str, height: int, width: int) -> bool:
-    """Whether ``path`` decodes to output ``name`` as save writes it, ``height`` x ``width``."""
-    from .render import _read_output
-
-    try:
-        return _read_output(path, name).shape[:2] == (height, width)
-    except (ValueError, OSError, MemoryError):
-        return False
-
-
-def _atomic_json(path: str, doc: Any) -> None:
-    tmp = f"{path}.{os.getpid()}.tmp"
-    with open(tmp, "w", encoding="utf-8") as f:
-        json.dump(doc, f, indent=1)
-    os.replace(tmp, path)
-
-
-class WrittenViews(list):
-    """What ``write_dataset`` returns: a list of each view's {output: path}, in camera order (the
-    views skipped by ``resume`` included), that also says what this call did:
-
-    rendered : the number of views rendered and written by this call.
-    skipped : the number of views skipped because their files were all there (``resume``).
-    seconds : the wall time spent rendering and writing the rendered views (0.0 if none), so a
-        rate is ``rendered / seconds``: skipped views cost no rendering and are not counted.
-    """
-
-    def __init__(self, paths: Iterable[dict[str, str]] = (), rendered: int = 0, skipped: int = 0,
-                 seconds: float = 0.0) -> None:
-        super().__init__(paths)
-        self.rendered = int(rendered)
-        self.skipped = int(skipped)
-        self.seconds = float(seconds)
-
-    def __repr__(self) -> str:
-        return (f"WrittenViews({list.__repr__(self)}, rendered={self.rendered}, "
-                f"skipped={self.skipped}, seconds={self.seconds:.3f})")
 
 
 def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.PathLike[str],
@@ -249,8 +120,6 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
         raise ValueError(f"writers must be >= 1, got {writers!r}")
     formats = dict(formats or {})
     if store == "zarr":  # one array per output in directory/views.zarr (_zarr_store.py)
-        from ._zarr_store import write_views
-
         return write_views(scene, cams, directory, names, r, n_writers, progress, resume, first,
                            cameras_json, formats, options)
     stems = [f"{first + k:06d}" for k in range(len(cams))]
@@ -311,88 +180,6 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
     if cameras_json:
         _write_cameras_json(directory, cams, stems, paths)
     return paths
-
-
-def _progress_bar(total: int, skipped: int) -> Any:
-    """write_dataset's tqdm bar, starting at the views resume skipped (named in it): tqdm's rate
-    counts from `initial`, so only the views rendered make it."""
-    from tqdm.auto import tqdm
-    return tqdm(total=total, initial=skipped, unit="view", desc="write_dataset",
-                postfix=f"skipped {skipped}" if skipped else None)
-
-
-@contextlib.contextmanager
-def _interrupt_between_views() -> Any:
-    """Defers Ctrl-C (SIGINT) in a dataset writer to the next view: yields ``check()``, which
-    raises KeyboardInterrupt once one arrived. Raised asynchronously, it could land inside
-    concurrent.futures' own locks (pool.submit holds its semaphore's), and the pool's shutdown
-    then waited forever for a writer blocked on that lock (seen under load: a `softrast batch`
-    that hung after Ctrl-C). Only in the main thread, and only over Python's own handler; one
-    that arrived after the last view still raises on the way out."""
-    if (threading.current_thread() is not threading.main_thread()
-            or signal.getsignal(signal.SIGINT) is not signal.default_int_handler):
-        yield lambda: None
-        return
-    arrived: list[int] = []
-    previous = signal.signal(signal.SIGINT, lambda signum, frame: arrived.append(signum))
-
-    def check() -> None:
-        if arrived:
-            raise KeyboardInterrupt
-
-    try:
-        yield check
-    finally:
-        signal.signal(signal.SIGINT, previous)
-    check()
-
-
-def _write_frames(pool: concurrent.futures.Executor, frames: Iterable[Any], todo: Sequence[int],
-                  write: Any, done: dict[int, Any], bar: Any, n_writers: int,
-                  check: Any = lambda: None) -> None:
-    """Hands each frame of ``frames`` (those of views ``todo``, in order) to the writers as
-    ``write(frame, k)`` while the next views render, at most 2 frames a writer waiting (so memory
-    stays bounded), and keeps each view's result in ``done[k]``, in order, ticking ``bar``.
-    ``check()`` (_interrupt_between_views) runs between views."""
-    pending: list[tuple[int, concurrent.futures.Future]] = []
-
-    def drain(limit: int) -> None:
-        while len(pending) > limit:
-            k, fut = pending.pop(0)
-            done[k] = fut.result()
-            if bar is not None:
-                bar.update(1)
-            check()
-
-    for k, frame in zip(todo, frames):
-        check()
-        pending.append((k, pool.submit(write, frame, k)))
-        drain(2 * n_writers)
-    drain(0)
-
-
-def _in_output_order(files: dict[str, str]) -> dict[str, str]:
-    """``files`` ({output: path}) in one canonical order, softrast.OUTPUTS' (the order of
-    Frame.save), whether a view was written now or found by resume."""
-    return {n: files[n] for n in sorted(files, key=_OUTPUT_INDEX.__getitem__)}
-
-
-def _write_cameras_json(directory: str, cams: Sequence[Camera], stems: Sequence[str],
-                        paths: Sequence[dict[str, str]]) -> None:
-    doc = {"format": _FORMAT, "conventions": _CONVENTIONS,
-           "frames": [dict(camera_record(c), stem=stem,
-                           files={n: _relative(p, directory)
-                                  for n, p in _in_output_order(files).items()})
-                      for c, stem, files in zip(cams, stems, paths)]}
-    _atomic_json(os.path.join(directory, "cameras.json"), doc)
-
-
-def _relative(path: str, directory: str) -> str:
-    """``path`` (a file of the dataset, or a zarr store's ``views.zarr/color[12]``) relative to
-    the dataset directory, with / between its parts, as cameras.json names it."""
-    head = os.path.join(directory, "")
-    rel = path[len(head):] if path.startswith(head) else os.path.relpath(path, directory)
-    return rel.replace(os.sep, "/")
 
 
 _STORES = ("files", "zarr")
@@ -462,8 +249,6 @@ class DatasetJob:
 
 def _render_shard(job: DatasetJob, shard: tuple[int, int, int]) -> list[dict[str, str]]:
     """Runs one shard (in whatever process the executor gives it): load, render, write."""
-    from .mesh import load_mesh
-
     m, a, b = shard
     scene = Scene()
     scene.add(load_mesh(job.meshes[m]), instance_id=0)
@@ -486,8 +271,6 @@ def render_dataset(job: DatasetJob, executor: concurrent.futures.Executor | None
     chunks)."""
     os.makedirs(job.out_dir, exist_ok=True)
     if job.store == "zarr":
-        from ._zarr_store import prepare_job
-
         prepare_job(job)
     shards = job.shards()
     if executor is None:

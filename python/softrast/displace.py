@@ -22,6 +22,7 @@ import numpy as np
 
 from ._checks import FLOAT32_MAX, finite_real, integer
 from .mesh import Mesh
+from .normals import vertex_normals
 from .texture import Texture
 
 __all__ = ["displace"]
@@ -34,8 +35,6 @@ def displace(mesh: Mesh, texture: Texture, scale: float, subdivisions: int = 0,
     unit normal by ``scale * (height - midlevel)``. ``mesh`` needs uvs; without normals, the
     area-weighted vertex normals are used. The material is kept."""
     import trimesh
-
-    from .loaders import vertex_normals
 
     if not isinstance(mesh, Mesh):
         raise TypeError(f"mesh must be a softrast.Mesh, got {type(mesh).__name__}")

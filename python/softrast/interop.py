@@ -151,8 +151,8 @@ import numpy as np
 
 from .camera import _GL_FROM_CV, Camera, IntrinsicsCamera, OrthographicCamera, PerspectiveCamera
 from .light import DirectionalLight, Light, PointLight, SpotLight
-from .loaders import face_normals, unit_rows
-from .loaders import _gltf_alpha
+from .normals import face_normals, unit_rows
+from .files.gltf import _gltf_alpha
 from .material import Material
 from .mesh import Mesh
 from .primitives import Lines, Points

@@ -92,7 +92,7 @@ class Material:
     shininess : the specular exponent p >= 0 (``Ns`` in MTL files). Default 32. It and the other
         numbers below are held in float32 by the core: beyond its range (3.4e38) is refused.
     metallic, roughness : glTF metallic-roughness factors in [0, 1] (``pbr``). Defaults 0 and
-        0.5 (glTF files default to 1 and 1 when they give none; the loaders apply that).
+        0.5 (glTF files default to 1 and 1 when they give none; the file readers apply that).
     emissive : RGB in [0, 1] (or one number, grey), added to the radiance of every lit model.
     double_sided : as glTF's doubleSided: never culled (whatever ``render(cull=)`` says, unless
         ``render(cull_double_sided=True)``), and back faces are lit with the flipped normal.
@@ -101,8 +101,8 @@ class Material:
         terms, as OpenGL renders a single-sided material. Meshes without a material are lit
         two-sided but culled by ``render(cull=)``.
     model : the shading model ``render(shading="auto")`` uses for this material, one of
-        ``softrast.material.MODELS``, or None: "blinn_phong" (the loaders set "pbr" for glTF
-        and MTL materials: ``softrast.loaders`` states how MTL's Ks and Ns become roughness).
+        ``softrast.material.MODELS``, or None: "blinn_phong" (the file readers set "pbr" for glTF
+        and MTL materials: docs/file_formats.md states how MTL's Ks and Ns become roughness).
     name : a label (the file's material name), not used for rendering.
     base_color_texture, emissive_texture : Texture or None; sRGB-decoded unless the texture
         says ``srgb=False``.

@@ -6,24 +6,22 @@ given (or as the file lists it), so ``triangle_id`` outputs index ``Mesh.faces``
 """
 from __future__ import annotations
 
-import contextlib
 import contextvars
 import ctypes
-import errno
 import math
-import os
-import signal
-import threading
 import warnings
 from typing import Any, Callable, Iterator, Sequence
 
 import numpy as np
 import numpy.typing as npt
 
-from ._mesh_files import check_mesh_file
+from . import _core
+from .files.context import FileInfo
+from .files.convert import Part, mesh_part
 from .limits import check_budget
+from .material import Material
 
-__all__ = ["Mesh", "PrecisionWarning", "load_mesh"]
+__all__ = ["Mesh", "PrecisionWarning"]
 
 # The core indexes vertices and faces with int32.
 _MAX_COUNT = 2**31 - 1
@@ -321,8 +319,6 @@ class Mesh:
             _check_rows(arr, "colors", n)
             _colors_kind(arr)
         if material is not None:
-            from .material import Material
-
             if not isinstance(material, Material):
                 raise TypeError(f"material must be a softrast.Material or None, got {type(material).__name__}")
             if color is not None and _rgba(color, "color") != material.base_color:
@@ -420,8 +416,6 @@ class Mesh:
     def _core_data(self) -> Any:
         """The ``softrast._core.MeshData`` for this mesh, built on first use and cached."""
         if self._core is None:
-            from softrast import _core  # lazy: geometry can be built without the compiled core
-
             self._core = _core.MeshData(self._positions, self._faces, self._normals, self._colors, self._uvs)
         return self._core
 
@@ -437,7 +431,7 @@ class Mesh:
             ``vertex_normals``, recomputed in float64 where trimesh drops a face: a mesh below
             ~1e-5 units, a corner 1e19 away from unit ones); False: flat face normals (faceted
             shading). Either weighting gives every vertex of a non-degenerate face a unit
-            normal for coordinates anywhere from 1e-30 to 3e38 (``softrast.loaders.vertex_normals``).
+            normal for coordinates anywhere from 1e-30 to 3e38 (``softrast.normals.vertex_normals``).
         color : base RGBA; None => the material's base colour, else the default grey. With a
             material, ``color`` replaces its base colour.
         srgb_colors : True => trimesh's 8-bit vertex / face colours are sRGB-encoded (as PLY,
@@ -448,7 +442,7 @@ class Mesh:
         vertices, so each face with a colour of its own gets three vertices of its own (faces keep
         their order; smooth normals are the original vertex's). A trimesh material becomes a
         ``softrast.Material``: a ``SimpleMaterial`` (MTL) -> ka/kd/ks/shininess and model "pbr",
-        metallic 0, roughness from ks and shininess (the MTL rule of ``softrast.loaders``); a
+        metallic 0, roughness from ks and shininess (the MTL rule of docs/file_formats.md); a
         ``PBRMaterial`` (glTF) -> base colour, metallic, roughness (trimesh's
         None: glTF's defaults 1 and 1), emissive, double_sided, model "pbr". trimesh holds their
         colours as 8 bits; ``softrast.load_mesh`` reads the exact values from the file instead.
@@ -460,98 +454,7 @@ class Mesh:
         A Scene whose parts have different materials gets the first part's, with a UserWarning
         (``softrast.load_scene`` keeps each part's).
         """
-        from .loaders import _FileInfo, mesh_from_trimesh
-
-        return mesh_from_trimesh(tm, smooth, color, _FileInfo(None, srgb=bool(srgb_colors)))
-
-
-class _FileProblem(ValueError):
-    """What load_mesh itself finds wrong with a loaded file (reported without a type name)."""
-
-
-@contextlib.contextmanager
-def _keep_ctrl_c() -> Iterator[None]:
-    """Make Ctrl-C inside trimesh reach the caller.
-
-    trimesh catches BaseException in many places (optional imports, loaders), which swallows a
-    KeyboardInterrupt. While it runs, SIGINT is recorded as well as raised; if trimesh swallowed
-    or converted it, KeyboardInterrupt is raised again on the way out.
-    """
-    if (threading.current_thread() is not threading.main_thread()
-            or signal.getsignal(signal.SIGINT) is not signal.default_int_handler):
-        yield  # someone else owns SIGINT => leave it alone
-        return
-    hit: list[int] = []
-
-    def handler(signum: int, frame: Any) -> None:
-        hit.append(signum)
-        raise KeyboardInterrupt
-
-    signal.signal(signal.SIGINT, handler)
-    try:
-        yield
-    except KeyboardInterrupt:
-        raise
-    except BaseException as exc:
-        if hit:
-            raise KeyboardInterrupt from exc
-        raise
-    finally:
-        signal.signal(signal.SIGINT, signal.default_int_handler)
-    if hit:
-        raise KeyboardInterrupt
-
-
-def _load_trimesh(path_str: str) -> tuple[Any, Any]:
-    """(trimesh.Trimesh or trimesh.Scene, loaders._FileInfo) for a mesh file, checked: every
-    failure is a FileNotFoundError or a ValueError naming the file."""
-    from .loaders import _file_info
-
-    if not os.path.isfile(path_str):
-        raise FileNotFoundError(errno.ENOENT, "mesh file not found", path_str)
-    stated_faces = check_mesh_file(path_str)
-    # trimesh raises anything from KeyError to struct.error while parsing, and more later, from
-    # its lazily computed properties (an IndexError for a face index past the vertices): all of
-    # it is this file's failure to load, so it becomes a ValueError naming the file.
-    try:
-        with _keep_ctrl_c():
-            import trimesh
-
-            loaded = trimesh.load(path_str, process=False)  # process=False keeps the vertex order
-            if isinstance(loaded, trimesh.Scene):
-                parts = [loaded.geometry.get(loaded.graph[node][1]) for node in loaded.graph.nodes_geometry]
-                parts = [g for g in parts if isinstance(g, trimesh.Trimesh) and len(g.faces)]
-                if not parts:
-                    raise _FileProblem("the file contains no triangles")
-            elif (not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0
-                    or len(loaded.vertices) == 0):
-                raise _FileProblem("the file contains no triangles")
-            else:
-                parts = [loaded]
-            read = sum(len(g.faces) for g in parts)
-            if read < stated_faces:
-                raise _FileProblem(f"it has {stated_faces} faces but only {read} "
-                                   "could be read: corrupt face rows were skipped")
-            for g in parts:
-                faces, count = np.asarray(g.faces), len(g.vertices)
-                bad = (faces < 0) | (faces >= count)
-                if bad.any():
-                    raise _FileProblem(f"face {int(np.flatnonzero(bad.any(axis=1))[0])} has a vertex "
-                                       f"index {int(faces[bad][0])} out of bounds for {count} vertices")
-    except ImportError as exc:  # trimesh imports optional modules lazily (and hides .name)
-        hint = " (Pillow, a softrast dependency: pip install pillow)" if "PIL" in str(exc) else ""
-        raise ValueError(f"could not load mesh {path_str!r}: trimesh needs a module that is not "
-                         f"installed to read it: {exc}{hint}") from exc
-    except Exception as exc:
-        what = str(exc) if isinstance(exc, _FileProblem) else f"{type(exc).__name__}: {exc}"
-        raise ValueError(f"could not load mesh {path_str!r}: {what}") from exc
-    try:
-        info = _file_info(path_str)  # the file's materials (an MTL file, the glTF JSON)
-    except UserWarning:
-        raise  # a warning made an error (-W error): it names the file already
-    except Exception as exc:
-        raise ValueError(f"could not load mesh {path_str!r}: {type(exc).__name__}: {exc}") from exc
-    return loaded, info
+        return _mesh_of(mesh_part(tm, smooth, FileInfo(None, srgb=bool(srgb_colors))), color)
 
 
 def _check_smooth(smooth: Any) -> None:
@@ -560,69 +463,16 @@ def _check_smooth(smooth: Any) -> None:
         raise ValueError(f"smooth must be True, False, 'area' or 'angle', got {smooth!r:.80}")
 
 
-def load_mesh(path: str | os.PathLike[str], smooth: bool | str = True, color: Sequence[float] | None = None,
-              up_axis: str = "y") -> Mesh:
-    """Load a triangle mesh file (OBJ, PLY, STL, GLB, OFF, ...) with trimesh, keeping vertex order.
-
-    A multi-object file is concatenated into one Mesh (with its node transforms applied). If its
-    parts have different materials, the mesh gets the first part's, with a UserWarning:
-    ``softrast.load_scene`` keeps each part's material. See ``Mesh.from_trimesh`` for
-    ``smooth`` and ``color``. STL files store no shared vertices: with ``smooth`` other than
-    False, vertices at exactly the same position are merged first (as trimesh's
-    ``merge_vertices``, without its rounding; faces keep their order, vertices are in order of
-    first use), so the normals are smooth; ``smooth=False`` keeps the file's vertices.
-
-    up_axis : "y" (default): the file's axes are used as stored (softrast and glTF are y-up);
-        "z": a z-up file (most CAD and STL exports, Blender's own axes) is turned y-up by mapping
-        (x, y, z) -> (x, z, -y), positions and normals (a rotation about x, as Blender's glTF
-        exporter does).
-
-    Keeps the file's per-vertex and per-face colours and its materials (OBJ + MTL, glTF), exactly
-    as written in the file (see ``softrast.loaders`` for the conventions). Colour spaces: 8-bit
-    colours in PLY, OBJ, OFF and STL files are sRGB and are decoded to linear (exact IEC
-    61966-2-1 curve), so an ``unlit`` render with the default sRGB output gives back the file's
-    bytes; glTF ``COLOR_0`` and factors, and MTL colours, are linear. A per-face colour gives each
-    face three vertices of its own (faces keep their order).
-
-    Textures are drawn (``softrast.Texture``; details in ``softrast.loaders``): glTF
-    ``baseColorTexture``, ``emissiveTexture``, ``normalTexture`` (its ``scale``),
-    ``metallicRoughnessTexture`` and ``occlusionTexture`` (its ``strength``), each with its
-    sampler's filter and wraps; MTL ``map_Kd``, ``map_Ke``, ``map_Ks`` (read by "phong" and
-    "blinn_phong"), ``norm`` (``-bm``: normal scale) and ``map_Bump`` / ``bump`` height maps
-    (``-bm``: bump scale; an RGB one that looks like a normal map is drawn as the normal map,
-    with a warning; next to a ``norm`` map a height map is kept but the normal map is drawn,
-    with a warning). Transparency is drawn: glTF ``alphaMode`` MASK -> ``alpha_mode="mask"``
-    and BLEND -> ``alpha_mode="blend"``; MTL ``d`` < 1 (or, without ``d``, ``Tr`` strictly
-    between 0 and 1, read as d = 1 - Tr; ``Tr 1``, Meshlab's opaque, stays opaque) ->
-    ``alpha_mode="blend"`` with base colour alpha d. Whatever softrast cannot draw yet is
-    dropped with a UserWarning naming the file, the material and what: textures read through
-    ``texCoord`` other than 0, ``KHR_texture_transform`` and other unknown extensions; MTL's
-    other maps (``map_Ka``, ``map_Ns``, ``map_d``, ``disp``, ``decal``, ``refl``, the PBR maps)
-    and map options other than ``-clamp`` and ``-bm``; textures that cannot be read, and every
-    texture of a mesh without uvs.
-
-    Raises FileNotFoundError if ``path`` (or a buffer or texture file a glTF references) does not
-    exist, ValueError (naming the file) for every other failure: it cannot be parsed, holds no
-    triangles, is truncated or disagrees with its own counts (PLY, OFF, STL, glTF; an OBJ or
-    ASCII STL cut mid-line), has a face index out of range, or its header declares more data
-    than ``softrast.get_memory_budget()`` (checked before parsing).
-    """
-    path_str = os.fspath(path)
-    if color is not None:
-        _rgba(color, "color")  # a wrong argument names the argument, not the file
-    _check_smooth(smooth)
-    from .loaders import mesh_from_trimesh, up_axis_matrix
-
-    root = up_axis_matrix(up_axis)
-    loaded, info = _load_trimesh(path_str)
-    token = _LOADING_FILE.set(path_str)  # a PrecisionWarning then names the file
-    try:
-        with _keep_ctrl_c():
-            return mesh_from_trimesh(loaded, smooth, color, info, root)
-    except UserWarning:
-        raise  # a warning made an error (-W error): it names the file already
-    except Exception as exc:  # NaN vertices and the like: say which file they came from
-        what = str(exc) if type(exc) is ValueError else f"{type(exc).__name__}: {exc}"
-        raise ValueError(f"could not load mesh {path_str!r}: {what}") from exc
-    finally:
-        _LOADING_FILE.reset(token)
+def _mesh_of(part: Part, color: Sequence[float] | None) -> Mesh:
+    """The Mesh of a file's (or trimesh object's) part; ``color`` replaces its base colour."""
+    material = part.material
+    if material is not None and color is not None:
+        material = material.replace(base_color=color)  # checked like the constructor's
+    colors = None
+    if part.colors is not None:
+        colors = np.clip(part.colors, 0.0, 1.0)
+    if material is not None:
+        return Mesh(part.positions, part.faces, normals=part.normals, uvs=part.uvs, colors=colors,
+                    material=material)
+    return Mesh(part.positions, part.faces, normals=part.normals, uvs=part.uvs, colors=colors,
+                color=DEFAULT_COLOR if color is None else color)

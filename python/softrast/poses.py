@@ -13,6 +13,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ._checks import choice, finite_real, positive_real, real_array
+from .camera import IntrinsicsCamera, PerspectiveCamera
 
 __all__ = ["orbit", "sphere_poses", "look_at_pose"]
 
@@ -38,8 +39,6 @@ def look_at_pose(eye: npt.ArrayLike, target: npt.ArrayLike, up: npt.ArrayLike = 
                  convention: str = "opengl") -> npt.NDArray[np.float64]:
     """(4, 4) camera-to-world pose at ``eye`` looking at ``target`` with ``up`` up in the image
     (as ``Camera.look_at``)."""
-    from .camera import PerspectiveCamera, IntrinsicsCamera
-
     choice(convention, "convention", ("opengl", "opencv"))
     cam = PerspectiveCamera() if convention == "opengl" else IntrinsicsCamera(1.0, 1.0, 0.0, 0.0, 1, 1)
     return cam.look_at(eye, target, up).pose.copy()

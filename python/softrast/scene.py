@@ -9,10 +9,12 @@ from typing import Any, Callable, Iterator, Sequence, TypeVar
 import numpy as np
 import numpy.typing as npt
 
-from ._checks import FLOAT32_MAX, affine_pose, integer, unit_vector
+from ._checks import FLOAT32_MAX, affine_pose, integer, real_array, unit_vector
+from .files.context import FileInfo
+from .files.convert import placements
 from .light import Light
 from .material import Material
-from .mesh import Mesh, _rgba
+from .mesh import Mesh, _check_smooth, _mesh_of, _rgba
 from .primitives import Lines, Points
 
 __all__ = ["Instance", "LightInstance", "PrimitiveInstance", "Scene"]
@@ -122,8 +124,6 @@ class Scene:
             self._ambient_light = None
             self._changed()
             return
-        from ._checks import real_array
-
         arr = real_array(value, "ambient_light")
         if arr.shape != (3,):
             raise ValueError(f"ambient_light must be 3 numbers (RGB), got shape {arr.shape}")
@@ -210,11 +210,8 @@ class Scene:
         trimesh's values: its materials hold colours as 8 bits (``load_scene`` reads the file's
         exact values). ``smooth`` and ``srgb_colors`` as for ``Mesh.from_trimesh``. Raises
         ValueError if there is no triangle geometry."""
-        from .loaders import _FileInfo, scene_from_trimesh
-        from .mesh import _check_smooth
-
         _check_smooth(smooth)
-        scene = scene_from_trimesh(tm, smooth, _FileInfo(None, srgb=bool(srgb_colors)))
+        scene = _scene_of(tm, smooth, FileInfo(None, srgb=bool(srgb_colors)))
         if not len(scene):
             raise ValueError("tm holds no triangle geometry")
         return scene
@@ -324,3 +321,13 @@ class Scene:
         primitives = len(getattr(self, "_primitives", ()))
         extra = f", {primitives} lines/points" if primitives else ""
         return f"Scene({len(self._instances)} instances{extra}, {len(self._lights)} lights)"
+
+
+def _scene_of(loaded: Any, smooth: bool | str, info: FileInfo, root: Any = None) -> Scene:
+    """A Scene with one instance per placement of each triangle geometry of a trimesh.Scene or
+    Trimesh (``files.convert.placements``), a geometry placed by several nodes one shared Mesh;
+    ``root`` moves every pose. May be empty."""
+    scene = Scene()
+    for mesh, pose in placements(loaded, smooth, info, root, lambda part: _mesh_of(part, None)):
+        scene.add(mesh, pose=pose)
+    return scene

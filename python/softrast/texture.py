@@ -60,6 +60,7 @@ import numpy.typing as npt
 
 from . import _core
 from ._checks import integer
+from .io import imread
 from .limits import check_budget
 
 __all__ = ["Texture", "load_texture", "FILTERS", "WRAPS"]
@@ -342,8 +343,6 @@ def load_texture(path: str | os.PathLike[str], srgb: bool | None = None, **optio
     """Reads an image file (PNG, JPEG, TGA, EXR, TIFF, ... through OpenImageIO) as a Texture;
     ``options`` are Texture's (filter, wrap, max_anisotropy, uv_origin). 8-bit files stay uint8
     (viewed), 16-bit ones uint16, floating-point ones float32."""
-    from .io import imread
-
     image = imread(path)
     if image.dtype == np.float16 or image.dtype == np.float64:
         image = image.astype(np.float32)

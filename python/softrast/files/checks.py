@@ -1,36 +1,39 @@
 """Mesh-file checks made before trimesh parses anything.
 
-trimesh trusts headers: a 200-byte PLY that declares 2**31 vertices, or a glTF accessor longer
-than its buffer, must be refused from the header, with the file named, before any parsing. And
-it reads truncated or inconsistent text files silently as partial meshes, so where a format
-states counts (PLY, OFF, binary STL, glTF) they are checked against the data, and where it does
-not (OBJ, ASCII STL) a visibly cut file is refused. Text formats are scanned once, 1 MiB at a
-time: linear in the file, bounded in memory.
+trimesh trusts headers: a 200-byte PLY that declares 2**31 vertices must be refused from the
+header, with the file named, before any parsing. And it reads truncated or inconsistent text files
+silently as partial meshes, so where a format states counts (PLY, OFF, binary STL) they are checked
+against the data, and where it does not (OBJ, ASCII STL) a visibly cut file is refused. Text
+formats are scanned once, 1 MiB at a time: linear in the file, bounded in memory. glTF and GLB
+are checked by ``softrast.files.gltf_file``.
 """
 from __future__ import annotations
 
-import errno
-import json
 import os
 import re
 import struct
-import urllib.parse
-from typing import Any
 
 import numpy as np
 
-from .limits import check_budget
+from ..limits import check_budget
 
 __all__ = ["check_mesh_file"]
+
 
 _PLY_SIZES = {"char": 1, "int8": 1, "uchar": 1, "uint8": 1, "short": 2, "int16": 2, "ushort": 2,
               "uint16": 2, "int": 4, "int32": 4, "uint": 4, "uint32": 4, "float": 4, "float32": 4,
               "double": 8, "float64": 8}
+
+
 _PLY_MAX_HEADER = 1 << 20
+
+
 _VALUE_BYTES = 8  # trimesh converts every parsed value to float64 / int64
-_GLTF_COMPONENT_BYTES = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
-_GLTF_COMPONENTS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+
+
 _CHUNK = 1 << 20  # scans read 1 MiB at a time: memory stays bounded whatever the file's size
+
+
 _MAX_ROW = 1 << 16  # a row (one line of a text format) is read whole only up to 64 KiB
 
 
@@ -261,8 +264,14 @@ _OBJ_KEYWORDS = frozenset(
     "v vt vn vp f l p o g s mg usemtl mtllib cstype deg bmat step curv curv2 surf parm trim "
     "hole scrv sp end con call csh maplib usemap lod shadow_obj trace_obj ctech stech bevel "
     "c_interp d_interp".split())
+
+
 _OBJ_REF = re.compile(rb"^-?\d+(?:/-?\d+(?:/-?\d+)?|//-?\d+)?$")
+
+
 _OBJ_NUMBERS = {b"v": (3, 4, 6, 7), b"vn": (3,), b"vt": (1, 2, 3), b"vp": (1, 2, 3)}
+
+
 _OBJ_REFS = {b"f": 3, b"l": 2, b"p": 1}
 
 
@@ -414,114 +423,13 @@ def _check_stl(path_str: str, size: int) -> int:
     return _check_stl_ascii(path_str, size)
 
 
-def _gltf_json(path_str: str, size: int) -> tuple[dict[str, Any], int | None]:
-    """The glTF JSON and, for .glb, the length of the binary chunk (None if there is none)."""
-    with open(path_str, "rb") as f:
-        data = f.read()
-    bin_length = None
-    if data[:4] == b"glTF":
-        if len(data) < 20:
-            raise _corrupt(path_str, "GLB shorter than its 20-byte header")
-        _, _, total, json_length, json_type = struct.unpack("<4sIII4s", data[:20])
-        if total != size or json_type != b"JSON" or 20 + json_length > size:
-            raise _corrupt(path_str, f"GLB header declares {total} bytes (JSON chunk {json_length}) "
-                                     f"but the file has {size}: truncated or corrupt")
-        text = data[20:20 + json_length]
-        # The next chunk starts right after the JSON, as trimesh reads it: the spec pads the JSON
-        # to 4 bytes, but trimesh writes and reads GLBs whose JSON chunk is not padded, and a
-        # padded length lands at the same place. Chunks of unknown types are skipped (the spec
-        # says so); the first BIN chunk is buffer 0.
-        at = 20 + json_length
-        while at + 8 <= size:
-            length, kind = struct.unpack("<I4s", data[at:at + 8])
-            if at + 8 + length > size:
-                raise _corrupt(path_str, f"GLB chunk {kind!r} at byte {at} declares {length} bytes, "
-                                         f"past the end of the file: truncated or corrupt")
-            if kind == b"BIN\x00" and bin_length is None:
-                bin_length = length
-            at += 8 + length
-    else:
-        text = data
-    try:
-        doc = json.loads(text)
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise _corrupt(path_str, f"invalid glTF JSON: {exc}") from None
-    if not isinstance(doc, dict):
-        raise _corrupt(path_str, "glTF JSON is not an object")
-    return doc, bin_length
-
-
-def _external(path_str: str, uri: str, what: str) -> str | None:
-    """The local path of a non-data URI, raising FileNotFoundError (naming it) if it is missing."""
-    if uri.startswith("data:"):
-        return None
-    local = os.path.join(os.path.dirname(os.path.abspath(path_str)), urllib.parse.unquote(uri))
-    if not os.path.isfile(local):
-        raise FileNotFoundError(errno.ENOENT, f"{what} referenced by mesh file {path_str!r} not found",
-                                local)
-    return local
-
-
-def _check_gltf(path_str: str, size: int) -> None:
-    doc, bin_length = _gltf_json(path_str, size)
-    try:
-        buffers = []  # actual bytes available in each buffer
-        for i, buf in enumerate(doc.get("buffers", [])):
-            uri = buf.get("uri")
-            if uri is None:
-                actual = bin_length or 0
-            else:
-                local = _external(path_str, uri, f"buffer {i} ({uri!r})")
-                actual = os.path.getsize(local) if local else len(uri.partition(",")[2]) * 3 // 4
-            if actual < int(buf["byteLength"]):
-                raise _corrupt(path_str, f"glTF buffer {i} declares {buf['byteLength']} bytes but "
-                                         f"holds {actual}: truncated")
-            buffers.append(int(buf["byteLength"]))
-        views = []
-        for i, view in enumerate(doc.get("bufferViews", [])):
-            start, length = int(view.get("byteOffset", 0)), int(view["byteLength"])
-            if start < 0 or length < 0 or start + length > buffers[int(view["buffer"])]:
-                raise _corrupt(path_str, f"glTF bufferView {i} lies outside its buffer")
-            views.append((length, int(view.get("byteStride", 0))))
-        estimate = 0
-        for i, acc in enumerate(doc.get("accessors", [])):
-            count = int(acc["count"])
-            element = _GLTF_COMPONENT_BYTES[acc["componentType"]] * _GLTF_COMPONENTS[acc["type"]]
-            estimate += count * _GLTF_COMPONENTS[acc["type"]] * _VALUE_BYTES
-            if count < 0:
-                raise _corrupt(path_str, f"glTF accessor {i} has a negative count")
-            if "bufferView" in acc and count > 0:
-                length, stride = views[int(acc["bufferView"])]
-                end = int(acc.get("byteOffset", 0)) + (stride or element) * (count - 1) + element
-                if end > length:
-                    raise _corrupt(path_str, f"glTF accessor {i} reads {end} bytes from a "
-                                             f"{length}-byte bufferView: truncated or corrupt")
-        for m, mesh in enumerate(doc.get("meshes", [])):
-            for p, prim in enumerate(mesh.get("primitives", [])):
-                # Triangles (mode 4, the default) take indices 3 at a time: a count that is not a
-                # multiple of 3 is a cut or a wrong count (trimesh would drop or misread the rest).
-                source = prim["indices"] if "indices" in prim else prim["attributes"].get("POSITION")
-                if prim.get("mode", 4) == 4 and source is not None:
-                    n = int(doc["accessors"][int(source)]["count"])
-                    if n % 3:
-                        raise _corrupt(path_str, f"glTF mesh {m} primitive {p} has {n} triangle "
-                                                 "indices, not a multiple of 3")
-        for i, image in enumerate(doc.get("images", [])):
-            if "uri" in image:
-                _external(path_str, image["uri"], f"image {i} ({image['uri']!r})")
-    except (KeyError, IndexError, TypeError, ValueError, AttributeError) as exc:
-        if isinstance(exc, ValueError) and str(exc).startswith("could not load mesh"):
-            raise
-        raise _corrupt(path_str, f"malformed glTF ({type(exc).__name__}: {exc})") from None
-    check_budget(estimate, f"mesh file {path_str!r} (glTF accessor counts)")
-
-
 def check_mesh_file(path_str: str) -> int:
     """Refuse files that are truncated, inconsistent with their own counts, or would make trimesh
     allocate more than the memory budget (raises ValueError or FileNotFoundError naming the file).
 
-    Returns the number of faces the file states or holds (0 where unknown: glTF, whose meshes can
-    be instanced, and other formats): trimesh must return at least that many triangles (a polygon
+    glTF and GLB files are read and checked by ``gltf_file.read_gltf`` instead.
+
+    Returns the number of faces the file states or holds (0 where unknown): trimesh must return at least that many triangles (a polygon
     gives one or more). Fewer means it skipped rows it could not read ("f 30 33010" in an OBJ,
     "3 9$32 28" in an OFF), without a word.
     """
@@ -532,9 +440,7 @@ def check_mesh_file(path_str: str) -> int:
         return _check_ply(path_str, size)
     if ext == ".stl":
         return _check_stl(path_str, size)
-    if ext in (".gltf", ".glb"):
-        _check_gltf(path_str, size)
-    elif ext == ".off":
+    if ext == ".off":
         return _check_off(path_str, size)
     elif ext == ".obj":
         return _check_obj(path_str, size)
