@@ -1,6 +1,7 @@
 """A default render (new arrays each time, released by the caller) against a render into
-out= arrays, on bench_vs_pyrender.py's Lambert rows (colour + depth, threads 2): issue 22 asks
-the default to be within 10% of out= on every row. Interleaved rounds, medians in ms.
+out= arrays, on bench_vs_pyrender.py's Lambert rows (colour + depth, threads 2): the goal is the
+default within 10% of out= on every row (RESULTS.md, "Python overhead and memory"). Interleaved
+rounds, medians in ms.
 
     python3 benchmarks/bench_alloc.py [--rounds 7] [--frames 30]
 """

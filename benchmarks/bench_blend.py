@@ -8,7 +8,7 @@ front of it, each slightly offset, so that about a fifth of the covered pixels s
 blended layers. Rows: 640x480 and 1024x1024, two threads, colour + depth. Columns: "opaque" (the
 same draws, alpha_mode "opaque"), "blend" (alpha_mode "blend") and their ratio; cells alternate
 in rounds so that they share the machine's noise; times are medians in ms per frame, steady
-state (scene uploaded once, renderer reused). Issue 35's goal: blend / opaque <= 1.5.
+state (scene uploaded once, renderer reused). The goal: blend / opaque <= 1.5 (RESULTS.md, "Blending").
 ``--msaa N`` / ``--ssaa K`` render both columns anti-aliased (each sample composites its layers).
 """
 from __future__ import annotations

@@ -362,7 +362,7 @@ def register_candidates() -> None:
     """Every candidate, one line each. ADD NEW ENCODERS HERE: candidate(kind, name, encode,
     decode, ext); softrast's own encoders join automatically once softrast.io has them."""
     png_any = _via_file(read_oiio, "png")
-    # softrast's own encoders (issue 37, part 2): what Frame.save writes by default
+    # softrast's own encoders: what Frame.save writes by default (RESULTS.md, "Datasets and encoders")
     if hasattr(sio, "encode_png"):
         candidate("color", "softrast.io.encode_png", sio.encode_png, png_any, "png", default=True,
                   main=True)

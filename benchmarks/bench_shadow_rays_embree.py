@@ -8,8 +8,9 @@ and Spot subdivided twice, 93,698), 1024x1024. The rays: one from every covered 
 ``position`` toward the light. Embree (embreex's ``EmbreeScene.run(query="OCCLUDED")``, one call,
 single rays, float32, each origin pushed 1e-4 along the ray: Embree has no on-surface rule)
 against softrast's frame with exact shadows minus its frame without, on one thread, as rays per
-second (softrast's an upper bound: it casts rays only from pixels facing the light). Issue 35
-names Embree the reference for CPU ray queries; this is that comparison.
+second (softrast's an upper bound: it casts rays only from pixels facing the light). The shadow
+goals name Embree the reference for CPU ray queries; this is that comparison (RESULTS.md,
+"Shadows").
 """
 from __future__ import annotations
 

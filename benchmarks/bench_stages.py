@@ -14,7 +14,8 @@ table, not across runs):
   order     the same sphere with its vertices in trimesh's order, in order of first use by the
             faces, and shuffled (faces unchanged): what the mesh's vertex order costs
   threads   1 vs 2 threads
-  lit       issue 16: cost of each shading model per covered pixel and per light. ico6 (81,920
+  lit       cost of each shading model per covered pixel and per light (RESULTS.md, "Lit
+            shading"). ico6 (81,920
             faces) at 1024x1024, colour+depth, frequency="pixel", srgb=False (the encoding is
             timed apart), a white-ish Material with every model's parameters and 1, 2, 4 or 8
             point lights in front of the sphere. ns per covered px = (time - depth-only time) /
@@ -26,11 +27,12 @@ table, not across runs):
             core's sr::Renderer::render, so Python is left out): repeatable under any load. With
             --ab-old PATH also the Lambert rows' instructions, old build (softrast importable
             from PATH) vs this checkout's python/
-  distortion issue 19: a camera with lens distortion (a strong barrel, oversample 1, 2, 4)
+  distortion a camera with lens distortion (RESULTS.md, "Lens distortion"; a strong barrel,
+            oversample 1, 2, 4)
             against the same camera without it, ico6 at 640x480: colour only (bilinear gathers),
             colour+depth and every geometric output (each pixel's ray cast in float64). With
             --ab-old PATH: the same cells, old build (softrast importable from PATH) against this
-            one, a fresh process per build and round, the order alternating (issue 34 part 2)
+            one, a fresh process per build and round, the order alternating
   overhead  Python cost per call: a 1x1 render of a 1-triangle scene
   memory    peak RSS of rendering the 1.3M-face sphere at 1024x1024 (a fresh subprocess) against
             the mesh's own arrays plus the framebuffers

@@ -3,10 +3,10 @@
 Run ``bash benchmarks/setup_baselines.sh`` once first, then::
 
     python3 benchmarks/bench_vs_pyrender.py [--quick] [--rows 0,1,4] [--json out.json]
-    python3 benchmarks/bench_vs_pyrender.py --lit [--lit-only] [--png DIR]    # issue 16's lit rows
-    python3 benchmarks/bench_vs_pyrender.py --textured [--png DIR]            # issue 17's rows
-    python3 benchmarks/bench_vs_pyrender.py --aa [--png DIR]                  # issue 18's msaa rows
-    python3 benchmarks/bench_vs_pyrender.py --points [--png DIR]              # issue 18's point cloud
+    python3 benchmarks/bench_vs_pyrender.py --lit [--lit-only] [--png DIR]    # the lit rows
+    python3 benchmarks/bench_vs_pyrender.py --textured [--png DIR]            # the textured rows
+    python3 benchmarks/bench_vs_pyrender.py --aa [--png DIR]                  # the msaa rows
+    python3 benchmarks/bench_vs_pyrender.py --points [--png DIR]              # the point cloud
     python3 benchmarks/bench_vs_pyrender.py --ab-python OLD_PY [--new-python NEW_PY]   # A/B, all rows
         [--groups plain,lit,textured,aa,points] [--quick] [--json out.json]
     python3 benchmarks/bench_vs_pyrender.py --ab OLD_PYTHONPATH [--rows 1,2,3,4] [--lit-only]
@@ -26,12 +26,13 @@ Columns:
              (colour+depth only; the raw [0, 1] depth buffer, not linearised as the others are)
   softrast   Renderer(w, h, threads).render(scene, cam, outputs=...), "out" = into the frame of
              an earlier render (out=frame, as a batch user would), "new" = fresh arrays per frame
-Lit rows (--lit, issue 16): "blinn_phong" with 4 point lights and "pbr" with one directional and
-two point lights, on ico6 at 640x480 and 1024x1024 and on Spot (assets/meshes/spot.obj, vertices
-merged, no texture) at 640x480; the same lights, poses, ambient light and base colour in both
-renderers. pyrender has no Blinn-Phong: both rows run its standard metallic-roughness shader
-(MetallicRoughnessMaterial), which is what a pyrender user would run. softrast cells: t2 and t1
-colour+depth into out=, with the default sRGB-encoded colour, and t2 with srgb=False (linear).
+Lit rows (--lit; RESULTS.md, "Lit shading"): "blinn_phong" with 4 point lights and "pbr" with one
+directional and two point lights, on ico6 at 640x480 and 1024x1024 and on Spot
+(assets/meshes/spot.obj, vertices merged, no texture) at 640x480; the same lights, poses, ambient
+light and base colour in both renderers. pyrender has no Blinn-Phong: both rows run its standard
+metallic-roughness shader (MetallicRoughnessMaterial), which is what a pyrender user would run.
+softrast cells: t2 and t1 colour+depth into out=, with the default sRGB-encoded colour, and t2 with
+srgb=False (linear).
 --png DIR writes each lit row's colour image from each renderer.
 
 A/B, old build vs new build (--ab-python OLD_PY: the rule for kernel changes is no cell more than
@@ -92,7 +93,7 @@ import trimesh  # noqa: E402
 
 import softrast as sr  # noqa: E402
 
-# (subdivisions, width, height), the rows of issue 3's table.
+# (subdivisions, width, height), the plain rows (RESULTS.md, "Against pyrender").
 ROWS = [(3, 256, 256), (6, 640, 480), (6, 1024, 1024), (7, 2048, 2048), (8, 1024, 1024)]
 FOV_Y_DEG = 45.0
 NEAR, FAR = 0.05, 100.0
@@ -351,13 +352,13 @@ class SoftrastRow:
         return cells
 
 
-# ------------------------------------------------------------------------- lit rows (issue 16)
+# -------------------------------------------------------- lit rows (RESULTS.md, "Lit shading")
 
 # (model, scene, width, height): scene is "ico6" or "spot".
 LIT_ROWS = [("blinn_phong", "ico6", 640, 480), ("blinn_phong", "ico6", 1024, 1024),
             ("blinn_phong", "spot", 640, 480), ("pbr", "ico6", 640, 480),
             ("pbr", "ico6", 1024, 1024), ("pbr", "spot", 640, 480)]
-LIT_GOAL = 20.0  # issue 16: lit rows >= 20x pyrender
+LIT_GOAL = 20.0  # lit rows >= 20x pyrender (RESULTS.md, "Lit shading")
 LIT_BASE = (0.8, 0.5, 0.3)  # linear base colour of every lit row
 LIT_AMBIENT = 0.05
 SPOT_PATH = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "assets", "meshes",
@@ -572,10 +573,10 @@ def report_lit_floor(results: list[dict]) -> None:
         print(f"{r['row']:<32}" + "".join(fmt(v, 11, 2) for v in values))
 
 
-# ------------------------------------------------------------------ textured rows (issue 17)
+# ---------------------------------------------------- textured rows (RESULTS.md, "Textures")
 
 TEXTURED_ROWS = [("spot", 640, 480), ("spot", 1024, 1024), ("box", 640, 480)]
-TEXTURED_GOAL = 20.0  # issue 17: textured rows >= 20x pyrender
+TEXTURED_GOAL = 20.0  # textured rows >= 20x pyrender (RESULTS.md, "Textures")
 
 
 def textured_trimesh_scene(name: str) -> "trimesh.Scene":
@@ -701,10 +702,11 @@ def report_textured(results: list[dict]) -> None:
           "\n textured time; untex x: pyrender's textured time over it)")
 
 
-# ----------------------------------------------------------------- anti-aliasing (issue 18)
+# ---------------------------------------------- anti-aliasing (RESULTS.md, "Anti-aliasing")
 
 AA_ROWS = [(6, 640, 480), (6, 1024, 1024)]
-AA_GOAL = 20.0  # issue 18: msaa=4 colour+depth >= 20x pyrender (aliased here: OSMesa, 1 sample)
+AA_GOAL = 20.0  # msaa=4 colour+depth >= 20x pyrender (aliased here: OSMesa, 1 sample; RESULTS.md,
+#                 "Anti-aliasing")
 AA_MODES = [("msaa1", {}), ("msaa4", dict(msaa=4)), ("msaa8", dict(msaa=8)),
             ("msaa16", dict(msaa=16)), ("ssaa2", dict(ssaa=2)), ("ssaa4", dict(ssaa=4))]
 
@@ -766,10 +768,11 @@ def report_aa(results: list[dict]) -> None:
               f"{fmt(ratio(goal, m1), 0, 2)}x a render without it")
 
 
-# ------------------------------------------------------------------ point clouds (issue 18)
+# -------------------------------------------- point clouds (RESULTS.md, "Lines and points")
 
 POINT_ROWS = [(1_000_000, 1024, 1024)]
-POINTS_GOAL = 20.0  # issue 18: a 1M-point cloud at 1024x1024 >= 20x pyrender's points
+POINTS_GOAL = 20.0  # a 1M-point cloud at 1024x1024 >= 20x pyrender's points (RESULTS.md,
+#                     "Lines and points")
 
 
 def run_points(pyrender, target_s, n_min, n_max, rounds, png_dir) -> list[dict]:

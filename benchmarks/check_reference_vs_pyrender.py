@@ -5,7 +5,7 @@ spot light for several metallic / roughness pairs, a light from behind only (pyr
 floor of 0.001 leaks it) and smooth vertex colours (pyrender multiplies the final colour by
 them). Positions come from pyrender's depth; the reference's radiance + pyrender's emissive^2,
 encoded with pyrender_encode (pow 1/2.2), is compared with pyrender's bytes away from the
-silhouette. Expected: max diff <= 1 everywhere. See PBR_NOTES.md.
+silhouette. Expected: max diff <= 1 everywhere. See docs/pbr_notes.md.
 Usage: bash benchmarks/setup_baselines.sh && python3 benchmarks/check_reference_vs_pyrender.py
 """
 import os, sys, math

@@ -1,4 +1,5 @@
-// Image files for datasets: PNG and TIFF written fast, exactly and reproducibly (issue 37).
+// Image files for datasets: PNG and TIFF written fast, exactly and reproducibly
+// (benchmarks/RESULTS.md, "Datasets and encoders").
 //
 // A render's frame is encoded in the time it takes to read it a few times: the general encoders
 // (libpng, zlib level 1) spend 10-16 ms on a 640x480 colour frame choosing matches and filters,

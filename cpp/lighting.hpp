@@ -199,7 +199,7 @@ SR_INLINE void lit_radiance(const LitInputs& in, const Material& m, const simd::
     const f8 ndl = n[0] * l[0] + n[1] * l[1] + n[2] * l[2];
     if constexpr (kPbr) {
       if (vis) att *= simd::load<f8>(vis + 8 * k);
-      // pyrender 0.1.45's mesh.frag (PBR_NOTES.md): r = clamp(roughness, 0.04, 1), a = r^2;
+      // pyrender 0.1.45's mesh.frag (docs/pbr_notes.md): r = clamp(roughness, 0.04, 1), a = r^2;
       // h = normalize(l + v); nl = clamp(n.l, 0.001, 1) (a light behind the surface still adds
       // a little, as pyrender's does); nv = clamp(|n.v|, 0.001, 1); nh, vh clamped to [0, 1];
       // F = f0 + (1 - f0) (1 - vh)^5, f0 = mix(0.04, base, metallic); k = (r + 1)^2 / 8,

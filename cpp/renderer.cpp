@@ -565,7 +565,7 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
     bool forward = plan.forward_allowed && !overlay;
     if (forward && plan.estimate_overdraw) {
       // Deferred walks each triangle twice: forward wins up to about this much overdraw
-      // (benchmarks/RESULTS.md, the crossover).
+      // (benchmarks/RESULTS.md, "Stages and scaling": the crossover).
       constexpr float kForwardMaxOverdraw = 1.5f;
       float area = 0.0f;
       for (std::size_t c = 0; c < num_chunks; ++c) area += chunks_[c].tile_area[tile];
