@@ -1,5 +1,5 @@
 """Order-independent alpha blending (glTF alphaMode BLEND, ``Material(alpha_mode="blend")``),
-checked against tests/blend_reference.py, an independent NumPy reference that finds every
+checked against tests/support/blend_reference.py, an independent NumPy reference that finds every
 fragment of every triangle at every pixel centre, sorts them and composites them front to back
 in linear light.
 
@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 import trimesh
 
-import blend_reference as bref
+from support import blend_reference as bref
 import softrast as sr
 
 W, H = 64, 48

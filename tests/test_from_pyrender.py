@@ -1,10 +1,10 @@
 """softrast.from_pyrender against pyrender 0.1.45 itself (issue 19).
 
-The child process (tests/pyrender_interop_child.py, PYOPENGL_PLATFORM=osmesa) builds a pyrender
-scene with two meshes (one under a parent node), a directional and a spot light, ambient light
-and a camera (perspective with yfov in radians, intrinsics, orthographic), renders it with
-pyrender on Mesa's llvmpipe, converts it with softrast.from_pyrender and renders the conversion
-with softrast, and writes both. Checked here:
+The child process (tests/support/pyrender_interop_child.py, PYOPENGL_PLATFORM=osmesa) builds a
+pyrender scene with two meshes (one under a parent node), a directional and a spot light, ambient
+light and a camera (perspective with yfov in radians, intrinsics, orthographic), renders it with
+pyrender on Mesa's llvmpipe, converts it with softrast.from_pyrender and renders the conversion with
+softrast, and writes both. Checked here:
 
 * what was converted: fov_y in degrees from yfov in radians, aspect, near / far, the camera's and
   the nested node's world poses, light types / colours / intensities / cone angles, ambient
@@ -43,9 +43,9 @@ from scipy import ndimage
 
 import softrast as sr
 
-from pyrender_runner import INSTALL_HINT, run_pyrender_child
+from support.pyrender_runner import INSTALL_HINT, run_pyrender_child
 
-CHILD = pathlib.Path(__file__).resolve().parent / "pyrender_interop_child.py"
+CHILD = pathlib.Path(__file__).resolve().parent / "support" / "pyrender_interop_child.py"
 W, H = 320, 240
 
 
@@ -232,7 +232,7 @@ BLEND_CHILD = r"""
 import json, sys, warnings
 sys.path.insert(0, sys.argv[1])
 sys.path.insert(0, sys.argv[2])
-from pyrender_env import import_pyrender
+from support.pyrender_env import import_pyrender
 import numpy as np
 from PIL import Image
 pyrender, trimesh = import_pyrender("blend child")
@@ -411,7 +411,7 @@ BACKGROUND_CHILD = r"""
 import sys
 sys.path.insert(0, sys.argv[1])
 sys.path.insert(0, sys.argv[2])
-from pyrender_env import import_pyrender
+from support.pyrender_env import import_pyrender
 import numpy as np
 pyrender, trimesh = import_pyrender("background child")
 from OpenGL import GL

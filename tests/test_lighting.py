@@ -1,5 +1,5 @@
 """The renderer's shading models, lights and materials (issue 16) against the NumPy reference
-(tests/shading_reference.py, itself checked by test_shading_reference.py).
+(tests/support/shading_reference.py, itself checked by test_shading_reference.py).
 
 The reference is evaluated with the renderer's own ``normal`` output as n and world positions
 unprojected from its ``depth`` output, so the comparison isolates shading from rasterization.
@@ -33,7 +33,7 @@ import pytest
 import trimesh
 
 import softrast as sr
-import shading_reference as ref
+from support import shading_reference as ref
 
 W, H = 96, 72
 LIT = ("lambert", "phong", "blinn_phong", "pbr")

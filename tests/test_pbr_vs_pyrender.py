@@ -1,6 +1,6 @@
 """softrast's ``pbr`` against pyrender 0.1.45 on Mesa's llvmpipe (OSMesa), issue 16.
 
-pyrender renders in a child process (tests/pyrender_child.py, PYOPENGL_PLATFORM=osmesa), so this
+pyrender renders in a child process (tests/support/pyrender_child.py, PYOPENGL_PLATFORM=osmesa), so this
 process never loads OpenGL; the same scene (camera, poses, lights, materials, normals, ambient
 light, black background) is rendered by softrast here. softrast's linear ``radiance`` is encoded
 as pyrender encodes it (``shading_reference.pyrender_encode``: pow(c, 1/2.2), not sRGB) and
@@ -30,10 +30,10 @@ import trimesh
 from scipy import ndimage
 
 import softrast as sr
-from pyrender_runner import run_pyrender_child
-from shading_reference import pyrender_encode
+from support.pyrender_runner import run_pyrender_child
+from support.shading_reference import pyrender_encode
 
-CHILD = pathlib.Path(__file__).resolve().parent / "pyrender_child.py"
+CHILD = pathlib.Path(__file__).resolve().parent / "support" / "pyrender_child.py"
 W, H = 320, 240
 FOV_Y_DEG = 40.0
 NEAR, FAR = 0.5, 30.0

@@ -11,7 +11,7 @@ import pytest
 import trimesh
 
 import softrast as sr
-from mp_worker import render_bytes
+from support.mp_worker import render_bytes
 
 OUTPUTS = ("color", "depth", "instance_id", "barycentric")
 

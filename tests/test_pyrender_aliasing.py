@@ -15,9 +15,9 @@ import numpy as np
 import trimesh
 
 import softrast as sr
-from pyrender_runner import run_pyrender_child
+from support.pyrender_runner import run_pyrender_child
 
-CHILD = pathlib.Path(__file__).resolve().parent / "pyrender_to_child.py"
+CHILD = pathlib.Path(__file__).resolve().parent / "support" / "pyrender_to_child.py"
 W, H = 640, 480
 NEAR, FAR = 0.5, 20.0
 YFOV = math.radians(45.0)

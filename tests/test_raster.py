@@ -1,6 +1,6 @@
 """Rasterization rules through the public API: watertightness, the top-left fill rule, projection
 against cv2.projectPoints, and clipping. Expected pixel sets come from exact geometry or from the
-independent NumPy rasterizer in tests/reference.py, never from earlier renders."""
+independent NumPy rasterizer in tests/support/raster_reference.py, never from earlier renders."""
 from __future__ import annotations
 
 import math
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import trimesh
 
-import reference as ref
+from support import raster_reference as ref
 import softrast as sr
 from conftest import (
     icosphere,

@@ -25,9 +25,9 @@ import numpy as np
 import pytest
 import trimesh
 
-import reference as ref
+from support import raster_reference as ref
 import softrast as sr
-import texture_reference as tref
+from support import texture_reference as tref
 
 SURFACE_FLOATS = ("depth", "normal", "barycentric", "position", "radiance")
 EVERYTHING = ("depth", "mask", "coverage", "triangle_id", "normal", "barycentric", "position",
@@ -320,8 +320,8 @@ def _half_plane_quads(w: int, h: int, direction: tuple[int, int]) -> tuple[np.nd
 
 def _fill_rule_side(u: np.ndarray, v: np.ndarray, w: int, h: int) -> np.ndarray:
     """(h, w) bool: pixel centres inside the directed edge u -> v (fixed point, 1/256 px) of a
-    triangle ordered as tests/reference.py orders it (inside <=> E >= 0, E = 0 only on top or
-    left edges), in exact int64 arithmetic, one threshold per row."""
+    triangle ordered as tests/support/raster_reference.py orders it (inside <=> E >= 0, E = 0 only
+    on top or left edges), in exact int64 arithmetic, one threshold per row."""
     ux, uy = int(u[0]), int(u[1])
     dx, dy = int(v[0]) - ux, int(v[1]) - uy
     top_left = dy < 0 or (dy == 0 and dx > 0)
@@ -349,7 +349,8 @@ def _expected_half_plane(quad: np.ndarray, w: int, h: int) -> np.ndarray:
 
 
 def test_fill_rule_side_helper_matches_the_reference_rasterizer() -> None:
-    """The per-row integer helper used for the 8192^2 image agrees with tests/reference.py."""
+    """The per-row integer helper used for the 8192^2 image agrees with
+    tests/support/raster_reference.py."""
     rng = np.random.default_rng(21)
     for w, h in [(37, 29), (1, 40), (40, 1), (1, 1)]:
         for _ in range(6):

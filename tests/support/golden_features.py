@@ -1,7 +1,7 @@
 """Golden renders of every feature: SHA-256 of every output (its dtype, shape and bytes) of a
 second set of scenes.
 
-tests/golden.py's 18 scenes predate most of the core's features (lights and materials, every
+tests/support/golden.py's 18 scenes predate most of the core's features (lights and materials, every
 shading model and frequency, textures, the surface outputs, anti-aliasing, lines and points, lens
 distortion). The scenes here exercise each of those paths, so that a restructuring of the C++
 kernels that must not change any output can be checked bit for bit:
@@ -32,23 +32,23 @@ kernels that must not change any output can be checked bit for bit:
 * orthographic cameras, OpenCV intrinsics, near-plane clipping of lit, textured, normal-mapped
   geometry.
 
-Every mesh, texture, light and camera pose is made here with NumPy from correctly rounded
-operations only (+, -, *, /, sqrt, in a fixed order: no transcendental functions, BLAS or
-reductions, whose last bits may differ between NumPy builds), or read from
-tests/data/golden_meshes.npz (Spot and an icosphere), so neither a trimesh, Pillow nor NumPy
-upgrade can change the inputs. Meshes are built once and shared by every render (as in
-tests/golden.py); textures are made per render, so each render builds its own mip chains. Images
-are small (at most 128 x 80) so the whole record renders in a few seconds; tests/test_golden.py
-renders each scene once per instruction set (simd True and False) and thread count (1, 2, 3) and
-compares every output's hash with the record, made with simd=True and 2 threads.
+Every mesh, texture, light and camera pose is made here with NumPy from correctly rounded operations
+only (+, -, *, /, sqrt, in a fixed order: no transcendental functions, BLAS or reductions, whose
+last bits may differ between NumPy builds), or read from tests/data/golden_meshes.npz (Spot and an
+icosphere), so neither a trimesh, Pillow nor NumPy upgrade can change the inputs. Meshes are built
+once and shared by every render (as in tests/support/golden.py); textures are made per render, so
+each render builds its own mip chains. Images are small (at most 128 x 80) so the whole record
+renders in a few seconds; tests/test_golden.py renders each scene once per instruction set (simd
+True and False) and thread count (1, 2, 3) and compares every output's hash with the record, made
+with simd=True and 2 threads.
 
 The record, tests/data/golden_features.json, was made from commit 9c24f39 (the build before the
 shading kernels were restructured for build time). A change that means to alter any of these
 outputs must re-record them and say so, scene by scene, in its commit message:
 
-    python3 tests/golden_features.py --write 9c24f39   # record from the installed build
-    python3 tests/golden_features.py                   # compare every scene and configuration
-    python3 tests/golden_features.py --png DIR         # write each scene's colour image to DIR
+    python3 tests/support/golden_features.py --write 9c24f39   # record from the installed build
+    python3 tests/support/golden_features.py                   # compare every scene and configuration
+    python3 tests/support/golden_features.py --png DIR         # write each scene's colour image to DIR
 
 (``--write`` refuses to record a scene whose colour image is blank or flat.)
 """
@@ -65,9 +65,11 @@ import numpy as np
 
 import softrast as sr
 
-import golden  # the Spot and sphere meshes, and the configurations (tests/ is on sys.path)
+if not __package__:  # run as a script, by path: tests/ on sys.path, for "from support import"
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
+from support import golden  # noqa: E402  the Spot and sphere meshes, and the configurations
 
-DATA = pathlib.Path(__file__).resolve().parent / "data"
+DATA = pathlib.Path(__file__).resolve().parents[1] / "data"
 HASHES = DATA / "golden_features.json"
 # The outputs at the recorded commit (not sr.OUTPUTS: an output added later is not recorded).
 OUTPUTS = ("color", "depth", "mask", "normal", "triangle_id", "instance_id", "coverage",

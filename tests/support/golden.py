@@ -8,8 +8,8 @@ many chunks, odd and tiny image sizes, a frame big enough to be written with str
 and hashes their outputs. Meshes come from tests/data/golden_meshes.npz, not from trimesh, so a
 trimesh upgrade cannot change them.
 
-    python3 tests/golden.py --write   # record tests/data/golden_hashes.json from the installed build
-    python3 tests/golden.py           # compare (what tests/test_golden.py does, per scene)
+    python3 tests/support/golden.py --write   # record tests/data/golden_hashes.json from the installed build
+    python3 tests/support/golden.py           # compare (what tests/test_golden.py does, per scene)
 """
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ import numpy as np
 
 import softrast as sr
 
-DATA = pathlib.Path(__file__).resolve().parent / "data"
+DATA = pathlib.Path(__file__).resolve().parents[1] / "data"
 MESHES = DATA / "golden_meshes.npz"
 HASHES = DATA / "golden_hashes.json"
 # The outputs recorded at the commit (not sr.OUTPUTS: an output added later is not in the record).
@@ -208,7 +208,7 @@ def render_hashes(name: str, simd: bool, threads: int, meshes: dict | None = Non
 
 def _make_meshes() -> None:
     import trimesh
-    spot = trimesh.load(pathlib.Path(__file__).resolve().parents[1] / "assets/meshes/spot.obj", process=False)
+    spot = trimesh.load(pathlib.Path(__file__).resolve().parents[2] / "assets/meshes/spot.obj", process=False)
     sph = trimesh.creation.icosphere(subdivisions=4)
     np.savez_compressed(
         MESHES, spot_positions=np.asarray(spot.vertices, np.float32), spot_faces=np.asarray(spot.faces, np.int32),
