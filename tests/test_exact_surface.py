@@ -162,8 +162,8 @@ def test_random_grazing_slivers() -> None:
 
 
 def test_a_grazing_floor_cut_into_slivers() -> None:
-    """Strips 0.002 units wide of a grazing floor (tests/test_extremes.py's sliver case), which
-    before kept their corners' own keys: 1e-3 relative."""
+    """Strips 0.002 units wide of a grazing floor (tests/test_extreme_scales.py's sliver case),
+    which before kept their corners' own keys: 1e-3 relative."""
     n = 1500
     xs = np.linspace(-1.5, 1.5, n + 1)
     quads = [[[xs[k], 0, -0.5], [xs[k + 1], 0, -0.5], [xs[k + 1], 0, -60.0], [xs[k], 0, -60.0]]
