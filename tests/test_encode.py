@@ -1,4 +1,4 @@
-"""softrast's own PNG and TIFF encoder (cpp/encode.cpp, issue 37) against independent decoders.
+"""softrast's own PNG and TIFF encoder (cpp/encode.cpp) against independent decoders.
 
 - The deflate stream (``_core.zlib_compress``) against Python's zlib: every edge of the run
   coding (runs of 1..600 bytes, the 258-byte match limit and its neighbours, 1 MB of zeros),

@@ -1,4 +1,4 @@
-"""Issue 21: stiff and extreme cases, each checked against an answer computed independently
+"""Stiff and extreme cases, each checked against an answer computed independently
 (ray casting in float64, exact integer edge functions, the pinhole formula, the texture spec),
 never against "it did not crash".
 

@@ -1,7 +1,7 @@
 """Every output of the golden scenes (tests/support/golden.py) is bit-identical to the recorded hashes.
 
 The hashes were recorded from the commit named in tests/data/golden_hashes.json, before the core
-was split along its seams (issue 15); each scene is checked on both instruction sets and with 1,
+was split along its seams; each scene is checked on both instruction sets and with 1,
 2 and 3 threads. A difference here means a change altered rendered bits: if that is intended
 (a new feature changing an existing output), say so in the commit and re-record with
 `python3 tests/support/golden.py --write <commit>`.

@@ -1,4 +1,4 @@
-"""OBJ + MTL materials against pyrender 0.1.45 (issue 33, defect 2: ``Ns 0`` rendered as white blobs).
+"""OBJ + MTL materials against pyrender 0.1.45 (``Ns 0`` once rendered as white blobs).
 
 softrast renders an MTL material as ``pbr`` (the rule is stated in ``softrast.loaders``): base
 colour Kd (times ``map_Kd``), metallic 0, roughness (2 / (Ns + 2)) ** 0.25 (trimesh's

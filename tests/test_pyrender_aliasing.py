@@ -1,4 +1,4 @@
-"""pyrender under OSMesa renders aliased (issue 33, 11): the README and benchmarks once said
+"""pyrender under OSMesa renders aliased: the README and benchmarks once said
 pyrender "always renders 4x MSAA". It asks for a 4-sample framebuffer only where its platform
 supports framebuffers (EGL, pyglet's window); OSMesaPlatform.supports_framebuffers() is False,
 so OffscreenRenderer draws into OSMesa's own single-sample buffer. A flat white sphere on black

@@ -1,5 +1,4 @@
-"""softrast.to_pyrender, and softrast's unlit colour, masks and depth against pyrender 0.1.45
-(issue 19).
+"""softrast.to_pyrender, and softrast's unlit colour, masks and depth against pyrender 0.1.45.
 
 pyrender runs in a child process (tests/support/pyrender_to_child.py, PYOPENGL_PLATFORM=osmesa,
 Mesa's llvmpipe), so this process never loads OpenGL; softrast scenes and cameras travel there

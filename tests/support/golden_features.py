@@ -328,7 +328,7 @@ def _spot_cam() -> sr.Camera:
 
 # Materials used by several scenes (immutable: sharing one between renders is fine; textures are
 # made per build so that every render builds its own mip chains).
-# The default base colour before a texture made it white (issue 33): the golden scenes keep 0.8.
+# The default base colour before a texture made it white: the golden scenes keep 0.8.
 GREY = (0.8, 0.8, 0.8, 1.0)
 
 SHINY = sr.Material(base_color=(0.85, 0.55, 0.3, 1.0), ks=(0.6, 0.6, 0.55), shininess=16.0,
@@ -406,7 +406,7 @@ def _scenes() -> dict[str, tuple[int, int, Build, dict]]:
 
     # 97 x 70: four tiles (64 x 64), two of them narrow
     add("auto_mixed_materials_lights", 97, 70)(mixed)
-    # (coverage counts the back faces a double-sided material no longer culls: issue 33)
+    # (coverage counts the back faces a double-sided material no longer culls)
     add("auto_mixed_materials_coverage_linear", 97, 70, outputs=OUTPUTS, srgb=False,
         cull_double_sided=True)(mixed)
     add("auto_mixed_materials_headlight", 97, 70, ambient=0.3)(lambda m: mixed(m, lights=False))
@@ -537,7 +537,7 @@ def _scenes() -> dict[str, tuple[int, int, Build, dict]]:
         texs = [sr.Texture(checker(8, 2), wrap="repeat", filter="nearest"),
                 sr.Texture(gradient_rgba_u16(), wrap="clamp", filter="bilinear"),
                 sr.Texture(stripes_f32(), wrap="mirror", filter="nearest", uv_origin="top_left",
-                           srgb=True),  # (float images are linear by default since issue 39)
+                           srgb=True),  # (float images are linear by default now)
                 sr.Texture(grey_u8(), wrap=("mirror", "clamp"), filter="bilinear", srgb=False),
                 sr.Texture(grey_alpha_f32(), wrap=("clamp", "repeat"), filter="trilinear", srgb=True)]
         for k, tex in enumerate(texs):
