@@ -1,4 +1,4 @@
-"""Checks tests/shading_reference.py's "pbr" against pyrender 0.1.45 (OSMesa) to the byte.
+"""Checks tests/support/shading_reference.py's "pbr" against pyrender 0.1.45 (OSMesa) to the byte.
 
 Renders a finely tessellated unit sphere with analytic normals under a directional, a point and a
 spot light for several metallic / roughness pairs, a light from behind only (pyrender's NdotL
@@ -13,7 +13,7 @@ os.environ["PYOPENGL_PLATFORM"] = "osmesa"
 import numpy as np, pyrender, trimesh
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "tests")); sys.path.insert(0, os.path.join(ROOT, "python"))
-import shading_reference as ref
+from support import shading_reference as ref
 import softrast as sr
 
 W, H = 160, 120

@@ -1,4 +1,4 @@
-"""Alpha masks (glTF alphaMode MASK, issue 17): a fragment is kept iff its alpha reaches the
+"""Alpha masks (glTF alphaMode MASK): a fragment is kept iff its alpha reaches the
 cutoff, before the depth test, in every output. The alpha is checked against what shading itself
 samples: a texture whose colour channels equal its alpha channel, rendered opaque and unlit,
 gives each pixel's alpha as its radiance (the same uv, derivatives, filter and bits), so the

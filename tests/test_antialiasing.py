@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import trimesh
 
-import reference as ref
+from support import raster_reference as ref
 import softrast as sr
 from conftest import core_options, pixel_mesh, pixel_ortho, render, scene_of
 from softrast.report import disk_coverage
@@ -69,8 +69,9 @@ def test_ssaa_positions_are_a_centred_grid(k):
 # --- coverage per sample, against the NumPy reference ----------------------------------------
 
 def _reference_per_sample(xy, faces, w, h, mode, cull="none"):
-    """Coverage counts (n_samples, h, w) from tests/reference.py: sample s of pixel (i, j) is the
-    pixel centre of the image shifted by (1/2 - sx, 1/2 - sy), exact in fixed point."""
+    """Coverage counts (n_samples, h, w) from tests/support/raster_reference.py: sample s of pixel
+    (i, j) is the pixel centre of the image shifted by (1/2 - sx, 1/2 - sy), exact in fixed
+    point."""
     fixed = ref.snap(xy)
     out = []
     for sx, sy in sr.sample_positions(**mode):

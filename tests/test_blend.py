@@ -1,5 +1,5 @@
 """Order-independent alpha blending (glTF alphaMode BLEND, ``Material(alpha_mode="blend")``),
-checked against tests/blend_reference.py, an independent NumPy reference that finds every
+checked against tests/support/blend_reference.py, an independent NumPy reference that finds every
 fragment of every triangle at every pixel centre, sorts them and composites them front to back
 in linear light.
 
@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 import trimesh
 
-import blend_reference as bref
+from support import blend_reference as bref
 import softrast as sr
 
 W, H = 64, 48
@@ -407,7 +407,7 @@ def test_coplanar_blended_faces_composite_in_face_order(orthographic: bool) -> N
     """Random triangles of one plane (their corners rounded to float32, so their depths at a
     pixel differ by ~1e-9 relative, far inside the depth test's 2^-20 tie): coplanar blended
     fragments composite in draw order (the earlier face in front), as the depth test gives
-    every overlap of such opaque triangles to the first drawn (test_extremes.py)."""
+    every overlap of such opaque triangles to the first drawn (test_extreme_scales.py)."""
     w, h, n = 96, 72, 60
     rng = np.random.default_rng(31)
     tris = _coplanar(rng, n)

@@ -48,7 +48,7 @@ import pytest
 from scipy import ndimage
 
 import softrast as sr
-from pyrender_runner import run_pyrender_script
+from support.pyrender_runner import run_pyrender_script
 
 W, H = 160, 120
 FOV_Y = 40.0  # degrees
@@ -60,9 +60,9 @@ MODEL_TOL = 1  # bytes: softrast against the exact composite
 
 CHILD = r"""
 import pickle, sys, warnings
-sys.path.insert(0, sys.argv[1])  # tests/: pyrender_env
+sys.path.insert(0, sys.argv[1])  # tests/: support.pyrender_env
 sys.path.insert(0, sys.argv[2])  # softrast's parent folder
-from pyrender_env import import_pyrender
+from support.pyrender_env import import_pyrender
 import numpy as np
 pyrender, trimesh = import_pyrender("blend child")
 

@@ -367,7 +367,7 @@ def test_intrinsics_refuses_other_image_size():
     np.testing.assert_array_equal(cam.projection_matrix(), cam.projection_matrix(64, 48))
 
 
-# Issue 20, item 11: every camera argument checked by name at construction; nothing that passes
+# Every camera argument checked by name at construction; nothing that passes
 # can fail at render time ("projection matrix is not finite", ZeroDivisionError).
 
 @pytest.mark.parametrize("make, error, name", [

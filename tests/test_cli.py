@@ -25,7 +25,7 @@ FUZE_PATH = pathlib.Path(__file__).resolve().parents[1] / "assets" / "meshes" / 
     (["render", str(SPOT_PATH), "-o", "x.png", "--eye", "1,2"], "--eye"),
     (["render", str(SPOT_PATH), "-o", "x.png", "--up", "0,nan,1"], "--up"),
     (["render", str(SPOT_PATH), "-o", "x.png", "--cull", "sideways"], "--cull"),
-    (["render", str(SPOT_PATH), "-o", "x.png", "--shading", "toon"], "--shading"),  # phong is valid (issue 16)
+    (["render", str(SPOT_PATH), "-o", "x.png", "--shading", "toon"], "--shading"),  # phong is valid
     (["render", str(SPOT_PATH), "-o", "x.png", "--threads", "-1"], "--threads"),
     (["render", str(SPOT_PATH), "-o", "x.png", "--msaa", "3"], "--msaa"),
     (["render", str(SPOT_PATH), "-o", "x.png", "--ssaa", "9"], "--ssaa"),
@@ -237,7 +237,7 @@ def test_texture_errors(tmp_path, capsys):
 
 
 def test_render_mtl_with_ns_0_is_not_washed_out(tmp_path):
-    # Issue 33: fuze.obj's MTL (Ks 1 1 1, Ns 0) rendered as a white blob under shading "auto"
+    # fuze.obj's MTL (Ks 1 1 1, Ns 0) rendered as a white blob under shading "auto"
     # (Blinn-Phong with exponent 0 adds ks everywhere). MTL materials render as pbr now: the lit
     # bottle is no brighter than its texture, unlit.
     lit, unlit = tmp_path / "lit.png", tmp_path / "unlit.png"

@@ -1,4 +1,4 @@
-"""`softrast batch` (issue 22): datasets from mesh files, with progress and a summary, every bad
+"""`softrast batch`: datasets from mesh files, with progress and a summary, every bad
 argument a one-line error before anything is written, resume after an interruption, --version."""
 from __future__ import annotations
 
@@ -109,7 +109,7 @@ class _FakeClock:
 
 
 def test_a_resumed_run_counts_skipped_views_apart(tmp_path, capsys, monkeypatch):
-    """Issue 33 (12): a rerun that finds 3 of 5 views on disk says it rendered 2 and skipped 3,
+    """A rerun that finds 3 of 5 views on disk says it rendered 2 and skipped 3,
     and its rate is over the 2 rendered views only (it used to claim 5 views at 5 / time)."""
     import softrast.cli as cli
     import softrast.dataset as dataset
@@ -220,7 +220,7 @@ def _bad_inputs(d: pathlib.Path) -> dict[str, list[str]]:
     ("K_skew.npy", "--intrinsics"),
 ])
 def test_bad_sizes_workers_poses_and_K_write_nothing(tmp_path, capsys, extra, match):
-    """Issue 39 (8): these were found after the output folder (and the mesh's) was created."""
+    """These were found after the output folder (and the mesh's) was created."""
     if isinstance(extra, str):
         extra = _bad_inputs(tmp_path)[extra]
     out = tmp_path / "ds"

@@ -1,4 +1,4 @@
-"""Cameras for datasets (issue 22): K in OpenCV's convention for every pinhole camera,
+"""Cameras for datasets: K in OpenCV's convention for every pinhole camera,
 project / unproject consistent with the renderer, the degrees-or-radians warning, and the pose
 generators orbit / sphere_poses."""
 from __future__ import annotations

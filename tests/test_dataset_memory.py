@@ -1,4 +1,4 @@
-"""write_dataset holds a bounded number of frames (issue 37): a job of 1,000 views at 320x240
+"""write_dataset holds a bounded number of frames: a job of 1,000 views at 320x240
 peaks under 1 GB of resident memory, and no higher than its first 100 views plus a margin far
 below what 900 more frames would take (900 x 320 x 240 x 11 bytes = 760 MB).
 

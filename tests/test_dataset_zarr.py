@@ -1,4 +1,4 @@
-"""write_dataset(store="zarr") (issue 37, parts 3 and 4): each output one chunked, compressed
+"""write_dataset(store="zarr"): each output one chunked, compressed
 zarr array (format 2) in views.zarr, a view a chunk: equal bit for bit to the files store's
 views, read by zarr and dask, the same bytes run after run, resume after a deleted, truncated
 or corrupt chunk, after a killed run (no partial chunk, no temporary left), and its arguments

@@ -1,4 +1,4 @@
-"""softrast.displace (issue 17): geometric displacement by a height texture, against closed
+"""softrast.displace: geometric displacement by a height texture, against closed
 forms on a sphere."""
 from __future__ import annotations
 
@@ -75,7 +75,7 @@ def test_bad_arguments() -> None:
 
 
 def test_scale_that_moves_vertices_beyond_float32_names_scale() -> None:
-    """Issue 39 #16: a finite scale whose displaced positions overflow float32 is an error naming
+    """A finite scale whose displaced positions overflow float32 is an error naming
     ``scale`` (it once blamed ``positions``, an argument the caller never gave)."""
     import warnings
 

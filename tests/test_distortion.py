@@ -1,9 +1,9 @@
-"""Lens distortion (issue 19): IntrinsicsCamera(dist=) renders what the distorted camera sees.
+"""Lens distortion: IntrinsicsCamera(dist=) renders what the distorted camera sees.
 
 Checked against OpenCV (cv2.projectPoints, cv2.undistortPointsIter) and against exact float64
 ray casting of analytic scenes: every visible point reprojects to its own pixel centre, depth is
 the ray's, and coverage is the exact rays' (tests/test_distortion_exact.py: every triangle that can
-reach a pixel's ray is tested, issue 34 part 2; it once differed within half a sample diagonal).
+reach a pixel's ray is tested; it once differed within half a sample diagonal).
 """
 from __future__ import annotations
 
@@ -111,7 +111,7 @@ def test_project_equals_cv2_projectpoints(name: str) -> None:
 @pytest.mark.parametrize("name", CALIBRATIONS)
 @pytest.mark.parametrize("convention", ["opencv", "opengl"])
 def test_every_visible_point_reprojects_to_its_pixel_centre(name: str, convention: str) -> None:
-    """The issue's 0.05 px: the point each pixel reports lands on that pixel's centre through
+    """The promised 0.05 px: the point each pixel reports lands on that pixel's centre through
     cv2.projectPoints with the same distortion (float32 positions: ~1e-4 px)."""
     cam = camera(CALIBRATIONS[name], convention=convention)
     f = sr.Renderer(W, H).render(scene(), cam, ("position", "depth", "ray_depth", "mask"))
@@ -122,7 +122,7 @@ def test_every_visible_point_reprojects_to_its_pixel_centre(name: str, conventio
     exact = err < 2e-3
     print(f"{name}/{convention}: {exact.mean():.2%} of the points reproject within 2e-3 px (median "
           f"{np.median(err):.1e} px); the rest, rays that pass beside a silhouette, within {err.max():.2f} px")
-    assert exact.all()  # issue 34 part 2: every pixel's point is on its own ray (once 99%)
+    assert exact.all()  # exact rays: every pixel's point is on its own ray (once 99%)
     # ... so on the ideal image, each point is its ray's point (once within half a sample diagonal).
     k, R, t, d = cam.to_opencv()
     cam_pts = f.position[rows, cols].astype(np.float64) @ R.T + t
@@ -175,7 +175,7 @@ def test_coverage_matches_exact_rays_within_the_stated_bound(name: str, oversamp
     f = sr.Renderer(W, H).render(s, cam, ("mask", "depth", "triangle_id"), cull="none")
     inside, depth, dist = exact_quad_rays(cam)
     wrong = f.mask != inside
-    bound = 1e-6  # issue 34 part 2: exact (it once was half a sample diagonal, 0.71 / oversample)
+    bound = 1e-6  # exact rays: exact (it once was half a sample diagonal, 0.71 / oversample)
     print(f"{name} oversample {oversample}: {int(wrong.sum())} of {int(inside.sum())} pixels differ from "
           f"the exact rays, all within {dist[wrong].max() if wrong.any() else 0:.3f} ideal px of the outline "
           f"(bound {bound:.3f})")
@@ -186,7 +186,7 @@ def test_coverage_matches_exact_rays_within_the_stated_bound(name: str, oversamp
 
 
 def test_coverage_is_exact_at_every_oversampling() -> None:
-    """Issue 34 part 2: each pixel's ray is cast at every triangle that can reach it, so coverage
+    """Exact rays: each pixel's ray is cast at every triangle that can reach it, so coverage
     no longer depends on oversample (it once shrank with it: 1, 2, 4, 8 missed fewer and fewer)."""
     counts = []
     inside = None
@@ -245,7 +245,7 @@ def test_ids_are_the_scenes_and_triangles_the_rays_hit() -> None:
             # exact inside the face; where a ray passes just outside it (its edges), clamping
             # the weights moves the point by at most the silhouette bound's worth
             print(f"instance {inst.instance_id}: rebuilt point error median {np.median(err):.1e}, max {err.max():.1e}")
-            assert np.median(err) < 1e-6 and err.max() < 1e-5  # issue 34 part 2: once 0.02 at edges
+            assert np.median(err) < 1e-6 and err.max() < 1e-5  # exact rays: once 0.02 at edges
             b = f.barycentric[r, c]
             assert (b >= 0).all() and (b <= 1).all()
             np.testing.assert_allclose(b.sum(axis=1), 1.0, atol=1e-6)
@@ -322,7 +322,7 @@ def test_bad_distortion_input_names_the_argument() -> None:
 
 
 def test_oversampled_view_over_the_budget_is_refused_before_rendering(spot):
-    """Issue 39: oversample=16 once rendered the huge undistorted view (22 s) before the budget
+    """oversample=16 once rendered the huge undistorted view (22 s) before the budget
     refused it; now the view's outputs are checked first, naming oversample."""
     before = sr.get_memory_budget()
     scene = sr.Scene()

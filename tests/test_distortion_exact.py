@@ -1,4 +1,4 @@
-"""Lens distortion, exactly (issue 34, part 2): every output pixel's own float64 ray is tested
+"""Lens distortion, exactly: every output pixel's own float64 ray is tested
 against every triangle whose footprint can reach it, so geometry thinner than a sample of the
 ideal view is still seen where a pixel's ray meets it.
 
@@ -267,7 +267,7 @@ def test_coverage_counts_every_hit() -> None:
 
 def test_alpha_masked_and_invisible_materials() -> None:
     """A constant alpha below the cutoff draws nothing; a vertex-alpha masked draw is seen where the
-    ideal view's alpha-tested samples around the ray show it (as before this issue)."""
+    ideal view's alpha-tested samples around the ray show it (as before the exact rays)."""
     s = sr.Scene()
     a, b, c, d = SQUARE
     quad = sr.Mesh(SQUARE, [[0, 2, 1], [0, 3, 2]])

@@ -1,7 +1,7 @@
 """Double-sided materials are never culled (glTF 2.0, "doubleSided": back-face culling is
 disabled), per material, under every cull mode, unless ``render(cull_double_sided=True)``.
 
-Checked against pyrender 0.1.45 (OSMesa, in a child process: tests/pyrender_child.py), which
+Checked against pyrender 0.1.45 (OSMesa, in a child process: tests/support/pyrender_child.py), which
 turns culling off for a double-sided material, on a GLB with two quads seen from behind: one
 double-sided, one not. Meshes without a material stay culled (softrast's default look).
 """
@@ -15,9 +15,9 @@ import pytest
 import trimesh
 
 import softrast as sr
-from pyrender_runner import run_pyrender_child
+from support.pyrender_runner import run_pyrender_child
 
-CHILD = pathlib.Path(__file__).resolve().parent / "pyrender_child.py"
+CHILD = pathlib.Path(__file__).resolve().parent / "support" / "pyrender_child.py"
 W, H = 96, 64
 YFOV = 0.8
 

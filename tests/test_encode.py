@@ -1,4 +1,4 @@
-"""softrast's own PNG and TIFF encoder (cpp/encode.cpp, issue 37) against independent decoders.
+"""softrast's own PNG and TIFF encoder (cpp/encode.cpp) against independent decoders.
 
 - The deflate stream (``_core.zlib_compress``) against Python's zlib: every edge of the run
   coding (runs of 1..600 bytes, the 258-byte match limit and its neighbours, 1 MB of zeros),
@@ -40,7 +40,7 @@ from PIL import Image
 import softrast as sr
 from softrast import _core
 from softrast.io import encode_png, encode_tiff
-from gil_probe import calls_that_let_python_run
+from support.gil_probe import calls_that_let_python_run
 
 # --- helpers --------------------------------------------------------------------------------
 
@@ -859,7 +859,7 @@ def test_concurrent_encodes_give_the_same_bytes():
 
 @pytest.mark.parametrize("encode", ["encode_png", "encode_tiff"])
 def test_gil_is_released_while_encoding(encode):
-    # Observed by a counting thread (tests/gil_probe.py), not by a clock.
+    # Observed by a counting thread (tests/support/gil_probe.py), not by a clock.
     y, x = np.mgrid[0:2048, 0:2048]
     img = np.stack([x % 256, y % 256, (x * y) % 256], axis=-1).astype(np.uint8)
     call = (lambda: _core.encode_png(img)) if encode == "encode_png" else \

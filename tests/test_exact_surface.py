@@ -1,8 +1,8 @@
-"""Surface outputs are exact: every visible pixel's depth, ray_depth, position, barycentric and
-uv against the float64 ray caster of tests/exact_hit.py (the pixel's own ray on the plane of the
-triangle the render says is visible there), on the cases where the snapped triangle used to be
-read instead: grazing slivers (random, and a real mesh seen edge-on), ground quads of half-size
-1e2 to 1e7, a receding floor at fov 1 and 170 degrees, orthographic views and msaa=4 samples.
+"""Surface outputs are exact: every visible pixel's depth, ray_depth, position, barycentric and uv
+against the float64 ray caster of tests/support/exact_hit.py (the pixel's own ray on the plane of
+the triangle the render says is visible there), on the cases where the snapped triangle used to be
+read instead: grazing slivers (random, and a real mesh seen edge-on), ground quads of half-size 1e2
+to 1e7, a receding floor at fov 1 and 170 degrees, orthographic views and msaa=4 samples.
 
 The bounds are the README's ("Surface outputs are exact"):
 - depth, ray_depth and position within 4 units in the last place of float32 (of the exact
@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 import trimesh
 
-import exact_hit as ex
+from support import exact_hit as ex
 import softrast as sr
 
 SURFACE = ("depth", "ray_depth", "position", "barycentric", "uv", "triangle_id", "instance_id")
@@ -162,8 +162,8 @@ def test_random_grazing_slivers() -> None:
 
 
 def test_a_grazing_floor_cut_into_slivers() -> None:
-    """Strips 0.002 units wide of a grazing floor (tests/test_extremes.py's sliver case), which
-    before kept their corners' own keys: 1e-3 relative."""
+    """Strips 0.002 units wide of a grazing floor (tests/test_extreme_scales.py's sliver case),
+    which before kept their corners' own keys: 1e-3 relative."""
     n = 1500
     xs = np.linspace(-1.5, 1.5, n + 1)
     quads = [[[xs[k], 0, -0.5], [xs[k + 1], 0, -0.5], [xs[k + 1], 0, -60.0], [xs[k], 0, -60.0]]

@@ -1,5 +1,5 @@
 """Mutation fuzzing of mesh files: truncated, header-inconsistent and bit-flipped copies of valid
-files of every format load_mesh supports (issue 20).
+files of every format load_mesh supports.
 
 Valid files are made here (an icosphere through trimesh's writers, and the real asset
 assets/meshes/spot.obj), then mutated with a seeded RNG, so the corpus is the same on every run

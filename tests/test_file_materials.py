@@ -1,4 +1,4 @@
-"""What mesh files carry besides geometry (issue 16): colours, colour spaces, OBJ/MTL and glTF
+"""What mesh files carry besides geometry: colours, colour spaces, OBJ/MTL and glTF
 materials, parts and node transforms, and a warning for everything dropped."""
 from __future__ import annotations
 
@@ -244,7 +244,7 @@ def test_obj_missing_mtllib_and_bad_mtl_lines_warn(tmp_path):
 
 
 def test_mtl_roughness_rule_and_negative_ns(tmp_path):
-    # issue 33: MTL -> pbr, metallic 0, roughness (2 / (Ns + 2)) ** 0.25, 1 without Ks; a negative
+    # MTL -> pbr, metallic 0, roughness (2 / (Ns + 2)) ** 0.25, 1 without Ks; a negative
     # Ns is read as 0 with a warning naming the file and the material
     obj = "mtllib two.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m\nf 1 2 3\n"
     expected = {"Ks 1 1 1\nNs 0": (1.0, 0.0), "Ks 0.2 0.2 0.2\nNs 10": (mtl_roughness(10.0), 10.0),
@@ -264,7 +264,7 @@ def test_mtl_roughness_rule_and_negative_ns(tmp_path):
 
 
 def test_mtl_ns_beyond_float32_is_clipped(tmp_path):
-    """Issue 39 #16: Material refuses a shininess beyond float32's range; an MTL file's Ns 1e39
+    """Material refuses a shininess beyond float32's range; an MTL file's Ns 1e39
     is clipped to the largest float32 (as a negative Ns is clipped to 0), not a dropped material."""
     obj = "mtllib two.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m\nf 1 2 3\n"
     _write_obj(tmp_path, obj=obj, mtl="newmtl m\nKd 0.5 0.5 0.5\nNs 1e39\n")
@@ -605,7 +605,7 @@ def test_gltf_color_0_is_linear_and_multiplied_by_the_base_color_factor(tmp_path
 
 
 def test_glb_alpha_cutoff_and_normal_scale_beyond_float32(tmp_path):
-    """Issue 39 #16: an alphaCutoff beyond float32's range falls back to 0.5 with a note, like any
+    """An alphaCutoff beyond float32's range falls back to 0.5 with a note, like any
     bad cutoff (Material refuses it now), and the material is kept."""
     def edit(doc):
         paint = next(m for m in doc["materials"] if m["name"] == "paint")

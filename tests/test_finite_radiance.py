@@ -1,4 +1,4 @@
-"""Extreme but valid lighting stays finite (issue 39, defects 1 and 11):
+"""Extreme but valid lighting stays finite:
 
 * a point or spot light exactly on the surface lights nothing at that point, in every model:
   pbr gave inf (point) or NaN (spot) over whole triangles at the vertex and face frequencies;

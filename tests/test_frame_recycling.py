@@ -1,4 +1,4 @@
-"""Frames' memory is recycled (issue 22): a render reuses the buffers of frames the user has
+"""Frames' memory is recycled: a render reuses the buffers of frames the user has
 released (already paged in), never those of frames still held, and a buffer may outlive its
 renderer."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Frame.save / Frame.load (issue 22): every output in every format it offers round-trips
+"""Frame.save / Frame.load: every output in every format it offers round-trips
 exactly (jpg and png16mm, lossy by nature, within their stated error), the defaults, the id
 storage (id + 1 in 16-bit PNGs, the id itself in TIFF beyond 65534), reproducible bytes."""
 from __future__ import annotations
@@ -100,7 +100,7 @@ def test_save_checks_its_arguments(tmp_path):
     ("depth", np.array(["a", "b"]), "<U1"),
 ])
 def test_load_checks_npy_files_against_the_output_table(tmp_path, name, array, match):
-    """A .npy of the wrong dtype, shape or size is refused, naming the file (issue 39)."""
+    """A .npy of the wrong dtype, shape or size is refused, naming the file."""
     _frame().save(tmp_path, "f")
     for p in tmp_path.glob(f"f_{name}.*"):  # only the .npy holds this output
         p.unlink()
@@ -148,7 +148,7 @@ def test_load_checks_images_against_the_output_table(tmp_path):
 
 def test_load_refuses_two_files_of_one_output(tmp_path):
     """A stale .png beside the .tif of the same output (saved again in another format): which
-    one is the frame's is ambiguous, so Frame.load names both rather than pick one (issue 39)."""
+    one is the frame's is ambiguous, so Frame.load names both rather than pick one."""
     frame = _frame()
     frame.save(tmp_path, "f")
     frame.save(tmp_path, "f", formats={"instance_id": "tif"})

@@ -1,10 +1,10 @@
-"""softrast.from_pyrender against pyrender 0.1.45 itself (issue 19).
+"""softrast.from_pyrender against pyrender 0.1.45 itself.
 
-The child process (tests/pyrender_interop_child.py, PYOPENGL_PLATFORM=osmesa) builds a pyrender
-scene with two meshes (one under a parent node), a directional and a spot light, ambient light
-and a camera (perspective with yfov in radians, intrinsics, orthographic), renders it with
-pyrender on Mesa's llvmpipe, converts it with softrast.from_pyrender and renders the conversion
-with softrast, and writes both. Checked here:
+The child process (tests/support/pyrender_interop_child.py, PYOPENGL_PLATFORM=osmesa) builds a
+pyrender scene with two meshes (one under a parent node), a directional and a spot light, ambient
+light and a camera (perspective with yfov in radians, intrinsics, orthographic), renders it with
+pyrender on Mesa's llvmpipe, converts it with softrast.from_pyrender and renders the conversion with
+softrast, and writes both. Checked here:
 
 * what was converted: fov_y in degrees from yfov in radians, aspect, near / far, the camera's and
   the nested node's world poses, light types / colours / intensities / cone angles, ambient
@@ -18,7 +18,7 @@ with softrast, and writes both. Checked here:
 * orthographic: pyrender's depth is wrong for orthographic cameras (its linearization assumes a
   perspective projection), so softrast's depth is checked against rays cast through each pixel
   centre (trimesh's ray-triangle intersection, float64) instead; masks against pyrender.
-* issue 33: alphaMode "BLEND" (every material of pyrender.Mesh.from_trimesh) converts opaque
+* alphaMode "BLEND" (every material of pyrender.Mesh.from_trimesh) converts opaque
   where every alpha is 1 (pyrender draws it opaque too), and to ``alpha_mode="blend"`` where one
   is below 1 (pyrender blends), without a warning either way; bg_color comes back as the
   result's ``background``, and softrast renders it as pyrender's bytes (white 255; others
@@ -43,9 +43,9 @@ from scipy import ndimage
 
 import softrast as sr
 
-from pyrender_runner import INSTALL_HINT, run_pyrender_child
+from support.pyrender_runner import INSTALL_HINT, run_pyrender_child
 
-CHILD = pathlib.Path(__file__).resolve().parent / "pyrender_interop_child.py"
+CHILD = pathlib.Path(__file__).resolve().parent / "support" / "pyrender_interop_child.py"
 W, H = 320, 240
 
 
@@ -226,13 +226,13 @@ def test_from_pyrender_keeps_textures(tmp_path) -> None:
     np.testing.assert_allclose(got, ref, rtol=0, atol=1e-6)
 
 
-# -- issue 33: alphaMode "BLEND" at alpha 1, and bg_color -------------------------------------
+# -- alphaMode "BLEND" at alpha 1, and bg_color ----------------------------------------------
 
 BLEND_CHILD = r"""
 import json, sys, warnings
 sys.path.insert(0, sys.argv[1])
 sys.path.insert(0, sys.argv[2])
-from pyrender_env import import_pyrender
+from support.pyrender_env import import_pyrender
 import numpy as np
 from PIL import Image
 pyrender, trimesh = import_pyrender("blend child")
@@ -320,8 +320,8 @@ def test_blend_is_blend_below_alpha_one_and_opaque_at_one(tmp_path) -> None:
     vertex-coloured, plain). Where every alpha is 1 pyrender draws it opaque (its BLEND render
     equals the same scene's OPAQUE render byte for byte) and from_pyrender converts it opaque;
     where an alpha is below 1 (baseColorFactor, the base colour texture, the vertex colours)
-    pyrender blends, and from_pyrender converts it to alpha_mode "blend". Neither warns (issue
-    33, defect 7; blending is drawn now)."""
+    pyrender blends, and from_pyrender converts it to alpha_mode "blend". Neither warns (blending
+    is drawn now)."""
     info = json.loads(run_child(tmp_path, BLEND_CHILD).strip().splitlines()[-1])
     for name, case in info.items():
         assert case["modes"] == ["BLEND"], name
@@ -411,7 +411,7 @@ BACKGROUND_CHILD = r"""
 import sys
 sys.path.insert(0, sys.argv[1])
 sys.path.insert(0, sys.argv[2])
-from pyrender_env import import_pyrender
+from support.pyrender_env import import_pyrender
 import numpy as np
 pyrender, trimesh = import_pyrender("background child")
 from OpenGL import GL
@@ -454,7 +454,7 @@ renderer.delete()
 def test_background_is_pyrender_bg_color(tmp_path) -> None:
     """from_pyrender carries bg_color: rendered with ``background=conversion.background`` the
     background pixels are pyrender's bytes (its default white 255, a grey within 1), its alpha is
-    ``background_alpha`` where pyrender's RGBA render has it (issue 33, defect 8)."""
+    ``background_alpha`` where pyrender's RGBA render has it."""
     run_child(tmp_path, BACKGROUND_CHILD, str(tmp_path))
     for name in ("default", "grey", "rgba", "dark"):
         data = np.load(tmp_path / f"{name}.npz")

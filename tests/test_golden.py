@@ -1,15 +1,15 @@
-"""Every output of the golden scenes (tests/golden.py) is bit-identical to the recorded hashes.
+"""Every output of the golden scenes (tests/support/golden.py) is bit-identical to the recorded hashes.
 
 The hashes were recorded from the commit named in tests/data/golden_hashes.json, before the core
-was split along its seams (issue 15); each scene is checked on both instruction sets and with 1,
+was split along its seams; each scene is checked on both instruction sets and with 1,
 2 and 3 threads. A difference here means a change altered rendered bits: if that is intended
 (a new feature changing an existing output), say so in the commit and re-record with
-`python3 tests/golden.py --write <commit>`.
+`python3 tests/support/golden.py --write <commit>`.
 
-The feature scenes (tests/golden_features.py: lights and materials, every shading model and
+The feature scenes (tests/support/golden_features.py: lights and materials, every shading model and
 frequency, textures, every output, anti-aliasing, lines and points, lens distortion) are checked
 the same way against tests/data/golden_features.json, recorded from commit 9c24f39; re-record
-them with `python3 tests/golden_features.py --write <commit>`, under the same rule.
+them with `python3 tests/support/golden_features.py --write <commit>`, under the same rule.
 """
 from __future__ import annotations
 
@@ -17,8 +17,8 @@ import json
 
 import pytest
 
-import golden
-import golden_features
+from support import golden
+from support import golden_features
 
 WANT = json.loads(golden.HASHES.read_text())["scenes"]
 MESHES = golden._meshes()

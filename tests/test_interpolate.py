@@ -34,29 +34,3 @@ def test_vertex_colours_are_perspective_correct():
     got = frame.color[i, j, :2].astype(float)
     assert np.abs(got - want).max() <= 0.51 + 1e-3  # rounding to 8 bits only
     assert len(i) > 1500
-
-
-def test_interpolation_through_clipped_triangles():
-    # The same floor, but one triangle pair reaching behind the camera: the clipped pieces must
-    # interpolate the source triangle's attributes, not the clip polygon's.
-    W, H = 100, 80
-    positions = np.array([[-3, -1, 2.0], [3, -1, 2.0], [3, -1, -20.0], [-3, -1, -20.0]], float)
-    faces = np.array([[0, 1, 2], [0, 2, 3]])
-    colors = np.stack([(positions[:, 0] + 3) / 6, (positions[:, 2] - 2.0) / -22.0, np.zeros(4)], axis=1)
-    scene = sr.Scene()
-    scene.add(sr.Mesh(positions, faces, colors=colors))
-    cam = sr.PerspectiveCamera(fov_y=60.0, near=0.1, far=50.0)
-    cam.pose = np.eye(4)
-    # srgb=False: the colours are checked against the linear values (x * 255, rounded).
-    frame = sr.Renderer(W, H).render(scene, cam, outputs=("color", "mask"), shading="unlit",
-                                     srgb=False)
-    i, j = np.nonzero(frame.mask)
-    t = np.tan(np.radians(30.0))
-    ray_x = ((j + 0.5) / W * 2 - 1) * t * W / H
-    ray_y = (1 - (i + 0.5) / H * 2) * t
-    depth = -1.0 / ray_y
-    x, z = ray_x * depth, -depth
-    want = np.stack([(x + 3) / 6, (z - 2.0) / -22.0], axis=1) * 255
-    inside = (np.abs(x) < 2.99) & (z > -19.9)
-    assert np.abs(frame.color[i, j, :2].astype(float) - want)[inside].max() <= 0.51 + 1e-3
-    assert inside.sum() > 1000

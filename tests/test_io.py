@@ -206,7 +206,7 @@ def _damaged(kind, data):
 @pytest.mark.parametrize("kind", ["truncated", "flipped"])
 def test_imread_and_load_texture_report_decoder_errors(tmp_path, rng, kind):
     """OpenImageIO decodes a damaged JPEG to mostly grey and reports it: that is an error, naming
-    the file and the decoder's message, not an image (issue 39)."""
+    the file and the decoder's message, not an image."""
     import softrast as sr
 
     image = (rng.random((64, 80, 3)) * 255).astype(np.uint8)

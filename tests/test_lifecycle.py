@@ -1,4 +1,4 @@
-"""Process and thread lifecycle (issue 20, items 1-3): fork, thread creation failure, exit.
+"""Process and thread lifecycle: fork, thread creation failure, exit.
 
 Everything that could hang runs in a child process under a generous timeout (a guard, not a
 measurement): a hang fails the test and the child's whole process group is killed.
@@ -386,8 +386,9 @@ EXIT_WHILE_RENDERING = """
 
 
 def test_daemon_thread_rendering_while_the_interpreter_exits(tmp_path):
-    # It aborted the process with "terminate called without an active exception" (pybind11
-    # issue 2215): now the thread parks, touching nothing of Python's, and the process exits 0.
+    # It aborted the process with "terminate called without an active exception" (a known
+    # pybind11 problem, github.com/pybind/pybind11/issues/2215): now the thread parks, touching
+    # nothing of Python's, and the process exits 0.
     runs = 10
     parked = 0
     children = [start_child(tmp_path, EXIT_WHILE_RENDERING) for _ in range(runs)]

@@ -1,5 +1,5 @@
-"""The renderer's shading models, lights and materials (issue 16) against the NumPy reference
-(tests/shading_reference.py, itself checked by test_shading_reference.py).
+"""The renderer's shading models, lights and materials against the NumPy reference
+(tests/support/shading_reference.py, itself checked by test_shading_reference.py).
 
 The reference is evaluated with the renderer's own ``normal`` output as n and world positions
 unprojected from its ``depth`` output, so the comparison isolates shading from rasterization.
@@ -33,7 +33,7 @@ import pytest
 import trimesh
 
 import softrast as sr
-import shading_reference as ref
+from support import shading_reference as ref
 
 W, H = 96, 72
 LIT = ("lambert", "phong", "blinn_phong", "pbr")
@@ -668,7 +668,7 @@ def test_bad_values_name_the_argument():
 
 
 def test_values_beyond_float32_are_refused_when_made():
-    """Issue 39 #16: values the core holds in float32 are checked against its range by the
+    """Values the core holds in float32 are checked against its range by the
     constructors, naming the field (they once failed at render: "material of draw 0 is out of
     range", "a light has a value that is not finite", "ambient_light is not finite")."""
     big = 3.5e38  # finite in float64, inf in float32
@@ -698,7 +698,7 @@ def test_values_beyond_float32_are_refused_when_made():
 @pytest.mark.parametrize("length", [1e-200, 1e-30, 1e30, 1e300])
 @pytest.mark.parametrize("camera_space", [False, True])
 def test_light_pose_z_axis_of_any_finite_length(length, camera_space):
-    """Issue 39 #16: a light's direction is its pose's z axis normalised; a tiny (1e-200) or huge
+    """A light's direction is its pose's z axis normalised; a tiny (1e-200) or huge
     (1e300) but nonzero column is a valid direction (its norm once under/overflowed to 0 / inf and
     was refused as "zero length")."""
     cam = camera()

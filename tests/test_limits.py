@@ -122,7 +122,7 @@ def test_mesh_file_budget_from_header(tmp_path):
         sr.load_mesh(path)
 
 
-# -- textures: mip chains and decoded copies (issue 39 #9) ---------------------------------------
+# -- textures: mip chains and decoded copies -----------------------------------------------------
 
 MIP_SIDE = 512  # a 512 x 512 chain's build peaks near 28 B a texel: 7 MiB, over a 2 MiB budget
 

@@ -686,7 +686,7 @@ def test_scene_edits_lines_and_points_like_meshes():
 
 @pytest.mark.parametrize("mode", [0, 1])  # pyrender's GL_POINTS, GL_LINES
 def test_from_pyrender_infinite_far_covers_lines_and_points(mode):
-    """Issue 39 #6: a pyrender scene of only points or lines with zfar=None (infinite) gets a far
+    """A pyrender scene of only points or lines with zfar=None (infinite) gets a far
     plane beyond them; the bounds once counted mesh instances only, so far = 2 * znear and nothing
     was drawn. Stand-in classes named as pyrender's (read by attribute; pyrender itself runs in
     a child process elsewhere)."""
@@ -727,7 +727,7 @@ def test_from_pyrender_infinite_far_covers_lines_and_points(mode):
     assert frame.mask.sum() >= (4 if mode == 0 else 8)  # 2 lines about 6 px long cross
 
 
-# -- far endpoints (issue 39, defect 12) ----------------------------------------------------------
+# -- far endpoints ---------------------------------------------------------------------------------
 # A segment whose endpoints are huge next to its visible part, e.g. from x = -1e20 to 1e20 across
 # the view at depth 5: clipping it in clip space lerps a + (b - a) t with t a double near 0.5,
 # where one ulp of t is 2^-53 |b - a| (16384 units at 1e20), so both clipped ends collapsed to one

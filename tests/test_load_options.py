@@ -1,4 +1,4 @@
-"""load_mesh / load_scene options of issue 19: STL vertices merged for smooth normals, and
+"""load_mesh / load_scene options: STL vertices merged for smooth normals, and
 up_axis="z" (also the CLI's --up-axis)."""
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Material and texture defaults a newcomer relies on (issue 33, defects 4-6; issue 39, 4 and 17):
+"""Material and texture defaults a newcomer relies on:
 
 * ``Material(base_color_texture=t)`` shows the texture as it is: the default base colour is
   white where a base-colour texture is given, as glTF's ``baseColorFactor`` and pyrender's

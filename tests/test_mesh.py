@@ -459,7 +459,7 @@ def test_load_mesh_without_triangles(tmp_path, name, text):
         load_mesh(path)
 
 
-# -- values beyond float32, precision far from the origin (issue 20, item 7) ---------------------
+# -- values beyond float32, precision far from the origin -------------------------------------
 
 FLT_MAX = float(np.finfo(np.float32).max)
 
@@ -573,7 +573,7 @@ def test_suite_and_example_meshes_do_not_warn():
         soak.random_mesh(rng)
 
 
-# -- validation in chunks (issue 20, item 8): same results, first bad value named ----------------
+# -- validation in chunks: same results, first bad value named ---------------------------------
 
 CHUNK = 2**16
 
@@ -633,7 +633,7 @@ def test_chunked_conversion_is_bit_identical_to_a_plain_cast(n, rng):
             arr.flags.writeable = True
 
 
-# -- copy and pickle (issue 20, item 10) -----------------------------------------------------------
+# -- copy and pickle ---------------------------------------------------------------------------
 
 def _render_all(mesh: Mesh) -> dict[str, np.ndarray]:
     scene = sr.Scene()

@@ -1,4 +1,4 @@
-"""Mesh construction within the memory budget (issue 20, item 8).
+"""Mesh construction within the memory budget.
 
 The budget is checked from the inputs' shapes before anything is converted, and validation runs
 in chunks: a 10**8-vertex broadcast array or a 4.8 GB memory map is refused without being read,

@@ -1,13 +1,12 @@
-"""OBJ + MTL materials against pyrender 0.1.45 (issue 33, defect 2: ``Ns 0`` rendered as white blobs).
+"""OBJ + MTL materials against pyrender 0.1.45 (``Ns 0`` once rendered as white blobs).
 
 softrast renders an MTL material as ``pbr`` (the rule is stated in ``softrast.loaders``): base
 colour Kd (times ``map_Kd``), metallic 0, roughness (2 / (Ns + 2)) ** 0.25 (trimesh's
-``SimpleMaterial.to_pbr`` and pyrender's ``Mesh.from_trimesh`` mapping), 1 without a highlight
-(Ks absent or black). pyrender renders the same file (trimesh.load, its own uvs, normals and
-texture: tests/pyrender_child.py) with a MetallicRoughnessMaterial of the factors the rule gives,
-written out here as numbers, and the two are compared as in test_pbr_vs_pyrender.py: interior
-pixels (both masks, eroded by 2 px), mean |diff| <= 3/255, p99 <= 8/255, under
-``shading="auto"``.
+``SimpleMaterial.to_pbr`` and pyrender's ``Mesh.from_trimesh`` mapping), 1 without a highlight (Ks
+absent or black). pyrender renders the same file (trimesh.load, its own uvs, normals and texture:
+tests/support/pyrender_child.py) with a MetallicRoughnessMaterial of the factors the rule gives,
+written out here as numbers, and the two are compared as in test_pbr_vs_pyrender.py: interior pixels
+(both masks, eroded by 2 px), mean |diff| <= 3/255, p99 <= 8/255, under ``shading="auto"``.
 
 pyrender's own conversion of these files is not the rule, and is not matched: pyrender 0.1.45
 leaves metallicFactor at its default 1 (every MTL material becomes a metal: no diffuse term, Kd

@@ -1,4 +1,4 @@
-"""Normals at any scale (issue 34, part 3): face and vertex normals are unit for meshes with
+"""Normals at any scale: face and vertex normals are unit for meshes with
 coordinates from 1e-30 to 3e38, under poses that scale an axis by anything from 1e-300 to 1e30,
 seen by perspective and orthographic cameras. The README's "Normals" bullet under "Numerical
 behaviour at the limits" cites this file.

@@ -516,7 +516,7 @@ BAD_CALLS = [
     (lambda: dr.rasterize(TRI_POS, TRI, (8, 8), grad_db=1), "grad_db"),
     (lambda: dr.rasterize(None, TRI, (8, 8)), "pos must be"),
     (lambda: dr.rasterize(glctx="gl", pos=TRI_POS, tri=TRI, resolution=(8, 8)), "glctx"),
-    # issue 39 #16: a wrong context given positionally is the context's fault, not pos's
+    # a wrong context given positionally is the context's fault, not pos's
     (lambda: dr.rasterize(object(), TRI_POS, TRI, (8, 8)), r"^glctx must be"),
     (lambda: dr.rasterize(object(), TRI_POS, TRI, resolution=(8, 8)), r"^glctx must be"),
     (lambda: dr.rasterize(object(), TRI, (8, 8)), r"^pos must"),  # 3 arguments: pos, tri, resolution
@@ -558,7 +558,7 @@ def test_bad_interpolate_input_raises_value_error():
             call()
 
 
-# -- the memory budget (issue 39 #10) ------------------------------------------------------------
+# -- the memory budget ---------------------------------------------------------------------------
 
 QUAD_POS = np.array([[[-1, -1, 0, 1], [1, -1, 0, 1], [1, 1, 0, 1], [-1, 1, 0, 1]]], np.float32)
 QUAD_TRI = np.array([[0, 1, 2], [0, 2, 3]], np.int32)

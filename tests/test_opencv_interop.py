@@ -1,4 +1,4 @@
-"""OpenCV interop (issue 19): IntrinsicsCamera.from_opencv / to_opencv against cv2.projectPoints,
+"""OpenCV interop: IntrinsicsCamera.from_opencv / to_opencv against cv2.projectPoints,
 and the softrast.opencv helpers against OpenCV's own functions."""
 from __future__ import annotations
 

@@ -1,11 +1,11 @@
-"""softrast's ``pbr`` against pyrender 0.1.45 on Mesa's llvmpipe (OSMesa), issue 16.
+"""softrast's ``pbr`` against pyrender 0.1.45 on Mesa's llvmpipe (OSMesa).
 
-pyrender renders in a child process (tests/pyrender_child.py, PYOPENGL_PLATFORM=osmesa), so this
+pyrender renders in a child process (tests/support/pyrender_child.py, PYOPENGL_PLATFORM=osmesa), so this
 process never loads OpenGL; the same scene (camera, poses, lights, materials, normals, ambient
 light, black background) is rendered by softrast here. softrast's linear ``radiance`` is encoded
 as pyrender encodes it (``shading_reference.pyrender_encode``: pow(c, 1/2.2), not sRGB) and
 compared with pyrender's 8-bit colour on interior pixels: both masks set, eroded by 2 px
-(pyrender rasterizes silhouettes by its own rule). Bounds (the issue's): mean |diff| <= 3/255
+(pyrender rasterizes silhouettes by its own rule). Bounds (the promised ones): mean |diff| <= 3/255
 and 99th percentile <= 8/255; the masks must agree on >= 99% of the pixels.
 
 Scenes: a 4x4 grid of spheres over metallic x roughness under a directional and two point
@@ -30,10 +30,10 @@ import trimesh
 from scipy import ndimage
 
 import softrast as sr
-from pyrender_runner import run_pyrender_child
-from shading_reference import pyrender_encode
+from support.pyrender_runner import run_pyrender_child
+from support.shading_reference import pyrender_encode
 
-CHILD = pathlib.Path(__file__).resolve().parent / "pyrender_child.py"
+CHILD = pathlib.Path(__file__).resolve().parent / "support" / "pyrender_child.py"
 W, H = 320, 240
 FOV_Y_DEG = 40.0
 NEAR, FAR = 0.5, 30.0

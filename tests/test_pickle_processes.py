@@ -1,4 +1,4 @@
-"""Pickling and processes (issue 22): Mesh, Scene, cameras, lights, materials, textures and a
+"""Pickling and processes: Mesh, Scene, cameras, lights, materials, textures and a
 Renderer pickle before and after a render and render the same bytes in another process, under
 the fork, spawn and forkserver start methods, with the parent's renderer busy beforehand."""
 from __future__ import annotations
@@ -11,7 +11,7 @@ import pytest
 import trimesh
 
 import softrast as sr
-from mp_worker import render_bytes
+from support.mp_worker import render_bytes
 
 OUTPUTS = ("color", "depth", "instance_id", "barycentric")
 

@@ -1,4 +1,4 @@
-"""pyrender under OSMesa renders aliased (issue 33, 11): the README and benchmarks once said
+"""pyrender under OSMesa renders aliased: the README and benchmarks once said
 pyrender "always renders 4x MSAA". It asks for a 4-sample framebuffer only where its platform
 supports framebuffers (EGL, pyglet's window); OSMesaPlatform.supports_framebuffers() is False,
 so OffscreenRenderer draws into OSMesa's own single-sample buffer. A flat white sphere on black
@@ -15,9 +15,9 @@ import numpy as np
 import trimesh
 
 import softrast as sr
-from pyrender_runner import run_pyrender_child
+from support.pyrender_runner import run_pyrender_child
 
-CHILD = pathlib.Path(__file__).resolve().parent / "pyrender_to_child.py"
+CHILD = pathlib.Path(__file__).resolve().parent / "support" / "pyrender_to_child.py"
 W, H = 640, 480
 NEAR, FAR = 0.5, 20.0
 YFOV = math.radians(45.0)

@@ -1,6 +1,6 @@
 """Rasterization rules through the public API: watertightness, the top-left fill rule, projection
 against cv2.projectPoints, and clipping. Expected pixel sets come from exact geometry or from the
-independent NumPy rasterizer in tests/reference.py, never from earlier renders."""
+independent NumPy rasterizer in tests/support/raster_reference.py, never from earlier renders."""
 from __future__ import annotations
 
 import math
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import trimesh
 
-import reference as ref
+from support import raster_reference as ref
 import softrast as sr
 from conftest import (
     icosphere,
@@ -344,42 +344,8 @@ def test_orthographic_camera_matches_cv2(rng, w, h):
 
 
 # --------------------------------------------------------------------------------------------
-# 5. Clipping
+# 5. Clipping (the near plane: tests/test_near_plane.py)
 # --------------------------------------------------------------------------------------------
-
-def test_floor_crossing_camera_plane():
-    w, h, fov = 64, 48, 60.0
-    # Floor y = -1, x and z in [-1000, 1000]: it extends behind the camera at the origin.
-    pos = np.array([[-1000, -1, 1000], [1000, -1, 1000], [1000, -1, -1000], [-1000, -1, -1000.0]])
-    faces = np.array([[0, 1, 2], [0, 2, 3]])  # counter-clockwise seen from above
-    cam = sr.PerspectiveCamera(fov_y=fov, near=0.05, far=1e4)
-    cam.pose = np.eye(4)
-    frame = render(scene_of(sr.Mesh(pos, faces)), cam, w, h, cull="back")
-    rays = pixel_rays_view(w, h, fov)
-    below = rays[..., 1] < 0  # rows below the horizon (y = 24 lies between rows 23 and 24)
-    t = np.where(below, -1.0 / np.where(below, rays[..., 1], -1.0), 0.0)  # ray hits y = -1 at t
-    assert (t[below] < 1000).all() and (np.abs(t * rays[..., 0]) < 1000).all()
-    np.testing.assert_array_equal(frame.mask, below)
-    np.testing.assert_array_equal(frame.coverage, below.astype(np.uint32))  # no crack, no overlap
-    # The contract: depth is the exact -z_view of the surface on the ray through the pixel centre
-    # (the clipped, snapped vertices must not perturb it beyond float32 rounding).
-    np.testing.assert_allclose(frame.depth[below], t[below], rtol=1e-5)
-    assert (frame.depth[~below] == 0).all()
-
-
-def test_triangles_behind_camera_cover_nothing():
-    w, h = 48, 40
-    # Would project into the image (inverted) if divided by a negative w without clipping.
-    pos = np.array([[-1, -1, 5.0], [1, -1, 5.0], [0, 1, 5.0], [-3, -3, 0.01], [3, -3, 0.01],
-                    [0, 3, 0.01], [-50, -50, 3.0], [50, -50, 3.0], [0, 50, 3.0]])
-    faces = np.array([[0, 1, 2], [0, 2, 1], [3, 4, 5], [3, 5, 4], [6, 7, 8], [6, 8, 7]])
-    for cam in (sr.PerspectiveCamera(fov_y=60.0, near=0.05, far=100.0),
-                sr.OrthographicCamera(xmag=2.0, ymag=2.0, near=0.05, far=100.0)):
-        cam.pose = np.eye(4)
-        frame = render(scene_of(sr.Mesh(pos, faces)), cam, w, h, cull="none")
-        assert frame.coverage.sum() == 0 and not frame.mask.any()
-        assert (frame.triangle_id == -1).all() and (frame.depth == 0).all()
-
 
 def test_huge_triangles_beyond_guard_band():
     w, h, fov, d = 64, 48, 60.0, 2.0

@@ -354,7 +354,7 @@ def test_bad_image_size_types():
     ({"outputs": ("color", "albedo")}, "output"),
     ({"cull": "sideways"}, "cull"),
     ({"cull": "BACK "}, "cull"),
-    ({"shading": "toon"}, "shading"),  # "phong" is a shading model since issue 16
+    ({"shading": "toon"}, "shading"),  # "phong" is a shading model now
 ])
 def test_bad_render_options(kwargs, name):
     with pytest.raises(ValueError, match=name):
@@ -692,7 +692,7 @@ def test_flat_lambert_is_constant_per_face():
 
 
 # --------------------------------------------------------------------------------------------
-# 11. Singular poses (issue 20, item 9)
+# 11. Singular poses
 # --------------------------------------------------------------------------------------------
 
 def _flattening_pose(rot_axis, angle, diag):
@@ -781,7 +781,7 @@ def test_pose_of_rank_one_or_zero_is_well_defined(diag, smooth):
 
 
 # --------------------------------------------------------------------------------------------
-# 12. Every argument checked by name (issue 20, item 11)
+# 12. Every argument checked by name
 # --------------------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("kwargs, error, name", [
@@ -848,7 +848,7 @@ def test_bad_renderer_argument_raises_naming_it(kwargs, error, name):
 def test_zero_vertex_normals_fall_back_to_the_face_normal():
     """A pose can collapse a vertex normal to zero (diag(1, 1, 0) maps normals through its
     cofactor diag(0, 0, 1), so (1, 0, 0) becomes 0) while the face keeps a normal: shading and
-    the normal output then use the face normal instead of losing the orientation (issue 16)."""
+    the normal output then use the face normal instead of losing the orientation."""
     mesh = sr.Mesh(np.array([[-1.0, -1, 0], [1, -1, 0], [0, 1, 0]]), np.array([[0, 1, 2]]),
                    normals=np.tile([1.0, 0.0, 0.0], (3, 1)))
     scene = sr.Scene()

@@ -1,4 +1,4 @@
-"""Renderer.render_many (issue 22): many views of one scene, equal byte for byte to a loop of
+"""Renderer.render_many: many views of one scene, equal byte for byte to a loop of
 render, in order, lazily (a generator over any iterable of cameras), with a callback and a
 progress bar."""
 from __future__ import annotations
@@ -96,7 +96,7 @@ def test_render_many_checks_its_arguments() -> None:
 
 @pytest.mark.parametrize("workers", [1, 2])
 def test_render_many_refuses_a_none_camera(workers) -> None:
-    """Issue 39 #7: a None among the cameras is an error naming it, not the end of the views
+    """A None among the cameras is an error naming it, not the end of the views
     (it once ended the iteration: 2 frames from 5 cameras)."""
     r = sr.Renderer(32, 24, threads=2)
     scene = _scene()

@@ -1,5 +1,5 @@
 """A scene edited by one thread while others render it: once the edits stop, every render shows
-the scene's current state (issue 39, defect 2: a draw, wireframe, primitive or light record list
+the scene's current state (a draw, wireframe, primitive or light record list
 built from the old state and stored after an edit must not be used again)."""
 from __future__ import annotations
 

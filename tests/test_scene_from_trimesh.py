@@ -1,4 +1,4 @@
-"""softrast.Scene.from_trimesh (issue 19): parts, node transforms and materials kept; the same
+"""softrast.Scene.from_trimesh: parts, node transforms and materials kept; the same
 instances as load_scene of the file trimesh writes; the same pixels as the merged Mesh."""
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The product stands alone (issue 33): nothing under tests/, examples/, benchmarks/, python/ or
+"""The product stands alone: nothing under tests/, examples/, benchmarks/, python/ or
 .ci/ reads anything outside the repository, and every asset path they build under assets/ exists.
 
 Three checks over every text file in those folders (binary files and Markdown prose, such as

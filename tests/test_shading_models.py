@@ -78,7 +78,7 @@ def test_normal_model_ignores_the_base_colour():
 
 
 def test_unknown_shading_names_the_argument():
-    # "phong" is a shading model now (issue 16): an unknown name is needed. _checks.choice's message.
+    # "phong" is a shading model now: an unknown name is needed. _checks.choice's message.
     with pytest.raises(ValueError, match=r"^shading must be one of \(.*'normal'.*\), got 'toon'$"):
         sr.Renderer(8, 8).render(sr.Scene(), sr.PerspectiveCamera(), shading="toon")
 

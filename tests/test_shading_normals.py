@@ -1,6 +1,6 @@
 """``render(normal_kind=)``: the ``normal`` output is the interpolated vertex normal by default
 (a G-buffer's normal: no normal or bump map), or with ``"shading"`` the normal the lighting
-uses, perturbed by the material's normal or bump map (issue 33, defect 9).
+uses, perturbed by the material's normal or bump map.
 
 Checked against the tangent-space formula in NumPy on a screen-aligned quad (tangent +x,
 bitangent +y, normal +z, nearest texels: each pixel's texel is known), and against the shading

@@ -32,7 +32,7 @@ import trimesh
 from scipy import ndimage
 
 import softrast as sr
-from pyrender_runner import run_pyrender_script
+from support.pyrender_runner import run_pyrender_script
 
 W, H = 200, 150
 NEAR, FAR = 0.1, 50.0
@@ -159,8 +159,8 @@ def test_map_same_bits_for_threads_and_instruction_sets(kind):
 
 CHILD = r"""
 import pickle, sys
-sys.path.insert(0, sys.argv[1])  # tests/: pyrender_env (PYOPENGL_PLATFORM, np.infty)
-from pyrender_env import import_pyrender
+sys.path.insert(0, sys.argv[1])  # tests/: support.pyrender_env (PYOPENGL_PLATFORM, np.infty)
+from support.pyrender_env import import_pyrender
 import numpy as np
 pyrender, trimesh = import_pyrender("shadow maps child")
 

@@ -1,4 +1,4 @@
-"""Surface outputs (issue 22): barycentric, uv, position and ray_depth, read from the visible
+"""Surface outputs: barycentric, uv, position and ray_depth, read from the visible
 triangle at each pixel, and normals in camera space. Checked against the mesh (the weights
 rebuild the position from the face's corners), against the camera (positions project back to
 their pixel centres; ray depth is the distance to the camera centre) and against closed forms

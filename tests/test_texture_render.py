@@ -1,8 +1,9 @@
-"""Textures in renders (issue 17): exact texel reproduction, mip level selection from the exact
+"""Textures in renders: exact texel reproduction, mip level selection from the exact
 screen derivatives, a perspective plane against Texture.sample at analytic uvs and derivatives,
 the grazing checkerboard against a 256-samples-per-pixel reference, normal and emissive maps
 against n.l, the textured Spot against a ray-cast reference, same bits across ISAs and threads.
-(tests/test_texture_sampling.py checks the sampler itself against tests/texture_reference.py.)"""
+(tests/test_texture_sampling.py checks the sampler itself against
+tests/support/texture_reference.py.)"""
 from __future__ import annotations
 
 import pickle

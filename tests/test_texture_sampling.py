@@ -1,6 +1,7 @@
-"""softrast.Texture's sampler (the C++ core) against the NumPy reference tests/texture_reference.py,
-which is written from the texture spec (decoding, coordinates, wrap, box-filtered mips, nearest /
-bilinear / trilinear / anisotropic), plus closed-form checks of the reference itself.
+"""softrast.Texture's sampler (the C++ core) against the NumPy reference
+tests/support/texture_reference.py, which is written from the texture spec (decoding, coordinates,
+wrap, box-filtered mips, nearest / bilinear / trilinear / anisotropic), plus closed-form checks of
+the reference itself.
 
 Texel boundaries: every uv and duv is generated as float32 and the same float32 values go to the
 core and to the reference, and the reference performs the spec's coordinate arithmetic in float32
@@ -20,7 +21,7 @@ import numpy as np
 import pytest
 
 import softrast as sr
-import texture_reference as ref
+from support import texture_reference as ref
 
 F32 = np.float32
 DTYPES = (np.uint8, np.uint16, np.float32)

@@ -10,7 +10,7 @@ import pytest
 import trimesh
 
 import softrast as sr
-from gil_probe import calls_that_let_python_run
+from support.gil_probe import calls_that_let_python_run
 from softrast import _core
 from conftest import core_options
 

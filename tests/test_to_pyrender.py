@@ -1,8 +1,8 @@
-"""softrast.to_pyrender, and softrast's unlit colour, masks and depth against pyrender 0.1.45
-(issue 19).
+"""softrast.to_pyrender, and softrast's unlit colour, masks and depth against pyrender 0.1.45.
 
-pyrender runs in a child process (tests/pyrender_to_child.py, PYOPENGL_PLATFORM=osmesa, Mesa's
-llvmpipe), so this process never loads OpenGL; softrast scenes and cameras travel there pickled.
+pyrender runs in a child process (tests/support/pyrender_to_child.py, PYOPENGL_PLATFORM=osmesa,
+Mesa's llvmpipe), so this process never loads OpenGL; softrast scenes and cameras travel there
+pickled.
 Checked here:
 
 * the unlit cross-check: scenes built in pyrender directly from plain arrays (several meshes,
@@ -40,10 +40,10 @@ import trimesh
 from scipy import ndimage
 
 import softrast as sr
-from shading_reference import pyrender_encode
-from pyrender_runner import INSTALL_HINT, run_pyrender_child
+from support.shading_reference import pyrender_encode
+from support.pyrender_runner import INSTALL_HINT, run_pyrender_child
 
-CHILD = pathlib.Path(__file__).resolve().parent / "pyrender_to_child.py"
+CHILD = pathlib.Path(__file__).resolve().parent / "support" / "pyrender_to_child.py"
 W, H = 320, 240
 NEAR, FAR = 0.5, 20.0
 EYE, TARGET = (0.4, 0.9, 4.2), (0.0, 0.0, -0.2)

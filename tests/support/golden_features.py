@@ -1,7 +1,7 @@
 """Golden renders of every feature: SHA-256 of every output (its dtype, shape and bytes) of a
 second set of scenes.
 
-tests/golden.py's 18 scenes predate most of the core's features (lights and materials, every
+tests/support/golden.py's 18 scenes predate most of the core's features (lights and materials, every
 shading model and frequency, textures, the surface outputs, anti-aliasing, lines and points, lens
 distortion). The scenes here exercise each of those paths, so that a restructuring of the C++
 kernels that must not change any output can be checked bit for bit:
@@ -32,23 +32,23 @@ kernels that must not change any output can be checked bit for bit:
 * orthographic cameras, OpenCV intrinsics, near-plane clipping of lit, textured, normal-mapped
   geometry.
 
-Every mesh, texture, light and camera pose is made here with NumPy from correctly rounded
-operations only (+, -, *, /, sqrt, in a fixed order: no transcendental functions, BLAS or
-reductions, whose last bits may differ between NumPy builds), or read from
-tests/data/golden_meshes.npz (Spot and an icosphere), so neither a trimesh, Pillow nor NumPy
-upgrade can change the inputs. Meshes are built once and shared by every render (as in
-tests/golden.py); textures are made per render, so each render builds its own mip chains. Images
-are small (at most 128 x 80) so the whole record renders in a few seconds; tests/test_golden.py
-renders each scene once per instruction set (simd True and False) and thread count (1, 2, 3) and
-compares every output's hash with the record, made with simd=True and 2 threads.
+Every mesh, texture, light and camera pose is made here with NumPy from correctly rounded operations
+only (+, -, *, /, sqrt, in a fixed order: no transcendental functions, BLAS or reductions, whose
+last bits may differ between NumPy builds), or read from tests/data/golden_meshes.npz (Spot and an
+icosphere), so neither a trimesh, Pillow nor NumPy upgrade can change the inputs. Meshes are built
+once and shared by every render (as in tests/support/golden.py); textures are made per render, so
+each render builds its own mip chains. Images are small (at most 128 x 80) so the whole record
+renders in a few seconds; tests/test_golden.py renders each scene once per instruction set (simd
+True and False) and thread count (1, 2, 3) and compares every output's hash with the record, made
+with simd=True and 2 threads.
 
 The record, tests/data/golden_features.json, was made from commit 9c24f39 (the build before the
 shading kernels were restructured for build time). A change that means to alter any of these
 outputs must re-record them and say so, scene by scene, in its commit message:
 
-    python3 tests/golden_features.py --write 9c24f39   # record from the installed build
-    python3 tests/golden_features.py                   # compare every scene and configuration
-    python3 tests/golden_features.py --png DIR         # write each scene's colour image to DIR
+    python3 tests/support/golden_features.py --write 9c24f39   # record from the installed build
+    python3 tests/support/golden_features.py                   # compare every scene and configuration
+    python3 tests/support/golden_features.py --png DIR         # write each scene's colour image to DIR
 
 (``--write`` refuses to record a scene whose colour image is blank or flat.)
 """
@@ -65,9 +65,11 @@ import numpy as np
 
 import softrast as sr
 
-import golden  # the Spot and sphere meshes, and the configurations (tests/ is on sys.path)
+if not __package__:  # run as a script, by path: tests/ on sys.path, for "from support import"
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
+from support import golden  # noqa: E402  the Spot and sphere meshes, and the configurations
 
-DATA = pathlib.Path(__file__).resolve().parent / "data"
+DATA = pathlib.Path(__file__).resolve().parents[1] / "data"
 HASHES = DATA / "golden_features.json"
 # The outputs at the recorded commit (not sr.OUTPUTS: an output added later is not recorded).
 OUTPUTS = ("color", "depth", "mask", "normal", "triangle_id", "instance_id", "coverage",
@@ -326,7 +328,7 @@ def _spot_cam() -> sr.Camera:
 
 # Materials used by several scenes (immutable: sharing one between renders is fine; textures are
 # made per build so that every render builds its own mip chains).
-# The default base colour before a texture made it white (issue 33): the golden scenes keep 0.8.
+# The default base colour before a texture made it white: the golden scenes keep 0.8.
 GREY = (0.8, 0.8, 0.8, 1.0)
 
 SHINY = sr.Material(base_color=(0.85, 0.55, 0.3, 1.0), ks=(0.6, 0.6, 0.55), shininess=16.0,
@@ -404,7 +406,7 @@ def _scenes() -> dict[str, tuple[int, int, Build, dict]]:
 
     # 97 x 70: four tiles (64 x 64), two of them narrow
     add("auto_mixed_materials_lights", 97, 70)(mixed)
-    # (coverage counts the back faces a double-sided material no longer culls: issue 33)
+    # (coverage counts the back faces a double-sided material no longer culls)
     add("auto_mixed_materials_coverage_linear", 97, 70, outputs=OUTPUTS, srgb=False,
         cull_double_sided=True)(mixed)
     add("auto_mixed_materials_headlight", 97, 70, ambient=0.3)(lambda m: mixed(m, lights=False))
@@ -535,7 +537,7 @@ def _scenes() -> dict[str, tuple[int, int, Build, dict]]:
         texs = [sr.Texture(checker(8, 2), wrap="repeat", filter="nearest"),
                 sr.Texture(gradient_rgba_u16(), wrap="clamp", filter="bilinear"),
                 sr.Texture(stripes_f32(), wrap="mirror", filter="nearest", uv_origin="top_left",
-                           srgb=True),  # (float images are linear by default since issue 39)
+                           srgb=True),  # (float images are linear by default now)
                 sr.Texture(grey_u8(), wrap=("mirror", "clamp"), filter="bilinear", srgb=False),
                 sr.Texture(grey_alpha_f32(), wrap=("clamp", "repeat"), filter="trilinear", srgb=True)]
         for k, tex in enumerate(texs):

@@ -27,7 +27,7 @@ from typing import Iterable, NamedTuple
 
 import numpy as np
 
-from shading_reference import pose_at
+from .shading_reference import pose_at
 
 EPS_SCALE = 2.0 ** -19          # the rule's relative plane distance
 EXCLUDE_BAND = 4.0              # plane distances in [eps / 4, 4 eps] are ambiguous

@@ -55,13 +55,13 @@ def test_fan_of_slivers_is_watertight():
     assert (frame.coverage[r > 1.0] == 0).all()
 
 
-# A ground quad under a camera 1.7 units up: the common dataset idiom, cut by the near plane
-# (and by the guard band when it is wide). The points clipping creates are computed from the
-# corners transformed in double, so the cut quad keeps its plane: with float32 corners, a quad
-# 1e6 wide read 1e-3 relative off at 50 units, 1e7 wide 1.4e-2, 1e4 wide 3.8e-6. The float32
-# window positions of the far corners (within a thousandth of a pixel of the horizon) then
-# left 1.1e-4 and 5e-5; keys and positions from the vertex in double (issue 34) leave float32
-# rounding: 4 ulps, under 5e-7 relative (tests/test_exact_surface.py checks every pixel).
+# A ground quad under a camera 1.7 units up: the common dataset idiom, cut by the near plane (and by
+# the guard band when it is wide). The points clipping creates are computed from the corners
+# transformed in double, so the cut quad keeps its plane: with float32 corners, a quad 1e6 wide read
+# 1e-3 relative off at 50 units, 1e7 wide 1.4e-2, 1e4 wide 3.8e-6. The float32 window positions of
+# the far corners (within a thousandth of a pixel of the horizon) then left 1.1e-4 and 5e-5; keys
+# and positions from the vertex in double leave float32 rounding: 4 ulps, under 5e-7 relative
+# (tests/test_exact_surface.py checks every pixel).
 @pytest.mark.parametrize("half, bound", [(1e2, 5e-7), (1e4, 5e-7), (1e6, 5e-7), (1e7, 5e-7)])
 def test_ground_plane_depth_is_exact_to_the_stated_bound(half: float, bound: float) -> None:
     w, h = 640, 480
@@ -142,7 +142,7 @@ def test_parallel_planes_a_little_apart_keep_the_nearer_in_front(gap: float, nea
 def test_sliver_depth_is_exact() -> None:
     """Slivers (strips of a grazing ground plane, 0.002 units wide: under a pixel far away) keep
     their corners' own depth keys, which were off by up to the true depth's change over the
-    1/512 px snap (1e-3 relative here); their depth now comes from the exact step (issue 34):
+    1/512 px snap (1e-3 relative here); their depth now comes from the exact step:
     float32 rounding of the true distance at every pixel."""
     w, h, n = 320, 240, 1500
     xs = np.linspace(-1.5, 1.5, n + 1)

@@ -1,7 +1,7 @@
 """Renders a scene with pyrender 0.1.45 under OSMesa (Mesa's llvmpipe) for test_pbr_vs_pyrender.
 
 Run as a separate process so the test process never loads OpenGL:
-    PYOPENGL_PLATFORM=osmesa python3 tests/pyrender_child.py SPEC.json OUT_DIR
+    PYOPENGL_PLATFORM=osmesa python3 tests/support/pyrender_child.py SPEC.json OUT_DIR
 SPEC.json (written by the test):
     width, height, yfov (radians), znear, zfar, camera_pose (4x4), ambient (RGB),
     lights: [{kind: "directional" | "point", color, intensity, pose}],

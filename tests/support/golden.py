@@ -1,15 +1,15 @@
 """Golden renders: SHA-256 of every output of a fixed set of scenes, recorded from a known commit.
 
-The seams refactor (issue 15) must leave every output bit-identical. This module defines the
-scenes (every path of the core: both shading models, smooth/flat normals, vertex colours, the
-three cull modes, near-plane and guard-band clipping, perspective/orthographic/OpenCV cameras,
-mirroring poses, a scene far from the origin, forward/deferred/auto shading paths, overdraw,
-many chunks, odd and tiny image sizes, a frame big enough to be written with streaming stores)
-and hashes their outputs. Meshes come from tests/data/golden_meshes.npz, not from trimesh, so a
-trimesh upgrade cannot change them.
+The seams refactor (the core split into stages) had to leave every output bit-identical. This module
+defines the scenes (every path of the core: both shading models, smooth/flat normals, vertex
+colours, the three cull modes, near-plane and guard-band clipping, perspective/orthographic/OpenCV
+cameras, mirroring poses, a scene far from the origin, forward/deferred/auto shading paths,
+overdraw, many chunks, odd and tiny image sizes, a frame big enough to be written with streaming
+stores) and hashes their outputs. Meshes come from tests/data/golden_meshes.npz, not from trimesh,
+so a trimesh upgrade cannot change them.
 
-    python3 tests/golden.py --write   # record tests/data/golden_hashes.json from the installed build
-    python3 tests/golden.py           # compare (what tests/test_golden.py does, per scene)
+    python3 tests/support/golden.py --write   # record tests/data/golden_hashes.json from the installed build
+    python3 tests/support/golden.py           # compare (what tests/test_golden.py does, per scene)
 """
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ import numpy as np
 
 import softrast as sr
 
-DATA = pathlib.Path(__file__).resolve().parent / "data"
+DATA = pathlib.Path(__file__).resolve().parents[1] / "data"
 MESHES = DATA / "golden_meshes.npz"
 HASHES = DATA / "golden_hashes.json"
 # The outputs recorded at the commit (not sr.OUTPUTS: an output added later is not in the record).
@@ -199,7 +199,7 @@ def render_hashes(name: str, simd: bool, threads: int, meshes: dict | None = Non
     options = dict(options)
     outputs = options.pop("outputs", ALL)
     scene, camera = build(meshes or _meshes())
-    # Colour linear, as recorded (issue 16 made sRGB the default; the recorded commit had none).
+    # Colour linear, as recorded (sRGB became the default later; the recorded commit had none).
     options.setdefault("srgb", False)
     frame = sr.Renderer(w, h, threads=threads, simd=simd).render(scene, camera, outputs=outputs, **options)
     return {k: hashlib.sha256(np.ascontiguousarray(v).tobytes()).hexdigest()
@@ -208,7 +208,7 @@ def render_hashes(name: str, simd: bool, threads: int, meshes: dict | None = Non
 
 def _make_meshes() -> None:
     import trimesh
-    spot = trimesh.load(pathlib.Path(__file__).resolve().parents[1] / "assets/meshes/spot.obj", process=False)
+    spot = trimesh.load(pathlib.Path(__file__).resolve().parents[2] / "assets/meshes/spot.obj", process=False)
     sph = trimesh.creation.icosphere(subdivisions=4)
     np.savez_compressed(
         MESHES, spot_positions=np.asarray(spot.vertices, np.float32), spot_faces=np.asarray(spot.faces, np.int32),

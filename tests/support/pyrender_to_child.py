@@ -1,7 +1,7 @@
 """Runs pyrender 0.1.45 under OSMesa for test_to_pyrender.py: renders scenes built directly in
 pyrender from plain arrays, and softrast scenes converted by softrast.to_pyrender.
 
-    PYOPENGL_PLATFORM=osmesa python3 tests/pyrender_to_child.py SOFTRAST_PARENT_DIR JOBS.pkl OUT_DIR
+    PYOPENGL_PLATFORM=osmesa python3 tests/support/pyrender_to_child.py SOFTRAST_PARENT_DIR JOBS.pkl OUT_DIR
 
 JOBS.pkl (written by the test) is a list of jobs, each a dict with "name", "width", "height" and
 either

@@ -1,6 +1,6 @@
-"""DatasetJob / render_dataset (issue 22): a job's shards (mesh x camera runs) on any
+"""DatasetJob / render_dataset: a job's shards (mesh x camera runs) on any
 concurrent.futures executor give the same files, byte for byte, as the local run: a process
-pool and a two-worker dask.distributed LocalCluster; with store="zarr" (issue 37) too, every
+pool and a two-worker dask.distributed LocalCluster; with store="zarr" too, every
 chunk file of the arrays the job makes before its shards run."""
 from __future__ import annotations
 

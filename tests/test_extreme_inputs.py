@@ -1,9 +1,8 @@
-"""Issue 21: stiff and extreme cases, each checked against an answer computed independently
+"""Stiff and extreme cases, each checked against an answer computed independently
 (ray casting in float64, exact integer edge functions, the pinhole formula, the texture spec),
 never against "it did not crash".
 
-1. Near plane: vertices behind the camera, on the camera plane (w = 0) and at its centre; a
-   camera inside a closed icosphere.
+1. Near plane: in tests/test_near_plane.py.
 2. Image sizes 1x1, 1x16384, 16384x1 and 8192x8192: full-screen quads, half-planes, exact depth;
    16384x16384 with the mask only.
 3. Triangles with vertices 1e9 px off-screen.
@@ -25,72 +24,23 @@ import numpy as np
 import pytest
 import trimesh
 
-import reference as ref
+from support import raster_reference as ref
 import softrast as sr
-import texture_reference as tref
+from support import texture_reference as tref
+from support.exact_pixels import (
+    _assert_finite,
+    _centres,
+    _scene,
+    _stable,
+    _view_rays,
+    _window,
+)
 
-SURFACE_FLOATS = ("depth", "normal", "barycentric", "position", "radiance")
-EVERYTHING = ("depth", "mask", "coverage", "triangle_id", "normal", "barycentric", "position",
-              "radiance", "color")
 GUARD_BAND_PX = 31744.0
 DEPTH_RTOL = 4e-7  # README "Depth": the true distance to float32 rounding, within 4e-7 relative
 
 
 # ------------------------------------------------------------------------------------ helpers
-
-def _centres(w: int, h: int) -> tuple[np.ndarray, np.ndarray]:
-    """Window coordinates (x, y), each (h, w) float64, of every pixel centre."""
-    return np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
-
-
-_CIRCLE = np.stack([np.cos(np.arange(16) * np.pi / 8), np.sin(np.arange(16) * np.pi / 8)], 1)
-
-
-def _stable(label_at, w: int, h: int, eps: float = 0.01) -> tuple[np.ndarray, np.ndarray]:
-    """(labels at the pixel centres, sure): ``label_at(x, y)`` maps (h, w) window coordinates to
-    labels; a pixel is sure where the label is the same at 16 points on a circle of ``eps`` px
-    around its centre, i.e. where no label boundary (an edge) passes within ~eps px of it."""
-    x, y = _centres(w, h)
-    labels = label_at(x, y)
-    sure = np.ones(labels.shape, bool)
-    for dx, dy in eps * _CIRCLE:
-        sure &= label_at(x + dx, y + dy) == labels
-    return labels, sure
-
-
-def _view_rays(cam, w: int, h: int, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(eye, directions) in world space of a pinhole camera's rays through window points (x, y);
-    each direction has view-space z = -1, so a hit at parameter t has depth (-z_view) t."""
-    p = cam.projection_matrix(w, h)
-    d = np.stack([(2.0 * x / w - 1.0 + p[0, 2]) / p[0, 0], (1.0 - 2.0 * y / h + p[1, 2]) / p[1, 1],
-                  -np.ones_like(x)], -1)
-    view_to_world = np.linalg.inv(cam.view_matrix())
-    return view_to_world[:3, 3], d @ view_to_world[:3, :3].T
-
-
-def _ray_triangle(eye: np.ndarray, dirs: np.ndarray, tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Moller-Trumbore in float64: the ray parameter t and the barycentrics (..., 3) of corners
-    (a, b, c) where eye + t d meets the triangle's plane (NaN / inf where parallel)."""
-    a, b, c = (np.asarray(v, np.float64) for v in tri)
-    e1, e2 = b - a, c - a
-    pv = np.cross(dirs, e2)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv = 1.0 / (pv @ e1)
-        s = eye - a
-        u = (pv @ s) * inv
-        q = np.cross(s, e1)
-        v = (dirs @ q) * inv
-        t = (q @ e2) * inv
-    return t, np.stack([1.0 - u - v, u, v], -1)
-
-
-def _window(cam, w: int, h: int, points: np.ndarray) -> np.ndarray:
-    """(n, 2) float64 window coordinates of world points (in front of the camera)."""
-    pts = np.asarray(points, np.float64)
-    clip = np.c_[pts, np.ones(len(pts))] @ (cam.projection_matrix(w, h) @ cam.view_matrix()).T
-    ndc = clip[:, :2] / clip[:, 3:]
-    return np.c_[(ndc[:, 0] + 1.0) * w / 2.0, (1.0 - ndc[:, 1]) * h / 2.0]
-
 
 def _covering_face(xy: np.ndarray, faces: np.ndarray):
     """label_at(x, y) for _stable: the last of the window-space triangles covering (x, y), -1 if
@@ -122,20 +72,6 @@ def _window_mesh(xy: np.ndarray, faces, w: int, h: int, z) -> sr.Mesh:
                    np.asarray(faces))
 
 
-def _scene(*meshes: sr.Mesh) -> sr.Scene:
-    scene = sr.Scene()
-    for k, m in enumerate(meshes):
-        scene.add(m, instance_id=k)
-    return scene
-
-
-def _assert_finite(frame) -> None:
-    for name in SURFACE_FLOATS:
-        if name in frame.outputs:
-            arr = getattr(frame, name)
-            assert np.isfinite(arr).all(), f"{name} has {int((~np.isfinite(arr)).sum())} non-finite values"
-
-
 def _ulps(got: np.ndarray, want) -> int:
     """Largest distance in float32 units in the last place (positive values; ``want`` an array
     or a scalar), a chunk at a time (an 8192^2 image needs no 0.5 GB temporaries)."""
@@ -159,130 +95,6 @@ def _max_rel_dev(got: np.ndarray, want) -> float:
         ws = want(gs) if callable(want) else want
         worst = max(worst, float((np.abs(gs - ws) / ws).max(initial=0.0)))
     return worst
-
-
-# ------------------------------------------------------------------------- 1. the near plane
-
-_NEAR_CASES = {
-    "vertex_behind_camera": [[-1.0, -0.8, -2.0], [1.2, -0.5, -3.0], [0.3, 0.6, 1.0]],
-    "two_vertices_behind": [[-0.4, -0.3, -2.0], [1.2, -0.5, 2.0], [-0.9, 0.6, 1.5]],
-    "vertex_on_camera_plane": [[-1.0, -0.8, -2.0], [1.2, -0.5, -3.0], [0.5, 0.3, 0.0]],
-    "edge_on_camera_plane": [[-1.0, -0.8, -2.0], [1.2, -0.5, 0.0], [-0.5, 0.9, 0.0]],
-    "vertex_at_camera_centre": [[-1.0, -0.8, -2.0], [1.2, -0.5, -3.0], [0.0, 0.0, 0.0]],
-}
-
-
-def _near_cameras(near: float):
-    persp = sr.PerspectiveCamera(fov_y=70.0, near=near, far=100.0)
-    intr = sr.IntrinsicsCamera(38.0, 41.0, 29.3, 26.1, 64, 48, near=near, far=100.0, convention="opengl")
-    for cam in (persp, intr):
-        cam.pose = np.eye(4)  # view = world: a vertex with z = 0 has clip w = 0 exactly
-    return {"perspective": persp, "intrinsics": intr}
-
-
-@pytest.mark.parametrize("near", [0.05, 0.3])
-@pytest.mark.parametrize("camera", ["perspective", "intrinsics"])
-@pytest.mark.parametrize("case", sorted(_NEAR_CASES))
-def test_near_plane_clipping_matches_ray_casting(case: str, camera: str, near: float) -> None:
-    """Coverage equals ray casting against the triangle (depth >= near) at every pixel centre
-    farther than 0.01 px from an edge, for each cull mode (the facing of the 3D triangle);
-    depth, barycentric, position and normal agree with the same rays; no NaN anywhere. With
-    near = 0.05 the cut lies off-screen (only the w <= 0 handling shows); with near = 0.3 the
-    near plane's cut line crosses the image (hundreds of centres lie between 0 and 0.3)."""
-    w, h = 64, 48
-    cam = _near_cameras(near)[camera]
-    mesh = sr.Mesh(np.array(_NEAR_CASES[case]), [[0, 1, 2]])
-    tri = mesh.positions.astype(np.float64)
-    normal = np.cross(tri[1] - tri[0], tri[2] - tri[0])
-    facing = float(normal @ (np.zeros(3) - tri[0]))  # > 0: counter-clockwise as the camera sees it
-    unit = normal / np.linalg.norm(normal)
-    renderer = sr.Renderer(w, h)
-    x, y = _centres(w, h)
-    eye, dirs = _view_rays(cam, w, h, x, y)
-    t, bary = _ray_triangle(eye, dirs, tri)
-    for cull in ("none", "back", "front"):
-        keep = cull == "none" or (cull == "back") == (facing > 0)
-
-        def label_at(xx, yy, keep=keep):
-            e, d = _view_rays(cam, w, h, xx, yy)
-            tt, bb = _ray_triangle(e, d, tri)
-            with np.errstate(invalid="ignore"):
-                return keep & (bb >= 0).all(-1) & (tt >= cam.near) & (tt <= cam.far)
-
-        expected, sure = _stable(label_at, w, h)
-        with np.errstate(invalid="ignore"):
-            cut = int((keep & (bary >= 0).all(-1) & (t > 0) & (t < cam.near)).sum())  # clipped away
-        f = renderer.render(_scene(mesh), cam, EVERYTHING, cull=cull)
-        _assert_finite(f)
-        if case == "vertex_at_camera_centre":  # the plane through the eye: seen edge-on, at depth 0
-            assert expected.sum() == 0
-        elif keep:
-            assert expected.sum() > 50
-        np.testing.assert_array_equal(f.coverage[sure], expected[sure].astype(np.uint32), err_msg=cull)
-        assert f.coverage.max() <= 1 and np.array_equal(f.mask, f.coverage > 0)
-        assert (f.depth[~f.mask] == 0).all() and (f.normal[~f.mask] == 0).all()
-        hit = f.mask & sure
-        if not hit.any():
-            continue
-        rel = np.abs(f.depth[hit] - t[hit]) / t[hit]
-        b = f.barycentric[hit].astype(np.float64)
-        assert rel.max() <= 1e-6, rel.max()
-        # the exact hit's weights: outside [0, 1] only by the snap (README, "Surface outputs")
-        assert b.min() >= -1e-3 and b.max() <= 1.0 + 1e-3 and np.abs(b.sum(-1) - 1.0).max() <= 1e-6
-        # position: the frame's weights applied to the corners, lying on the pixel's own ray
-        pos = f.position[hit].astype(np.float64)
-        np.testing.assert_allclose(pos, b @ tri, atol=2e-6 * np.abs(tri).max())
-        reproj = np.hypot(*(_window(cam, w, h, pos) - np.c_[x[hit], y[hit]]).T)
-        assert reproj.max() <= 0.01, reproj.max()
-        visible = unit if facing > 0 else -unit  # a mesh without material is lit from either side
-        np.testing.assert_allclose(f.normal[hit], np.broadcast_to(visible, (int(hit.sum()), 3)), atol=1e-6)
-        assert (f.radiance[f.mask] >= 0).all()
-        print(f"{case} {camera} near={near} cull={cull}: {int(expected.sum())} covered, {cut} cut by the near plane, {int((~sure).sum())} px "
-              f"within 0.01 px of an edge, depth rel {rel.max():.1e}, position {reproj.max():.4f} px off its ray")
-
-
-@pytest.mark.parametrize("cull, expected", [("none", 1), ("front", 1), ("back", 0)])
-def test_camera_inside_closed_icosphere(cull: str, expected: int) -> None:
-    """From the centre of a closed mesh every ray leaves it through exactly one face: with
-    cull="none" or "front" (the faces are seen from behind) every pixel is covered once, with
-    cull="back" none. Depth, triangle id and normal are the polytope's exit face's: t = c_i /
-    (n_i . d), minimal over the faces ahead (pixels within 0.01 px of a face edge excused)."""
-    w, h = 64, 48
-    tm = trimesh.creation.icosphere(subdivisions=3)
-    mesh = sr.Mesh(tm.vertices, tm.faces)
-    p = mesh.positions.astype(np.float64)
-    fv = p[mesh.faces]
-    n = np.cross(fv[:, 1] - fv[:, 0], fv[:, 2] - fv[:, 0])
-    n /= np.linalg.norm(n, axis=1, keepdims=True)
-    c = (n * fv[:, 0]).sum(1)
-    assert c.min() > 0.99  # outward faces around the origin: the camera is inside
-    cam = sr.PerspectiveCamera(fov_y=120.0, near=0.05, far=10.0)
-    cam.look_at((0.0, 0.0, 0.0), (0.3, 0.5, -1.0), up=(0.2, 1.0, 0.0))
-
-    def exit_face(x, y, with_t=False):
-        _, d = _view_rays(cam, w, h, x, y)
-        nd = d @ n.T
-        with np.errstate(divide="ignore"):
-            t = np.where(nd > 0, c / np.where(nd > 0, nd, 1.0), np.inf)
-        k = t.argmin(-1)
-        return (k, np.take_along_axis(t, k[..., None], -1)[..., 0]) if with_t else k
-
-    f = sr.Renderer(w, h).render(_scene(mesh), cam, EVERYTHING, cull=cull)
-    _assert_finite(f)
-    assert (f.coverage == expected).all(), np.unique(f.coverage)
-    if not expected:
-        assert (f.depth == 0).all() and (f.triangle_id == -1).all()
-        return
-    face, sure = _stable(exit_face, w, h)
-    _, t = exit_face(*_centres(w, h), with_t=True)
-    np.testing.assert_array_equal(f.triangle_id[sure], face[sure])
-    rel = np.abs(f.depth - t)[sure] / t[sure]
-    assert rel.max() <= 1e-6, rel.max()
-    np.testing.assert_allclose(f.normal[sure], -n[face[sure]], atol=1e-6)  # the inside is seen
-    b = f.barycentric.astype(np.float64)
-    assert b.min() >= -1e-3 and np.abs(b.sum(-1) - 1.0).max() <= 1e-6  # (outside [0, 1]: the snap)
-    print(f"inside icosphere, cull={cull}: {w * h} px covered once, {int((~sure).sum())} near an "
-          f"edge, depth rel {rel.max():.1e}")
 
 
 # ----------------------------------------------------------------------------- 2. image sizes
@@ -320,8 +132,8 @@ def _half_plane_quads(w: int, h: int, direction: tuple[int, int]) -> tuple[np.nd
 
 def _fill_rule_side(u: np.ndarray, v: np.ndarray, w: int, h: int) -> np.ndarray:
     """(h, w) bool: pixel centres inside the directed edge u -> v (fixed point, 1/256 px) of a
-    triangle ordered as tests/reference.py orders it (inside <=> E >= 0, E = 0 only on top or
-    left edges), in exact int64 arithmetic, one threshold per row."""
+    triangle ordered as tests/support/raster_reference.py orders it (inside <=> E >= 0, E = 0 only
+    on top or left edges), in exact int64 arithmetic, one threshold per row."""
     ux, uy = int(u[0]), int(u[1])
     dx, dy = int(v[0]) - ux, int(v[1]) - uy
     top_left = dy < 0 or (dy == 0 and dx > 0)
@@ -349,7 +161,8 @@ def _expected_half_plane(quad: np.ndarray, w: int, h: int) -> np.ndarray:
 
 
 def test_fill_rule_side_helper_matches_the_reference_rasterizer() -> None:
-    """The per-row integer helper used for the 8192^2 image agrees with tests/reference.py."""
+    """The per-row integer helper used for the 8192^2 image agrees with
+    tests/support/raster_reference.py."""
     rng = np.random.default_rng(21)
     for w, h in [(37, 29), (1, 40), (40, 1), (1, 1)]:
         for _ in range(6):

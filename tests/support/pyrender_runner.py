@@ -1,5 +1,5 @@
-"""Runs a pyrender child script (tests/pyrender_*child.py) for a test: pyrender on OSMesa lives in
-its own process, so its OpenGL platform never touches the test process."""
+"""Runs a pyrender child script (tests/support/pyrender_*child.py) for a test: pyrender on OSMesa
+lives in its own process, so its OpenGL platform never touches the test process."""
 from __future__ import annotations
 
 import os
@@ -41,15 +41,15 @@ def run_pyrender_child(child: os.PathLike[str] | str, args: Sequence[str], timeo
 def run_pyrender_script(folder: pathlib.Path, name: str, code: str, job: Any,
                         timeout: float = 600) -> Any:
     """Runs the child script ``code`` (written to ``folder``/``name``.py) with run_pyrender_child:
-    its arguments are this tests folder (pyrender_env), softrast's parent folder (the child may
-    import softrast), the pickled ``job`` and the file it pickles its result into, which is
-    returned."""
+    its arguments are the tests folder (the child imports support.pyrender_env), softrast's parent
+    folder (the child may import softrast), the pickled ``job`` and the file it pickles its result
+    into, which is returned."""
     child = folder / f"{name}.py"
     child.write_text(code)
     job_path, out_path = folder / f"{name}_job.pkl", folder / f"{name}_out.pkl"
     job_path.write_bytes(pickle.dumps(job))
     import softrast  # (the parent folder of the softrast this process imports)
-    tests = str(pathlib.Path(__file__).resolve().parent)
+    tests = str(pathlib.Path(__file__).resolve().parents[1])
     parent = str(pathlib.Path(softrast.__file__).resolve().parent.parent)
     run_pyrender_child(child, [tests, parent, job_path, out_path], timeout=timeout)
     return pickle.loads(out_path.read_bytes())

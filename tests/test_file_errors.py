@@ -115,7 +115,7 @@ CASES: dict[str, tuple[str, str, str]] = {
     "missing_bin.gltf": ("mesh", "FileNotFoundError", "nothere.bin"),
     "missing_texture.gltf": ("mesh", "FileNotFoundError", "nothere.png"),
     "does_not_exist.obj": ("mesh", "FileNotFoundError", ""),
-    # Issue 20 item 4: truncated or header-inconsistent files that trimesh loads as partial meshes.
+    # Truncated or header-inconsistent files that trimesh loads as partial meshes.
     "cut_at_90_percent_ascii.ply": ("mesh", "ValueError", "truncated"),
     "declares_50_more_vertices.ply": ("mesh", "ValueError", "212 'vertex'"),
     "declares_1_face_fewer.ply": ("mesh", "ValueError", "counts do not match"),
@@ -216,7 +216,7 @@ def _gltf_blob(indices: list[int], count: int | None = None) -> str:
 
 
 def _write_inconsistent_meshes(d: pathlib.Path, sphere: trimesh.Trimesh) -> None:
-    """Issue 20 items 4 and 5 (the sphere has 162 vertices and 320 faces)."""
+    """Truncated and inconsistent meshes (the sphere has 162 vertices and 320 faces)."""
     ply = sphere.export(file_type="ply", encoding="ascii")
     (d / "cut_at_90_percent_ascii.ply").write_bytes(ply[: int(len(ply) * 0.9)])  # loaded 241 faces
     (d / "declares_50_more_vertices.ply").write_bytes(  # read face lines as vertices
@@ -359,7 +359,7 @@ def test_odd_but_valid_mesh_files_load(tmp_path):
 
 
 def test_glb_with_unpadded_json_chunk_loads(tmp_path):
-    # Issue 20 item 6: the spec pads chunks to 4 bytes, but trimesh writes and reads GLBs whose
+    # The spec pads chunks to 4 bytes, but trimesh writes and reads GLBs whose
     # JSON chunk is not padded; the pre-check looked for the BIN chunk at the padded offset.
     sphere = trimesh.creation.icosphere(subdivisions=2)
     path = tmp_path / "unpadded_json.glb"
@@ -370,7 +370,7 @@ def test_glb_with_unpadded_json_chunk_loads(tmp_path):
 
 
 def test_obj_whose_textured_parts_need_pillow(tmp_path):
-    # Issue 20 item 5: two materials (one missing from the file), with uvs: trimesh merges the
+    # Two materials (one missing from the file), with uvs: trimesh merges the
     # parts' textures with Pillow, and without it ModuleNotFoundError escaped load_mesh. Pillow
     # is a dependency now; without it, the ValueError names the file and the module.
     v = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nvt 1 1\n"

@@ -1,7 +1,8 @@
 """pyrender on Mesa's OSMesa (llvmpipe) for the child processes that run it
-(tests/pyrender_child.py, tests/pyrender_interop_child.py): the platform is chosen before OpenGL
-is imported, NumPy 2's removed ``np.infty`` is restored for pyrender 0.1.45, and a failed import
-exits with status 3 and one line saying why (the tests turn that into install instructions)."""
+(tests/support/pyrender_child.py, tests/support/pyrender_interop_child.py): the platform is chosen
+before OpenGL is imported, NumPy 2's removed ``np.infty`` is restored for pyrender 0.1.45, and a
+failed import exits with status 3 and one line saying why (the tests turn that into install
+instructions)."""
 import os
 import sys
 

@@ -1,4 +1,4 @@
-"""write_dataset and cameras.json (issue 22): every view written as Frame.save writes it,
+"""write_dataset and cameras.json: every view written as Frame.save writes it,
 equal to render(); cameras.json read back by load_cameras into cameras that project the same;
 resume after an interruption rewrites only what is missing."""
 from __future__ import annotations
@@ -100,7 +100,7 @@ def test_resume_rewrites_only_what_is_missing(tmp_path, monkeypatch):
     (tmp_path / ".keep.tmp").write_bytes(b"not ours")
     again = sr.write_dataset(scene, cams, tmp_path, outputs=OUTPUTS)
     assert again == first
-    # what each call did (issue 33): a rate is rendered / seconds, over the rendered views only
+    # what each call did: a rate is rendered / seconds, over the rendered views only
     assert (first.rendered, first.skipped, first.seconds) == (len(cams), 0, 1.0)  # two reads
     assert (again.rendered, again.skipped) == (1, len(cams) - 1)
     none = sr.write_dataset(scene, cams, tmp_path, outputs=OUTPUTS)
@@ -135,7 +135,7 @@ def test_write_dataset_checks_its_arguments(tmp_path):
 def test_cameras_json_after_an_interrupted_run_is_byte_identical(tmp_path, monkeypatch, outputs):
     """Interrupted after a few views, then resumed: cameras.json (its ``files`` included) and
     the returned paths are the uninterrupted run's, byte for byte, whatever the order of
-    ``outputs`` (issue 39)."""
+    ``outputs``."""
     scene, cams = _scene(), _cams()
     clean, cut = tmp_path / "clean", tmp_path / "cut"
     clean.mkdir()
@@ -169,7 +169,7 @@ def _flip(data: bytes) -> bytes:
 
 def test_resume_rewrites_damaged_files(tmp_path):
     """resume keeps only files that decode to the view's output: a truncated, an empty, a
-    corrupt file, one of another size or pixel type, are rendered again (issue 39)."""
+    corrupt file, one of another size or pixel type, are rendered again."""
     scene, cams = _scene(), _cams(8)
     formats = {"depth": "npy"}
     outputs = OUTPUTS + ("normal",)
@@ -220,7 +220,7 @@ _BAD_CAMERAS = {  # name: (content, what the error says)
 
 @pytest.mark.parametrize("case", list(_BAD_CAMERAS))
 def test_load_cameras_refuses_bad_files_naming_them(tmp_path, case):
-    """Every broken cameras.json is a ValueError naming the file (issue 39)."""
+    """Every broken cameras.json is a ValueError naming the file."""
     content, match = _BAD_CAMERAS[case]
     if content is None:
         sr.write_dataset(_scene(), _cams(2), tmp_path, outputs=("depth",))

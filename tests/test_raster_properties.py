@@ -1,4 +1,4 @@
-"""Property-based tests (issue 21, item 9) over random closed meshes, poses and cameras:
+"""Property-based tests of the raster over random closed meshes, poses and cameras:
 watertight coverage, depth within each visible triangle's depth range, barycentrics in [0, 1]
 summing to 1, no NaN anywhere, and the same bits for any thread count and instruction set.
 

@@ -1,7 +1,7 @@
 """Builds a pyrender scene, renders it with pyrender 0.1.45 under OSMesa AND converts it with
 softrast.from_pyrender and renders that with softrast, for test_from_pyrender.py.
 
-    PYOPENGL_PLATFORM=osmesa python3 tests/pyrender_interop_child.py SOFTRAST_PARENT_DIR OUT_DIR
+    PYOPENGL_PLATFORM=osmesa python3 tests/support/pyrender_interop_child.py SOFTRAST_PARENT_DIR OUT_DIR
 
 The scene: two meshes (a smooth icosphere given as an explicit Primitive with normals and a
 MetallicRoughnessMaterial; a box from pyrender.Mesh.from_trimesh with per-vertex colours, under

@@ -88,7 +88,7 @@ def test_partly_overlapping_out_arrays_are_refused_and_neighbours_are_not(setup)
     np.testing.assert_array_equal(frame.triangle_id, fresh.triangle_id)
 
 
-# -- dtypes are compared by value, not identity (issue 20, item 10) ---------------------------------
+# -- dtypes are compared by value, not identity ---------------------------------------------------
 
 def _equal_not_identical(dtype: np.dtype) -> list[np.dtype]:
     """Dtypes equal to ``dtype`` that are other objects than NumPy's cached instance."""

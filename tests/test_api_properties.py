@@ -1,4 +1,4 @@
-"""Property test of the public API's promise (issue 20): every call either renders a correct frame
+"""Property test of the public API's promise: every call either renders a correct frame
 or raises ValueError / TypeError naming the argument that is wrong; never another exception
 type, a crash or a hang.
 

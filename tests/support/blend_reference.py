@@ -3,8 +3,8 @@ no softrast code: every fragment of every triangle at every pixel centre, sorted
 
 The rules it implements (the ones ``Material(alpha_mode="blend")`` promises):
 
-* coverage: tests/reference.py's (vertices snapped to 1/256 px, exact integer edge functions,
-  the top-left rule); pixel (row i, col j) has its centre at window (j + 0.5, i + 0.5);
+* coverage: tests/support/raster_reference.py's (vertices snapped to 1/256 px, exact integer edge
+  functions, the top-left rule); pixel (row i, col j) has its centre at window (j + 0.5, i + 0.5);
 * a fragment's depth is the view depth of the unsnapped triangle at the pixel centre
   (perspective-correct, float64); its colour and alpha are the per-vertex RGBA (the material's
   base colour repeated when the mesh has no vertex colours) interpolated perspective-correctly,
@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-import reference as raster_ref
+from . import raster_reference as raster_ref
 
 # ----------------------------------------------------------------------------- cameras
 
