@@ -63,6 +63,10 @@ __all__ = ["run", "measure", "Settings", "QUICK", "FULL", "Row", "CSV_COLUMNS", 
            "sphere_radius_px", "sphere_hit", "GrazingPlane", "checker_box_filter", "shade",
            "supersampled_render", "pareto_front"]
 
+for _cls in (Row, Settings, GrazingPlane):  # pickles and reprs name the public path, as before
+    _cls.__module__ = __name__
+del _cls
+
 
 def measure(settings: Settings = QUICK, log: Callable[[str], Any] | None = None
             ) -> tuple[list[Row], list[dict[str, Any]]]:
