@@ -53,7 +53,8 @@ from ..render import _OUTPUT_BYTES, Renderer
 from ..scene import Scene
 from ..texture import load_texture
 from ._args import CliError, build_parser
-from ._views import _VIEW_BYTES, _load_intrinsics, _load_poses, _mesh_bytes, batch_summary, frame_camera
+from ._views import (_VIEW_BYTES, _load_intrinsics, _load_poses, _mesh_bytes, batch_summary,
+                     frame_camera)
 
 __all__ = ["main"]
 
