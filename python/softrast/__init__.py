@@ -4,6 +4,7 @@ Conventions (see README): world and view space are right-handed; cameras look do
 unless an IntrinsicsCamera uses convention="opencv"; image row 0 is the top; depth is the
 distance along the camera's viewing axis in scene units, 0 where nothing was hit.
 """
+from ._version import __version__
 from ._core import MAX_IMAGE_SIDE, MAX_THREADS, OUTPUT_TABLE, OUTPUTS, SUBPIXEL_BITS, TILE_SIZE_PX
 from .camera import Camera, IntrinsicsCamera, OrthographicCamera, PerspectiveCamera
 from .dataset import DatasetJob, load_cameras, render_dataset, write_dataset
@@ -23,7 +24,6 @@ from .texture import Texture, load_texture
 from . import opencv  # noqa: E402 (helpers; cv2 is imported only when draw_outline runs)
 from . import nv  # noqa: E402
 
-__version__ = "0.1.0"
 
 __all__ = [
     "Camera",
