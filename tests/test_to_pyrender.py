@@ -10,7 +10,7 @@ Checked here:
   pyrender's IntrinsicsCamera by the child's own reading of the conventions, a perspective and an
   orthographic camera; the same poses and near / far) rendered with RenderFlags.FLAT, against
   softrast's ``shading="unlit", srgb=False`` (FLAT writes the linear base colour times the
-  vertex colour with no gamma, PBR_NOTES.md). On interior pixels (covered in both, the same
+  vertex colour with no gamma, docs/pbr_notes.md). On interior pixels (covered in both, the same
   instance in the whole 3x3 neighbourhood) the colour is within 2/255; the masks differ only
   within 1 px of softrast's silhouette (each rasterizer's own rule for pixels a silhouette
   crosses); depth within 1e-5 relative (pyrender's 24-bit depth buffer is the limit;
@@ -397,7 +397,7 @@ def test_roundtrip_flat_matches_softrast_unlit(results, kind: str, tmp_path: pat
 def test_roundtrip_lit_matches_softrast_pbr(results, kind: str, tmp_path: pathlib.Path) -> None:
     """Lights (directional, point, spot, camera-space), ambient light and materials convert:
     pyrender's lit render against softrast's pbr in pyrender's encoding, on the instances
-    without vertex colours (pyrender multiplies its shaded colour by them: PBR_NOTES.md)."""
+    without vertex colours (pyrender multiplies its shaded colour by them: docs/pbr_notes.md)."""
     cam = roundtrip_cameras()[kind]
     _, _, lit = softrast_renders(cam)
     pr_color, pr_depth = results[f"roundtrip_{kind}"]["renders"]["lit"]

@@ -15,7 +15,7 @@ Layout, zarr format 2 (read by zarr-python 2 and 3, ``xarray.open_zarr``,
 Each output keeps its own dtype and channels (``softrast.OUTPUT_TABLE``): mask bool, ids int32,
 coverage uint32, float outputs float32. Chunks are Blosc (LZ4, level 5; byte shuffle for float
 outputs, none for the others), chosen by measuring real frames (``bench_dataset.py --codecs``;
-benchmarks/RESULTS.md, "Issue 37"). Unwritten views read as the fill value, which no render
+benchmarks/RESULTS.md, "Datasets and encoders"). Unwritten views read as the fill value, which no render
 gives where one exists: NaN (float outputs), -2**31 (ids), 2**32 - 1 (coverage). Colour and mask
 have none (every value is a possible pixel: no fill value, null in .zarray), so a view is
 written if and only if its chunk file is there; ``cameras.json`` is written last, once every

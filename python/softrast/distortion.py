@@ -10,7 +10,7 @@ ray by ray where geometry is concerned, and through an ideal pinhole view for co
    cannot reach (beyond the fold of a strong barrel distortion) see nothing: background.
    The rays are bucketed in a grid of the plane z = 1 (cells one ideal pixel wide), once per
    camera and image size, and cached.
-2. Geometry, exactly (issue 34 part 2; ``cpp/distortion.cpp``, ``cast_distorted``, on the
+2. Geometry, exactly (``cpp/distortion.cpp``, ``cast_distorted``, on the
    renderer's threads): every triangle is taken to camera space in float64, clipped to the
    depth range [near, far], and its box on z = 1 scattered over the grid; each ray in it is
    tested (three edge planes through the camera centre, then the depth) and keeps its nearest
@@ -34,7 +34,7 @@ ray by ray where geometry is concerned, and through an ideal pinhole view for co
    shows it), and ``normal_kind="shading"`` with normal or bump maps (the shaded normal of the
    sample showing the hit triangle).
 
-Cost (``benchmarks/bench_stages.py --sections distortion``, RESULTS.md "Issue 34, part 2"):
+Cost (``benchmarks/bench_stages.py --sections distortion``, RESULTS.md "Lens distortion"):
 geometry outputs no longer render the oversampled view, so their cost is the cast alone,
 whatever ``oversample`` is; colour is the view's render plus the remap.
 """

@@ -238,7 +238,7 @@ def _read_output(path: str, name: str) -> np.ndarray:
 
 
 def _default_format(name: str) -> str:
-    """Save's format for output ``name`` (benchmarks/RESULTS.md, "Issue 37", has the table of
+    """Save's format for output ``name`` (benchmarks/RESULTS.md, "Datasets and encoders", has the table of
     encoders this was chosen from): the fastest exact file that the common readers open. (Ids
     over 65534 fall back to "tif" when saved.)"""
     if name in ("color", "mask"):

@@ -1,6 +1,6 @@
 """Independent NumPy float64 reference of softrast's shading models, lights and 8-bit encodings.
 
-Written from the formulas (python/softrast/material.py, light.py, PBR_NOTES.md), not from the C++
+Written from the formulas (python/softrast/material.py, light.py, docs/pbr_notes.md), not from the C++
 core, so the renderer can be tested against it. Everything is vectorised over N pixels.
 
     radiance(model, n, p, base_rgb, material, lights, ambient_light, eye, orthographic_dir=None)
@@ -24,7 +24,7 @@ import numpy as np
 DIRECTIONAL, POINT, SPOT = 0, 1, 2
 MODELS = ("unlit", "lambert", "phong", "blinn_phong", "pbr", "normal")
 
-# pyrender's mesh.frag constants (PBR_NOTES.md).
+# pyrender's mesh.frag constants (docs/pbr_notes.md).
 MIN_ROUGHNESS = 0.04  # the dielectric F0 and the lower clamp of the roughness factor
 NL_MIN = 0.001        # NdotL and NdotV are clamped to [0.001, 1]
 SPEC_EPS = 0.001      # the specular denominator is 4 * nl * nv + 0.001
@@ -92,7 +92,7 @@ def view_vectors(p: np.ndarray, eye: Any, orthographic_dir: Any = None) -> np.nd
 
 def pbr_brdf(n: np.ndarray, v: np.ndarray, l: np.ndarray, base: np.ndarray, metallic: float,
              roughness: float, radiance: np.ndarray) -> np.ndarray:
-    """One light's contribution, exactly pyrender 0.1.45's compute_brdf (PBR_NOTES.md)."""
+    """One light's contribution, exactly pyrender 0.1.45's compute_brdf (docs/pbr_notes.md)."""
     roughness = min(max(roughness, MIN_ROUGHNESS), 1.0)
     metallic = min(max(metallic, 0.0), 1.0)
     c_diff = base * (1.0 - MIN_ROUGHNESS) * (1.0 - metallic)

@@ -259,7 +259,7 @@ def shade(model: str, normal: np.ndarray, position: np.ndarray, eye: Sequence[fl
     """(..., 3) linear radiance of a grey ``material`` (softrast.Material, no emissive) under one
     directional light (unit ``light_dir`` towards the light, radiance ``light_rgb``) and an
     ambient light, as softrast's models define it (the table in softrast.material; pbr: pyrender
-    0.1.45's compute_brdf, PBR_NOTES.md), at unit ``normal`` (..., 3) and world ``position``
+    0.1.45's compute_brdf, docs/pbr_notes.md), at unit ``normal`` (..., 3) and world ``position``
     (..., 3) seen from ``eye``. Grey, so one channel is computed and repeated."""
     n = normal
     l = np.asarray(light_dir, dtype=np.float64)
