@@ -56,7 +56,7 @@ SamplePattern msaa_pattern(int count) {
     case 8: return from_sixteenths(kMsaa8);
     case 16: return from_sixteenths(kMsaa16);
     default:
-      throw std::invalid_argument("msaa must be 1, 2, 4, 8 or 16, got " + std::to_string(count));
+      throw std::invalid_argument("msaa must be one of (1, 2, 4, 8, 16), got " + std::to_string(count));
   }
 }
 

@@ -10,6 +10,7 @@
 #include "transform.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -208,6 +209,13 @@ void shade_draw(const RenderPlan& plan, const RenderOptions& options, bool headl
     d.needs |= kInline;
 }
 
+// A number as Python's repr writes a float: the shortest text that reads back to it.
+std::string number_text(double value) {
+  char text[32];
+  const auto [end, error] = std::to_chars(text, text + sizeof text, value);
+  return error == std::errc() ? std::string(text, end) : std::to_string(value);
+}
+
 // A scene without lights is lit by the headlight: a white directional light along the camera's
 // viewing axis (the view matrix's third row, negated, for a rigid view) of intensity
 // 1 - ambient, and an ambient light of `ambient` unless the scene sets its own.
@@ -284,13 +292,17 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
   validate_camera(camera);
   for (std::size_t d = 0; d < primitives.size(); ++d)
     validate_primitive(primitives[d], "primitives[" + std::to_string(d) + "]");
+  // Python's RenderOptions checks each of these first, with the same words.
   if (options.outputs == 0 || options.outputs >= (1u << kNumOutputs))
-    throw std::invalid_argument("outputs: request at least one known output");
+    throw std::invalid_argument("outputs must name at least one output");
   if (!(std::isfinite(options.ambient) && options.ambient >= 0.0f && options.ambient <= 1.0f))
-    throw std::invalid_argument("ambient must be in [0, 1]");
+    throw std::invalid_argument("ambient must be in [0, 1], got " + number_text(options.ambient));
   for (int c = 0; c < 3; ++c)
     if (!(options.background[c] >= 0.0f && options.background[c] <= 1.0f))  // NaN fails too
-      throw std::invalid_argument("background components must be in [0, 1]");
+      throw std::invalid_argument("background must be 3 numbers in [0, 1] (RGB), got [" +
+                                  number_text(options.background[0]) + ", " +
+                                  number_text(options.background[1]) + ", " +
+                                  number_text(options.background[2]) + "]");
   for (const Light& light : options.lights) {  // the formulas stay finite for finite inputs
     if (!(all_finite(light.radiance) && all_finite(light.position) && all_finite(light.direction) &&
           std::isfinite(light.cone_scale) && std::isfinite(light.cone_offset)))
@@ -317,7 +329,8 @@ std::unique_ptr<Framebuffer> Renderer::render(const std::vector<Draw>& draws,
       throw std::invalid_argument("material of draw " + std::to_string(d) + " is out of range");
   }
   if (options.msaa > 1 && options.ssaa > 1)
-    throw std::invalid_argument("msaa and ssaa: use one of them (the other = 1)");
+    throw std::invalid_argument("msaa and ssaa: use one of them, got msaa=" +
+                                std::to_string(options.msaa) + ", ssaa=" + std::to_string(options.ssaa));
   // The pixels' samples: msaa_pattern / ssaa_pattern throw for a bad count; a render without
   // anti-aliasing keeps the renderer's one-sample viewport.
   const SamplePattern pattern =

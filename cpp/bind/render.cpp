@@ -109,11 +109,11 @@ uint32_t parse_outputs(const std::vector<std::string>& names) {
     if (found < 0) {
       std::string known;
       for (const OutputLayout& l : kOutputLayouts) known += std::string(known.empty() ? "" : ", ") + l.name;
-      throw py::value_error("outputs: unknown output '" + name + "' (known: " + known + ")");
+      throw py::value_error("outputs: unknown output '" + name + "'; choose from " + known);
     }
     bits |= kOutputLayouts[found].bit;
   }
-  if (bits == 0) throw py::value_error("outputs: request at least one output");
+  if (bits == 0) throw py::value_error("outputs must name at least one output");
   return bits;
 }
 
@@ -240,7 +240,7 @@ py::dict render(Renderer& self, const py::sequence& draws_in, const py::dict& sp
   if (given(k_alpha_threshold)) {
     const double t = get(k_alpha_threshold).cast<double>();
     if (!(t >= 0.0 && t <= 1.0))
-      throw py::value_error("alpha_threshold must be in [0, 1], got " + std::to_string(t));
+      throw py::value_error("alpha_threshold must be None or in [0, 1], got " + py::repr(get(k_alpha_threshold)).cast<std::string>());
     options.surface_threshold = true;
     options.alpha_threshold = float(t);
   }

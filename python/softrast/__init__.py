@@ -18,6 +18,7 @@ from .material import Material
 from .mesh import Mesh, PrecisionWarning
 from .primitives import Lines, Points
 from .poses import look_at_pose, orbit, sphere_poses
+from .options import RenderOptions
 from .render import Frame, Renderer, sample_positions
 from .scene import Scene
 from .texture import Texture, load_texture
@@ -44,6 +45,7 @@ __all__ = [
     "PointLight",
     "Points",
     "PrecisionWarning",
+    "RenderOptions",
     "Renderer",
     "SUBPIXEL_BITS",
     "Scene",

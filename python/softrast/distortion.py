@@ -52,6 +52,7 @@ from .draws import _draws
 from .frame import _OUTPUT_BYTES, Frame, _out_arrays
 from .lens import undistort
 from .limits import check_budget
+from .options import RenderOptions
 from .scene import Scene
 
 __all__ = ["render_distorted"]
@@ -167,7 +168,7 @@ def _maps_normal(inst: Any) -> bool:
     return m is not None and (m.normal_texture is not None or m.bump_texture is not None)
 
 
-def render_distorted(renderer: Any, scene: Any, camera: Any, names: Any, options: dict[str, Any],
+def render_distorted(renderer: Any, scene: Any, camera: Any, names: Any, options: RenderOptions,
                      out: Any) -> Any:
     """``Renderer.render`` for a camera with lens distortion (see this module's docstring)."""
     w, h = renderer.width, renderer.height
@@ -180,7 +181,7 @@ def render_distorted(renderer: Any, scene: Any, camera: Any, names: Any, options
     # masked materials: their alpha test; normal_kind="shading" with normal or bump maps: the
     # shaded normal of the sample showing the hit triangle).
     mapped = np.array([_maps_normal(i) for i in instances] or [False])
-    shading_normals = "normal" in cast and options["normal_kind"] == "shading" and bool(mapped.any())
+    shading_normals = "normal" in cast and options.normal_kind == "shading" and bool(mapped.any())
     masked = any(i.material is not None and i.material.alpha_mode == "mask" for i in instances)
     need_ids = bool(cast) and (masked or shading_normals)
     # Blended materials are composited in the ideal view; the cast sees only opaque surfaces, so
@@ -203,7 +204,7 @@ def render_distorted(renderer: Any, scene: Any, camera: Any, names: Any, options
             big = view_renderers[key] = type(renderer)(rays.width, rays.height, renderer.threads,
                                                        renderer.isa != "generic")
         rays.camera.pose = camera.pose  # the ideal view shares the camera's pose (set per render)
-        frame = big.render(shadow if need_ids else scene, rays.camera, inner, **options)
+        frame = big.render(shadow if need_ids else scene, rays.camera, inner, options)
 
     valid = rays.valid
     hits: dict[str, np.ndarray] = {}
@@ -214,7 +215,7 @@ def render_distorted(renderer: Any, scene: Any, camera: Any, names: Any, options
             view = (frame.triangle_id, frame.instance_id)
         hits = _core._distortion_cast(
             rays.core, _draws(shadow), tuple(pose_cv[:3, :3].reshape(-1)), tuple(pose_cv[:3, 3]),
-            float(camera.near), float(camera.far), options["cull"], options["cull_double_sided"],
+            float(camera.near), float(camera.far), options.cull, options.cull_double_sided,
             cast + (["instance_id", "sample"] if shading_normals else []), view, renderer.threads)
     hit_index = hits["instance_id"].copy() if shading_normals else None  # before ids are mapped
     table = {row["name"]: row for row in _core.OUTPUT_TABLE}
@@ -228,7 +229,7 @@ def render_distorted(renderer: Any, scene: Any, camera: Any, names: Any, options
         else:
             value = hits[name].reshape(shape)
         if name == "color":
-            bg = np.floor(np.clip(np.asarray(options["background"], np.float32), 0, 1) * np.float32(255.0)
+            bg = np.floor(np.clip(np.asarray(options.background, np.float32), 0, 1) * np.float32(255.0)
                           + np.float32(0.5)).astype(np.uint8)
             value[~valid] = bg
         elif name == "radiance":
@@ -242,7 +243,7 @@ def render_distorted(renderer: Any, scene: Any, camera: Any, names: Any, options
             seen = value >= 0
             value[seen] = shadow._source_ids[value[seen]]
         elif name == "normal":
-            if options["normal_space"] != "world":  # the camera's axes, as the pipeline's rotation
+            if options.normal_space != "world":  # the camera's axes, as the pipeline's rotation
                 seen = value.any(axis=-1)
                 value[seen] = (value[seen].astype(np.float64) @ camera.pose[:3, :3]).astype(np.float32)
             if shading_normals:  # the shaded normal of the view sample showing the hit triangle
