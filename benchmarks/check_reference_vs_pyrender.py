@@ -1,4 +1,4 @@
-"""Checks tests/support/shading_reference.py's "pbr" against pyrender 0.1.45 (OSMesa) to the byte.
+"""Checks softrast.reference.shading's "pbr" against pyrender 0.1.45 (OSMesa) to the byte.
 
 Renders a finely tessellated unit sphere with analytic normals under a directional, a point and a
 spot light for several metallic / roughness pairs, a light from behind only (pyrender's NdotL
@@ -12,8 +12,8 @@ import os, sys, math
 os.environ["PYOPENGL_PLATFORM"] = "osmesa"
 import numpy as np, pyrender, trimesh
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(ROOT, "tests")); sys.path.insert(0, os.path.join(ROOT, "python"))
-from support import shading_reference as ref
+sys.path.insert(0, os.path.join(ROOT, "python"))
+from softrast.reference import shading as ref
 import softrast as sr
 
 W, H = 160, 120

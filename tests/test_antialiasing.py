@@ -8,9 +8,11 @@ import numpy as np
 import pytest
 import trimesh
 
-from support import raster_reference as ref
 import softrast as sr
 from conftest import core_options, pixel_mesh, pixel_ortho, render, scene_of
+from softrast.reference import raster as ref
+from softrast.reference.encoding import srgb_curve as _srgb_encode
+from softrast.reference.encoding import srgb_to_linear as _srgb_decode
 from softrast.report import disk_coverage
 
 MSAA = (2, 4, 8, 16)
@@ -20,16 +22,6 @@ MODES = [dict(msaa=m) for m in MSAA] + [dict(ssaa=k) for k in SSAA]
 
 def _mode_id(mode):
     return "-".join(f"{k}{v}" for k, v in mode.items())
-
-
-def _srgb_encode(x):
-    x = np.clip(np.asarray(x, dtype=np.float64), 0.0, 1.0)
-    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
-
-
-def _srgb_decode(c):
-    c = np.asarray(c, dtype=np.float64)
-    return np.where(c <= 0.04045, c / 12.92, np.power((c + 0.055) / 1.055, 2.4))
 
 
 # --- sample positions ---------------------------------------------------------------------------
@@ -69,7 +61,7 @@ def test_ssaa_positions_are_a_centred_grid(k):
 # --- coverage per sample, against the NumPy reference ----------------------------------------
 
 def _reference_per_sample(xy, faces, w, h, mode, cull="none"):
-    """Coverage counts (n_samples, h, w) from tests/support/raster_reference.py: sample s of pixel
+    """Coverage counts (n_samples, h, w) from softrast.reference.raster: sample s of pixel
     (i, j) is the pixel centre of the image shifted by (1/2 - sx, 1/2 - sy), exact in fixed
     point."""
     fixed = ref.snap(xy)

@@ -1,5 +1,5 @@
 """Order-independent alpha blending (glTF alphaMode BLEND, ``Material(alpha_mode="blend")``),
-checked against tests/support/blend_reference.py, an independent NumPy reference that finds every
+checked against softrast.reference.blend, an independent NumPy reference that finds every
 fragment of every triangle at every pixel centre, sorts them and composites them front to back
 in linear light.
 
@@ -23,8 +23,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from support import blend_reference as bref
 import softrast as sr
+from softrast.reference import blend as bref
+from softrast.reference.encoding import srgb_curve, srgb_to_linear
 
 W, H = 64, 48
 FOV = 50.0
@@ -828,9 +829,9 @@ def _check_resolved(scene, frame, radiance, alpha, background, **aa) -> None:
     np.testing.assert_allclose(frame.alpha, alpha, rtol=0, atol=1e-6)
     # (the background's linear value: its byte, decoded as the colour output is encoded)
     byte = np.floor(np.asarray(background) * 255.0 + 0.5) / 255.0
-    bg = np.where(byte <= 0.04045, byte / 12.92, ((byte + 0.055) / 1.055) ** 2.4)
+    bg = srgb_to_linear(byte)
     lin = np.clip(radiance + (1.0 - alpha)[..., None] * bg, 0.0, 1.0)
-    enc = np.where(lin <= 0.0031308, 12.92 * lin, 1.055 * lin ** (1 / 2.4) - 0.055)
+    enc = srgb_curve(lin)
     assert np.abs(frame.color.astype(np.int64) - np.floor(enc * 255.0 + 0.5)).max() <= 1
     for threads, simd in ((1, True), (3, True), (2, False)):
         again = render(scene, _shifted_camera(0.0, 0.0), background=background,
@@ -1024,7 +1025,7 @@ def test_lit_fragments_composite_their_shaded_radiance() -> None:
 
 
 def test_reference_composites_by_hand() -> None:
-    """blend_reference on a hand-derived pixel: two blended layers (drawn far one first) over an
+    """softrast.reference.blend on a hand-derived pixel: two blended layers (drawn far one first) over an
     opaque one, and the same without it."""
     ref_cam = bref.RefCamera(4, 4, xmag=2.0, ymag=2.0)
 

@@ -48,6 +48,7 @@ import pytest
 from scipy import ndimage
 
 import softrast as sr
+from softrast.reference.encoding import srgb_curve as srgb_encode
 from support.pyrender_runner import run_pyrender_script
 
 W, H = 160, 120
@@ -169,11 +170,6 @@ def composite(colors) -> np.ndarray:
         a = rgba[3]
         c = a * np.asarray(rgba[:3], float) + (1.0 - a) * c
     return c
-
-
-def srgb_encode(c) -> np.ndarray:
-    c = np.clip(np.asarray(c, float), 0.0, 1.0)
-    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1 / 2.4) - 0.055)
 
 
 def to_byte(c) -> np.ndarray:

@@ -24,9 +24,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from support import raster_reference as ref
 import softrast as sr
-from support import texture_reference as tref
+from softrast.reference import raster as ref
+from softrast.reference import texture as tref
 from support.exact_pixels import (
     _assert_finite,
     _centres,
@@ -132,7 +132,7 @@ def _half_plane_quads(w: int, h: int, direction: tuple[int, int]) -> tuple[np.nd
 
 def _fill_rule_side(u: np.ndarray, v: np.ndarray, w: int, h: int) -> np.ndarray:
     """(h, w) bool: pixel centres inside the directed edge u -> v (fixed point, 1/256 px) of a
-    triangle ordered as tests/support/raster_reference.py orders it (inside <=> E >= 0, E = 0 only
+    triangle ordered as softrast.reference.raster orders it (inside <=> E >= 0, E = 0 only
     on top or left edges), in exact int64 arithmetic, one threshold per row."""
     ux, uy = int(u[0]), int(u[1])
     dx, dy = int(v[0]) - ux, int(v[1]) - uy
@@ -162,7 +162,7 @@ def _expected_half_plane(quad: np.ndarray, w: int, h: int) -> np.ndarray:
 
 def test_fill_rule_side_helper_matches_the_reference_rasterizer() -> None:
     """The per-row integer helper used for the 8192^2 image agrees with
-    tests/support/raster_reference.py."""
+    softrast.reference.raster."""
     rng = np.random.default_rng(21)
     for w, h in [(37, 29), (1, 40), (40, 1), (1, 1)]:
         for _ in range(6):

@@ -15,6 +15,7 @@ import trimesh
 
 import softrast as sr
 from softrast.files.context import srgb_to_linear
+from softrast.reference import encoding
 
 ROOT = Path(__file__).resolve().parents[1]
 ASSETS = ROOT / "assets" / "meshes"
@@ -24,13 +25,12 @@ SPOT_TEXTURE = ASSETS / "spot_texture.png"
 
 
 def decode(byte):
-    """The exact IEC 61966-2-1 curve, written out independently of softrast."""
-    c = byte / 255.0
-    return c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
+    """The exact IEC 61966-2-1 curve, from the NumPy reference (independent of softrast.files)."""
+    return float(encoding.srgb_to_linear(byte / 255.0))
 
 
 def encode(c):
-    return 12.92 * c if c <= 0.0031308 else 1.055 * c ** (1 / 2.4) - 0.055
+    return float(encoding.srgb_curve(c))
 
 
 @pytest.fixture

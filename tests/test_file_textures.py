@@ -23,6 +23,7 @@ import pytest
 import trimesh
 
 import softrast as sr
+from softrast.reference.encoding import srgb_curve, srgb_to_linear
 
 ROOT = Path(__file__).resolve().parents[1]
 ASSETS = ROOT / "assets" / "meshes"
@@ -39,13 +40,11 @@ def no_warnings():
 
 
 def decode(byte):
-    c = np.asarray(byte, dtype=np.float64) / 255.0
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    return srgb_to_linear(np.asarray(byte, dtype=np.float64) / 255.0)
 
 
-def encode(c):
-    c = np.asarray(c, dtype=np.float64)
-    return np.rint(255 * np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1 / 2.4) - 0.055))
+def encode(c):  # c in [0, 1]
+    return np.rint(255 * srgb_curve(c))
 
 
 # -- helpers: the texel under a pixel, found independently of the renderer ----------------------

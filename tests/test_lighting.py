@@ -1,5 +1,5 @@
 """The renderer's shading models, lights and materials against the NumPy reference
-(tests/support/shading_reference.py, itself checked by test_shading_reference.py).
+(softrast.reference.shading, itself checked by test_shading_reference.py).
 
 The reference is evaluated with the renderer's own ``normal`` output as n and world positions
 unprojected from its ``depth`` output, so the comparison isolates shading from rasterization.
@@ -33,7 +33,7 @@ import pytest
 import trimesh
 
 import softrast as sr
-from support import shading_reference as ref
+from softrast.reference import shading as ref
 
 W, H = 96, 72
 LIT = ("lambert", "phong", "blinn_phong", "pbr")

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import softrast as sr
+from softrast.reference.encoding import srgb_curve
 from conftest import pixel_mesh, pixel_ortho, window_to_world
 
 W, H = 150, 130  # 3 x 3 tiles: lines cross tile borders
@@ -396,8 +397,7 @@ def test_outputs_on_primitive_pixels():
     np.testing.assert_array_equal(frame.radiance[frame.instance_id == 11][0],
                                   np.float32([0.5, 0.25, 1.0]))
     # sRGB-encoded like everything else.
-    srgb = lambda v: np.round(255 * np.where(v <= 0.0031308, 12.92 * v,  # noqa: E731
-                                             1.055 * v ** (1 / 2.4) - 0.055))
+    srgb = lambda v: np.round(255 * srgb_curve(v))  # noqa: E731  (v in [0, 1])
     np.testing.assert_array_equal(frame.color[frame.instance_id == 12][0],
                                   srgb(np.float32([0.2, 0.4, 0.6]).astype(np.float64)))
     # Everywhere else the triangles' render, bit for bit.

@@ -10,6 +10,7 @@ import pytest
 import trimesh
 
 import softrast as sr
+from softrast.reference.encoding import srgb_encode, srgb_to_linear
 from conftest import ALL_OUTPUTS
 
 MODELS = ("lambert", "phong", "blinn_phong", "pbr", "unlit", "normal")
@@ -144,16 +145,14 @@ def test_srgb_colour_is_the_exact_curve_of_the_radiance():
     for simd in (True, False):
         f = sr.Renderer(160, 120, threads=2, simd=simd).render(
             scene, cam, outputs=("color", "radiance", "mask"))
-        x = np.clip(f.radiance.astype(np.float64), 0.0, 1.0)
-        enc = np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055)
-        want = np.floor(enc * 255.0 + 0.5).astype(np.uint8)
+        want = srgb_encode(f.radiance.astype(np.float64))  # floor(255 curve(clamp(x)) + 0.5)
         np.testing.assert_array_equal(f.color[f.mask], want[f.mask])
         assert (f.color[~f.mask] == 0).all() and (f.radiance[~f.mask] == 0).all()
     # And at the thresholds themselves: an unlit mesh of vertex colours just below / above each
     # code's threshold (float32 neighbours), one pixel per colour.
     codes = np.arange(1, 256)
     t = (codes - 0.5) / 255.0
-    lin = np.where(t <= 0.04045, t / 12.92, ((t + 0.055) / 1.055) ** 2.4).astype(np.float32)
+    lin = srgb_to_linear(t).astype(np.float32)
     vals = np.concatenate([np.nextafter(lin, np.float32(0)), lin, np.nextafter(lin, np.float32(1)),
                            np.float32([0.0, 1.0, 2.0, 1e-30, 1.1e-4, 0.5, 0.99999994])])
     n = len(vals)
@@ -181,8 +180,7 @@ def test_srgb_colour_is_the_exact_curve_of_the_radiance():
         f = sr.Renderer(w, h, threads=1, simd=simd).render(sc, cam, outputs=("color",), shading="unlit")
         got = f.color[..., 0].reshape(-1)[:n].astype(float)
         clipped = np.minimum(vals, 1.0).astype(np.float64)
-        enc = np.where(clipped <= 0.0031308, 12.92 * clipped, 1.055 * clipped ** (1 / 2.4) - 0.055)
-        np.testing.assert_array_equal(got, np.floor(enc * 255.0 + 0.5))
+        np.testing.assert_array_equal(got, srgb_encode(clipped))
 
 
 def test_light_pass_lights_each_pixel_with_its_own_draws_material():

@@ -3,7 +3,7 @@
 pyrender renders in a child process (tests/support/pyrender_child.py, PYOPENGL_PLATFORM=osmesa), so this
 process never loads OpenGL; the same scene (camera, poses, lights, materials, normals, ambient
 light, black background) is rendered by softrast here. softrast's linear ``radiance`` is encoded
-as pyrender encodes it (``shading_reference.pyrender_encode``: pow(c, 1/2.2), not sRGB) and
+as pyrender encodes it (``softrast.reference.encoding.pyrender_encode``: pow(c, 1/2.2), not sRGB) and
 compared with pyrender's 8-bit colour on interior pixels: both masks set, eroded by 2 px
 (pyrender rasterizes silhouettes by its own rule). Bounds (the promised ones): mean |diff| <= 3/255
 and 99th percentile <= 8/255; the masks must agree on >= 99% of the pixels.
@@ -30,8 +30,8 @@ import trimesh
 from scipy import ndimage
 
 import softrast as sr
+from softrast.reference.encoding import pyrender_encode
 from support.pyrender_runner import run_pyrender_child
-from support.shading_reference import pyrender_encode
 
 CHILD = pathlib.Path(__file__).resolve().parent / "support" / "pyrender_child.py"
 W, H = 320, 240

@@ -1,6 +1,6 @@
 """Rasterization rules through the public API: watertightness, the top-left fill rule, projection
 against cv2.projectPoints, and clipping. Expected pixel sets come from exact geometry or from the
-independent NumPy rasterizer in tests/support/raster_reference.py, never from earlier renders."""
+independent NumPy rasterizer in softrast.reference.raster, never from earlier renders."""
 from __future__ import annotations
 
 import math
@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from support import raster_reference as ref
 import softrast as sr
+from softrast.reference import raster as ref
 from conftest import (
     icosphere,
     look_at_gl,

@@ -1,10 +1,10 @@
-"""Unit tests of the NumPy reference rasterizer (tests/support/raster_reference.py) against hand-derived cases."""
+"""Unit tests of the NumPy reference rasterizer (softrast.reference.raster) against hand-derived cases."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from support import raster_reference as ref
+from softrast.reference import raster as ref
 
 
 def _cov(xy, faces, w, h, cull="none"):

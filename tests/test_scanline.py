@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from support import raster_reference as ref
 import softrast as sr
+from softrast.reference import raster as ref
 from conftest import ALL_OUTPUTS, look_at_gl, random_rotation, window_to_world
 
 SIZES = [(64, 64), (97, 61), (130, 70), (33, 129), (200, 67), (1, 1), (5, 150), (150, 3)]
@@ -250,7 +250,7 @@ def test_scanline_matches_a_numpy_scanline_fill(rng):
         frame = sr.Renderer(w, h).render(scene, _pixel_camera(w, h), outputs=("coverage",),
                                          cull="none", raster=raster)
         np.testing.assert_array_equal(frame.coverage, expected, err_msg=raster)
-    # And the independent edge-function reference (tests/support/raster_reference.py) agrees.
+    # And the independent edge-function reference (softrast.reference.raster) agrees.
     cov_ref, _ = ref.rasterize(xy.reshape(-1, 2), np.arange(3 * n).reshape(n, 3), w, h)
     np.testing.assert_array_equal(cov_ref, expected)
 

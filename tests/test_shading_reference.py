@@ -1,4 +1,4 @@
-"""The NumPy reference (tests/support/shading_reference.py) against closed forms computed by hand,
+"""The NumPy reference (softrast.reference.shading) against closed forms computed by hand,
 so that test_lighting.py tests the renderer against something known to be right."""
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import softrast as sr
-from support import shading_reference as ref
+from softrast.reference import shading as ref
 
 Z = np.array([[0.0, 0.0, 1.0]])
 O = np.zeros((1, 3))

@@ -1,7 +1,7 @@
 """Exact shadows (``shadows=True`` / ``"exact"`` on a light, or ``render(shadows=)``).
 
 What is checked, against geometry worked out here and the float64 NumPy reference
-(tests/support/shadow_reference.py, itself checked against trimesh's ray casting below):
+(softrast.reference.shadow, itself checked against trimesh's ray casting below):
 
 * a unit square over a floor under a directional light: every floor pixel is in shadow exactly
   when its point, moved toward the light, meets the square (analytic);
@@ -39,7 +39,7 @@ import trimesh
 import trimesh.ray.ray_triangle as tm_ray
 
 import softrast as sr
-from support import shadow_reference as ref
+from softrast.reference import shadow as ref
 
 W, H = 160, 120
 OUT = ("radiance", "position", "instance_id", "triangle_id", "mask", "barycentric")

@@ -3,7 +3,7 @@ screen derivatives, a perspective plane against Texture.sample at analytic uvs a
 the grazing checkerboard against a 256-samples-per-pixel reference, normal and emissive maps
 against n.l, the textured Spot against a ray-cast reference, same bits across ISAs and threads.
 (tests/test_texture_sampling.py checks the sampler itself against
-tests/support/texture_reference.py.)"""
+softrast.reference.texture.)"""
 from __future__ import annotations
 
 import pickle

@@ -40,7 +40,7 @@ import trimesh
 from scipy import ndimage
 
 import softrast as sr
-from support.shading_reference import pyrender_encode
+from softrast.reference.encoding import pyrender_encode
 from support.pyrender_runner import INSTALL_HINT, run_pyrender_child
 
 CHILD = pathlib.Path(__file__).resolve().parent / "support" / "pyrender_to_child.py"

@@ -153,7 +153,7 @@ class Light:
 
     def _record_fields(self, pose_world: np.ndarray) -> dict[str, Any]:
         """The fields of the core's light record, by name, in float64 (the record holds float32;
-        tests/support/shading_reference.py reads these)."""
+        softrast.reference.shading reads these)."""
         pos = pose_world[:3, 3]
         d = unit_vector(-pose_world[:3, 2])  # scaled: a 1e-200 or 1e300 long z axis has one too
         if d is None:

@@ -1,7 +1,7 @@
 """Textures: images a material samples per pixel (``Material(base_color_texture=...)`` and the
 other texture slots), filtered in the C++ core.
 
-Conventions (``tests/support/texture_reference.py`` implements every rule below independently):
+Conventions (``softrast.reference.texture`` implements every rule below independently):
 
 * **uv origin.** ``uv_origin="bottom_left"`` (default; OpenGL, and glTF files as trimesh loads
   them): v points up, the image's row 0 (its top) is at v = 1::

@@ -16,7 +16,7 @@ Scenes and their exact references (NumPy float64):
   about the image centre, and ``disk_coverage`` integrates it over every pixel square in closed
   form (the areas sum to pi r^2 to ~1e-13 relative). ``sphere_hit`` intersects each pixel
   centre's ray with the sphere (depth along the viewing axis, point, normal), and the shading
-  models' formulas (``softrast.material``) applied to that normal give the colour. Only the
+  models' formulas (``softrast.reference.shading``) applied to that normal give the colour. Only the
   box-filtered shaded sphere (metric ``rmse_box``, what msaa / ssaa are measured against) has
   no closed form: its reference is a 16 x 16-supersampled render, labelled so.
   The same sphere casting a shadow onto a backdrop plane measures shadow maps' resolution

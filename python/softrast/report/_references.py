@@ -1,8 +1,9 @@
 """The report's exact references (NumPy float64): the sphere's silhouette, integrated over each
 pixel square in closed form (``disk_coverage``), and its ray-sphere hit at each pixel centre
 (``sphere_hit``); the grazing checkerboard's exact box filter (``checker_box_filter``); the
-shading models' formulas (``shade``); and, where no closed form exists, a 16 x 16-supersampled
-render (``supersampled_render``)."""
+shading models' formulas at those hits (``shade``, softrast.reference.shading under the report's
+one light); and, where no closed form exists, a 16 x 16-supersampled render
+(``supersampled_render``)."""
 from __future__ import annotations
 
 import math
@@ -12,6 +13,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..camera import IntrinsicsCamera
+from ..reference import shading
 
 
 # ----------------------------------------------------------------------- reference: the sphere
@@ -249,57 +251,21 @@ def checker_box_filter(plane: GrazingPlane, width: int, height: int) -> tuple[np
 
 # ------------------------------------------------------------------------- reference: shading
 
-def _unit(a: np.ndarray) -> np.ndarray:
-    norm = np.linalg.norm(a, axis=-1, keepdims=True)
-    return np.divide(a, norm, out=np.zeros_like(a), where=norm > 0.0)
-
-
 def shade(model: str, normal: np.ndarray, position: np.ndarray, eye: Sequence[float],
           light_dir: Sequence[float], light_rgb: float, ambient: float, material: Any) -> np.ndarray:
-    """(..., 3) linear radiance of a grey ``material`` (softrast.Material, no emissive) under one
-    directional light (unit ``light_dir`` towards the light, radiance ``light_rgb``) and an
-    ambient light, as softrast's models define it (the table in softrast.material; pbr: pyrender
-    0.1.45's compute_brdf, docs/pbr_notes.md), at unit ``normal`` (..., 3) and world ``position``
-    (..., 3) seen from ``eye``. Grey, so one channel is computed and repeated."""
-    n = normal
-    l = np.asarray(light_dir, dtype=np.float64)
-    v = _unit(np.asarray(eye, dtype=np.float64) - position)
-    nl = n @ l
-    kd = material.base_color[0] if material.kd is None else material.kd[0]
-    ka = kd if material.ka is None else material.ka[0]
-    ks, p = material.ks[0], material.shininess
-    if model == "normal":
-        return (n + 1.0) / 2.0
-    if model == "lambert":
-        out = ka * ambient + kd * light_rgb * np.maximum(nl, 0.0)
-    elif model in ("phong", "blinn_phong"):
-        if model == "phong":
-            s = np.maximum(np.einsum("...k,...k->...", 2.0 * nl[..., None] * n - l, v), 0.0)
-        else:
-            s = np.maximum(np.einsum("...k,...k->...", n, _unit(l + v)), 0.0)
-        out = (ka * ambient + kd * light_rgb * np.maximum(nl, 0.0)
-               + np.where(nl > 0.0, ks * light_rgb * s ** p, 0.0))
-    elif model == "pbr":
-        base = material.base_color[0]
-        rough = min(max(material.roughness, 0.04), 1.0)
-        metal = min(max(material.metallic, 0.0), 1.0)
-        c_diff = base * 0.96 * (1.0 - metal)
-        f0 = 0.04 * (1.0 - metal) + base * metal
-        h = _unit(l + v)
-        nlc = np.clip(nl, 0.001, 1.0)
-        nv = np.clip(np.abs(np.einsum("...k,...k->...", n, v)), 0.001, 1.0)
-        nh = np.clip(np.einsum("...k,...k->...", n, h), 0.0, 1.0)
-        vh = np.clip(np.einsum("...k,...k->...", v, h), 0.0, 1.0)
-        F = f0 + (1.0 - f0) * (1.0 - vh) ** 5
-        k = (rough + 1.0) ** 2 / 8.0
-        G = (nv / (nv * (1.0 - k) + k)) * (nlc / (nlc * (1.0 - k) + k))
-        a2 = rough ** 4
-        D = a2 / (math.pi * (nh * nh * (a2 - 1.0) + 1.0) ** 2)
-        brdf = (1.0 - F) * c_diff / math.pi + F * G * D / (4.0 * nlc * nv + 0.001)
-        out = nlc * light_rgb * brdf + base * ambient
-    else:
+    """(..., 3) linear radiance of ``material`` (softrast.Material) under one directional light
+    (unit ``light_dir`` towards the light, radiance ``light_rgb``) and an ambient light, at unit
+    ``normal`` (..., 3) and world ``position`` (..., 3) seen from ``eye``: softrast's models as
+    softrast.reference.shading.radiance computes them (pbr: pyrender 0.1.45's compute_brdf,
+    docs/pbr_notes.md)."""
+    if model not in ("normal", "lambert", "phong", "blinn_phong", "pbr"):
         raise ValueError(f"no closed form for shading model {model!r}")
-    return np.repeat(out[..., None], 3, axis=-1)
+    n = np.asarray(normal, dtype=np.float64)
+    light = (shading.DIRECTIONAL, (float(light_rgb),) * 3, (0.0, 0.0, 0.0),
+             tuple(-np.asarray(light_dir, dtype=np.float64)), False, 0.0, 1.0)
+    out = shading.radiance(model, n.reshape(-1, 3), np.asarray(position, dtype=np.float64).reshape(-1, 3),
+                           material.base_color[:3], material, [light], (ambient,) * 3, eye)
+    return out.reshape(n.shape)
 
 
 def supersampled_render(renderer: Any, scene: Any, camera_args: dict[str, Any], n: int = 16,

@@ -3,7 +3,7 @@ no softrast code: every fragment of every triangle at every pixel centre, sorted
 
 The rules it implements (the ones ``Material(alpha_mode="blend")`` promises):
 
-* coverage: tests/support/raster_reference.py's (vertices snapped to 1/256 px, exact integer edge
+* coverage: softrast.reference.raster's (vertices snapped to 1/256 px, exact integer edge
   functions, the top-left rule); pixel (row i, col j) has its centre at window (j + 0.5, i + 0.5);
 * a fragment's depth is the view depth of the unsnapped triangle at the pixel centre
   (perspective-correct, float64); its colour and alpha are the per-vertex RGBA (the material's
@@ -28,135 +28,17 @@ fragment's uv lies within ``uv_margin`` texels of a texel boundary.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
-from . import raster_reference as raster_ref
+from .encoding import linear_encode, srgb_encode, srgb_to_linear
+from .raster import SUBPIXEL_HALF, SUBPIXEL_ONE, near_segment, rasterize, signed_area2_fixed, snap
+from .triangles import RefCamera, Tri, f32, mesh_tris, texture_linear
 
-# ----------------------------------------------------------------------------- cameras
-
-
-@dataclass
-class RefCamera:
-    """A camera at the origin looking down -z (softrast's identity pose, OpenGL view axes).
-
-    Perspective: gluPerspective's projection with vertical field of view ``fov_y`` degrees and the
-    image's aspect; orthographic: half extents ``xmag``, ``ymag``. Window space: x right, y down,
-    (0, 0) the image's top-left corner.
-    """
-    width: int
-    height: int
-    fov_y: float | None = None
-    xmag: float | None = None
-    ymag: float | None = None
-
-    @property
-    def perspective(self) -> bool:
-        return self.fov_y is not None
-
-    def _scales(self) -> tuple[float, float]:
-        if self.perspective:
-            f = 1.0 / math.tan(math.radians(self.fov_y) / 2.0)
-            return f / (self.width / self.height), f
-        return 1.0 / self.xmag, 1.0 / self.ymag
-
-    def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(n, 3) world points -> ((n, 2) window xy, (n,) view depth = -z), float64."""
-        p = np.asarray(points, np.float64)
-        sx, sy = self._scales()
-        depth = -p[:, 2]
-        div = depth if self.perspective else np.ones_like(depth)
-        ndc_x, ndc_y = sx * p[:, 0] / div, sy * p[:, 1] / div
-        xy = np.stack([(ndc_x + 1.0) * self.width / 2.0, (1.0 - ndc_y) * self.height / 2.0], axis=1)
-        return xy, depth
-
-    def unproject(self, xy: np.ndarray, depth: np.ndarray) -> np.ndarray:
-        """Inverse of ``project``: window xy at view depth -> (n, 3) world points (float64)."""
-        xy = np.asarray(xy, np.float64).reshape(-1, 2)
-        depth = np.broadcast_to(np.asarray(depth, np.float64), (len(xy),))
-        sx, sy = self._scales()
-        ndc_x = xy[:, 0] * 2.0 / self.width - 1.0
-        ndc_y = 1.0 - xy[:, 1] * 2.0 / self.height
-        mul = depth if self.perspective else np.ones_like(depth)
-        return np.stack([ndc_x / sx * mul, ndc_y / sy * mul, -depth], axis=1)
-
-
-# ----------------------------------------------------------------------------- triangles
-
-
-@dataclass
-class Tri:
-    """One triangle of one draw, as the reference sees it (listed in draw order, then face order)."""
-    xy: np.ndarray            # (3, 2) window coordinates, float64
-    depth: np.ndarray         # (3,) view depths (> 0)
-    rgba: np.ndarray          # (3, 4) linear RGBA per corner
-    blend: bool               # alphaMode BLEND (else opaque)
-    cull: str = "none"        # "none" | "back" | "front"
-    uv: np.ndarray | None = None       # (3, 2)
-    texture: np.ndarray | None = None  # (th, tw, 4) linear RGBA texels, float64
-    draw: int = 0
-    face: int = 0
-    verts: tuple = (0, 1, 2)  # the corners' vertex indices within the draw
-
-
-def f32(a) -> np.ndarray:
-    """Values as the core stores them (float32), back in float64."""
-    return np.asarray(a, np.float32).astype(np.float64)
-
-
-def srgb_decode(v: np.ndarray) -> np.ndarray:
-    """The exact IEC 61966-2-1 curve, encoded [0, 1] -> linear."""
-    v = np.asarray(v, np.float64)
-    return np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4)
-
-
-def srgb_encode_u8(v: np.ndarray) -> np.ndarray:
-    """Linear -> sRGB-encoded bytes (clamped to [0, 1], rounded to nearest)."""
-    v = np.clip(np.asarray(v, np.float64), 0.0, 1.0)
-    e = np.where(v <= 0.0031308, 12.92 * v, 1.055 * v ** (1 / 2.4) - 0.055)
-    return np.floor(e * 255.0 + 0.5).astype(np.int64)
-
-
-def texture_linear(image: np.ndarray, srgb: bool) -> np.ndarray:
-    """(h, w, c) uint8 image -> (h, w, 4) linear RGBA float64 (texture.py's channel rules: 1 grey,
-    2 grey + alpha, 3 RGB, 4 RGBA; colour channels sRGB-decoded if ``srgb``; alpha never)."""
-    img = np.asarray(image)
-    if img.ndim == 2:
-        img = img[:, :, None]
-    assert img.dtype == np.uint8
-    v = img.astype(np.float64) / 255.0
-    c = v.shape[2]
-    rgb = {1: v[:, :, [0, 0, 0]], 2: v[:, :, [0, 0, 0]], 3: v[:, :, :3], 4: v[:, :, :3]}[c]
-    a = v[:, :, 1] if c == 2 else v[:, :, 3] if c == 4 else np.ones(v.shape[:2])
-    if srgb:
-        rgb = srgb_decode(rgb)
-    return np.concatenate([rgb, a[:, :, None]], axis=2)
-
-
-def mesh_tris(cam: RefCamera, positions, faces, *, rgba=None, base_color=(0.8, 0.8, 0.8, 1.0),
-              blend: bool, cull: str = "none", uvs=None, texture=None, draw: int = 0,
-              pose: np.ndarray | None = None) -> list[Tri]:
-    """The triangles of one draw: ``positions`` (object space, stored as float32 as softrast
-    stores them) under ``pose``, per-vertex ``rgba`` (replacing ``base_color``, whose alpha too) or
-    the base colour, optional ``uvs`` and a linear RGBA ``texture`` (see ``texture_linear``)."""
-    pos = f32(positions)
-    if pose is not None:
-        pose = np.asarray(pose, np.float64)
-        pos = pos @ pose[:3, :3].T + pose[:3, 3]
-    xy, depth = cam.project(pos)
-    faces = np.asarray(faces, np.int64).reshape(-1, 3)
-    if rgba is not None:
-        col = f32(rgba)
-        if col.shape[1] == 3:
-            col = np.c_[col, np.ones(len(col))]
-    else:
-        col = np.tile(f32(base_color), (len(pos), 1))
-    uv = None if uvs is None else f32(uvs)
-    return [Tri(xy[f], depth[f], col[f], blend, cull, None if uv is None else uv[f], texture,
-                draw, k, tuple(int(v) for v in f)) for k, f in enumerate(faces)]
-
+__all__ = ["RefCamera", "Tri", "f32", "texture_linear", "mesh_tris",
+           "Fragments", "fragments", "Composite", "composite", "render", "threshold_surface"]
 
 # ----------------------------------------------------------------------------- fragments
 
@@ -171,7 +53,7 @@ def _interior_edges(tris: list[Tri]) -> set:
     by_edge: dict = {}
     constant: dict = {}
     for t in tris:
-        area = raster_ref.signed_area2_fixed(raster_ref.snap(t.xy), np.array([[0, 1, 2]]))[0]
+        area = signed_area2_fixed(snap(t.xy), np.array([[0, 1, 2]]))[0]
         c = constant.setdefault(t.draw, t.rgba[0].copy())
         if t.texture is not None or not (t.rgba == c).all():
             constant[t.draw] = None
@@ -180,13 +62,6 @@ def _interior_edges(tris: list[Tri]) -> set:
             by_edge.setdefault(key, []).append(np.sign(area))
     return {key for key, signs in by_edge.items()
             if len(signs) == 2 and signs[0] == signs[1] != 0 and constant.get(key[0]) is not None}
-
-
-def _near_segment(a: np.ndarray, b: np.ndarray, px: np.ndarray, py: np.ndarray, eps: float) -> np.ndarray:
-    d = b - a
-    ll = float(d @ d)
-    t = np.zeros_like(px) if ll == 0.0 else np.clip(((px - a[0]) * d[0] + (py - a[1]) * d[1]) / ll, 0, 1)
-    return np.hypot(px - (a[0] + t * d[0]), py - (a[1] + t * d[1])) <= eps
 
 
 def _screen_weights(xy: np.ndarray, px: np.ndarray, py: np.ndarray) -> np.ndarray:
@@ -236,7 +111,13 @@ class Fragments:
     tris: list = field(default_factory=list)
 
     def nearest_depth(self) -> np.ndarray:
-        """(h, w) the nearest fragment's depth, inf where none."""
+        """The nearest fragment's depth per pixel.
+
+        Returns
+        -------
+        numpy.ndarray
+            (h, w) float64, inf where there is none.
+        """
         out = np.full(self.width * self.height, np.inf)
         np.minimum.at(out, self.pixel, self.depth)
         return out.reshape(self.height, self.width)
@@ -244,6 +125,25 @@ class Fragments:
 
 def fragments(tris: list[Tri], cam: RefCamera, weights: str = "snapped", margin: float = 0.01,
               uv_margin: float = 1e-3) -> Fragments:
+    """Every fragment of every triangle (see the module docstring).
+
+    Parameters
+    ----------
+    tris : list of Tri
+        In draw order, then face order (``mesh_tris``).
+    cam : RefCamera
+        The camera.
+    weights : {"snapped", "exact", "screen"}
+        The colour's interpolation weights.
+    margin : float
+        Pixel centres within this many px of an edge are flagged (``near_edge``).
+    uv_margin : float
+        Textured fragments within this many texels of a texel boundary are flagged.
+
+    Returns
+    -------
+    Fragments
+    """
     w, h = cam.width, cam.height
     near_edge = np.zeros((h, w), bool)
     near_texel = np.zeros((h, w), bool)
@@ -260,18 +160,18 @@ def fragments(tris: list[Tri], cam: RefCamera, weights: str = "snapped", margin:
             bx, by = np.meshgrid(np.arange(j0, j1 + 1) + 0.5, np.arange(i0, i1 + 1) + 0.5)
             for e in range(3):
                 if (t.draw, frozenset((t.verts[e], t.verts[(e + 1) % 3]))) not in interior:
-                    near_edge[i0:i1 + 1, j0:j1 + 1] |= _near_segment(t.xy[e], t.xy[(e + 1) % 3],
+                    near_edge[i0:i1 + 1, j0:j1 + 1] |= near_segment(t.xy[e], t.xy[(e + 1) % 3],
                                                                      bx, by, margin)
-        fixed = raster_ref.snap(t.xy)
-        cov, _ = raster_ref.rasterize(fixed, np.array([[0, 1, 2]]), w, h, cull=t.cull, fixed=True)
+        fixed = snap(t.xy)
+        cov, _ = rasterize(fixed, np.array([[0, 1, 2]]), w, h, cull=t.cull, fixed=True)
         rows, cols = np.nonzero(cov)
         if len(rows) == 0:
             continue
         px, py = cols + 0.5, rows + 0.5
         b_exact, d = _perspective(_screen_weights(t.xy, px, py), t.depth, cam.perspective)
         # the fixed-point sample positions, for the snapped weights
-        spx = (cols * raster_ref.SUBPIXEL_ONE + raster_ref.SUBPIXEL_HALF).astype(np.float64)
-        spy = (rows * raster_ref.SUBPIXEL_ONE + raster_ref.SUBPIXEL_HALF).astype(np.float64)
+        spx = (cols * SUBPIXEL_ONE + SUBPIXEL_HALF).astype(np.float64)
+        spy = (rows * SUBPIXEL_ONE + SUBPIXEL_HALF).astype(np.float64)
         if weights == "snapped":
             b, _ = _perspective(_screen_weights(fixed.astype(np.float64), spx, spy), t.depth,
                                 cam.perspective)
@@ -300,6 +200,7 @@ def fragments(tris: list[Tri], cam: RefCamera, weights: str = "snapped", margin:
 
 @dataclass
 class Composite:
+    """The composited image (``composite``)."""
     radiance: np.ndarray        # (h, w, 3) premultiplied linear (0 behind nothing)
     alpha: np.ndarray           # (h, w)
     transmittance: np.ndarray   # (h, w) T_n
@@ -307,18 +208,41 @@ class Composite:
     layers: np.ndarray          # (h, w) blended fragments composited
     ambiguous: np.ndarray       # (h, w) bool
 
-    def color(self, background=(0.0, 0.0, 0.0), srgb: bool = True) -> np.ndarray:
-        """The ``color`` output: the composite over the background (its byte's linear value where
-        no opaque surface is seen), clamped and encoded to bytes."""
+    def color(self, background: Any = (0.0, 0.0, 0.0), srgb: bool = True) -> np.ndarray:
+        """The ``color`` output: the composite over the background.
+
+        Parameters
+        ----------
+        background : array_like, shape (3,)
+            The background colour (its byte's linear value shows where no opaque surface is).
+        srgb : bool
+            Encode with the sRGB curve (else linearly).
+
+        Returns
+        -------
+        numpy.ndarray
+            (h, w, 3) int64 bytes.
+        """
         bg_byte = np.floor(np.asarray(background, np.float64) * 255.0 + 0.5) / 255.0
-        bg = srgb_decode(bg_byte) if srgb else bg_byte
+        bg = srgb_to_linear(bg_byte) if srgb else bg_byte
         c = self.radiance + np.where(self.opaque[..., None] < 0, self.transmittance[..., None] * bg, 0.0)
-        if srgb:
-            return srgb_encode_u8(c)
-        return np.floor(np.clip(c, 0.0, 1.0) * 255.0 + 0.5).astype(np.int64)
+        return (srgb_encode(c) if srgb else linear_encode(c)).astype(np.int64)
 
 
 def composite(frags: Fragments, depth_tol: float = 1e-5) -> Composite:
+    """Sort each pixel's fragments and composite them (see the module docstring).
+
+    Parameters
+    ----------
+    frags : Fragments
+        From ``fragments``.
+    depth_tol : float
+        Relative depth difference below which two fragments' order is ambiguous.
+
+    Returns
+    -------
+    Composite
+    """
     h, w = frags.height, frags.width
     npix = h * w
     # sorted per pixel: nearest first, ties in ``tris`` order (draw order, then face order)
@@ -369,14 +293,41 @@ def composite(frags: Fragments, depth_tol: float = 1e-5) -> Composite:
 
 def render(tris: list[Tri], cam: RefCamera, weights: str = "snapped", margin: float = 0.01,
            depth_tol: float = 1e-5) -> Composite:
+    """``composite(fragments(tris, cam, weights, margin), depth_tol)``.
+
+    Parameters
+    ----------
+    tris, cam, weights, margin
+        As for ``fragments``.
+    depth_tol : float
+        As for ``composite``.
+
+    Returns
+    -------
+    Composite
+    """
     return composite(fragments(tris, cam, weights, margin), depth_tol)
 
 
 def threshold_surface(frags: Fragments, threshold: float) -> tuple[np.ndarray, np.ndarray]:
     """What ``render(alpha_threshold=threshold)`` reports as each pixel's surface: the nearest
     fragment (depth order, ties in ``tris`` order) that is opaque or blended with an alpha of at
-    least ``threshold``. Returns (h, w) arrays: its index into ``tris`` (-1: none) and its depth
-    (inf: none)."""
+    least ``threshold``.
+
+    Parameters
+    ----------
+    frags : Fragments
+        From ``fragments``.
+    threshold : float
+        The alpha threshold.
+
+    Returns
+    -------
+    tri : numpy.ndarray, shape (h, w)
+        The surface's index into ``tris``, -1 where none.
+    depth : numpy.ndarray, shape (h, w)
+        Its depth, inf where none.
+    """
     h, w = frags.height, frags.width
     qualifies = ~frags.blend[frags.tri] | (frags.rgba[:, 3] >= threshold)
     order = np.lexsort((frags.tri, frags.depth, frags.pixel))

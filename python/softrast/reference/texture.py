@@ -2,7 +2,7 @@
 (decoding, coordinates, wrapping, box-filtered mip chain, nearest / bilinear / trilinear /
 anisotropic), not from the C++ core. Vectorised over n points.
 
-    decode(image, srgb) -> (h, w, 4) float64 linear RGBA
+    decode(image, srgb) -> (h, w, 4) float64 linear RGBA (srgb_to_linear from .encoding)
     mip_chain(level0) -> [level 0, level 1, ..., 1x1], float64 (h_l, w_l, 4)
     sample(image, uv, duv=None, filter="bilinear", wrap=("repeat", "repeat"), srgb=False,
            max_anisotropy=16, uv_origin="bottom_left") -> (n, 4) float64
@@ -20,7 +20,15 @@ filter; the tests keep away from those.)
 """
 from __future__ import annotations
 
+from typing import Any, Sequence
+
 import numpy as np
+
+from .encoding import srgb_to_linear
+
+__all__ = ["FILTERS", "WRAPS", "srgb_to_linear", "decode", "box_weights", "mip_chain", "level_sizes",
+           "reduce_coord", "wrap_index", "texel_xy", "nearest", "bilinear", "axes", "clamp_lambda",
+           "trilinear", "aniso_count", "anisotropic", "sample_chain", "sample"]
 
 F32 = np.float32
 FILTERS = ("nearest", "bilinear", "trilinear", "anisotropic")
@@ -29,14 +37,22 @@ WRAPS = ("repeat", "clamp", "mirror")
 
 # ------------------------------------------------------------------------------------- decoding
 
-def srgb_to_linear(c):
-    """IEC 61966-2-1: c <= 0.04045 ? c / 12.92 : ((c + 0.055) / 1.055) ** 2.4, in float64."""
-    c = np.asarray(c, dtype=np.float64)
-    return np.where(c <= 0.04045, c / 12.92, ((np.maximum(c, 0.04045) + 0.055) / 1.055) ** 2.4)
+def decode(image: Any, srgb: bool) -> np.ndarray:
+    """A texture image as linear RGBA (texture.py's channel rules).
 
+    Parameters
+    ----------
+    image : array_like, shape (h, w) or (h, w, c)
+        uint8 (/ 255), uint16 (/ 65535) or float (as float32) values; c = 1 grey, 2 grey + alpha,
+        3 RGB, 4 RGBA.
+    srgb : bool
+        Decode the colour channels (never the alpha) with ``srgb_to_linear``.
 
-def decode(image, srgb: bool) -> np.ndarray:
-    """(h, w) or (h, w, c) uint8 / uint16 / float image -> (h, w, 4) float64 linear RGBA."""
+    Returns
+    -------
+    numpy.ndarray
+        (h, w, 4) float64 linear RGBA (alpha 1 without an alpha channel).
+    """
     a = np.asarray(image)
     if a.ndim == 2:
         a = a[:, :, None]
@@ -60,9 +76,24 @@ def decode(image, srgb: bool) -> np.ndarray:
 # ------------------------------------------------------------------------------------ mip chain
 
 def box_weights(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Exact area weights n -> m = max(1, n // 2): (index, weight), each (m, 4). New texel i covers
-    source [i n/m, (i+1) n/m); the weight of source texel j is its overlap length / (n / m).
-    Computed in integers scaled by m (texel j = [j m, (j+1) m), new texel i = [i n, (i+1) n))."""
+    """Exact area weights of one mip step along one axis, n texels -> m = max(1, n // 2).
+
+    New texel i covers source [i n/m, (i+1) n/m); the weight of source texel j is its overlap
+    length / (n / m). Computed in integers scaled by m (texel j = [j m, (j+1) m), new texel
+    i = [i n, (i+1) n)).
+
+    Parameters
+    ----------
+    n : int
+        The source level's size along the axis.
+
+    Returns
+    -------
+    index : numpy.ndarray, shape (m, 4)
+        The source texels of each new texel (repeated where it spans fewer than 4).
+    weight : numpy.ndarray, shape (m, 4)
+        Their weights (0 for the repeats), summing to 1 per new texel.
+    """
     m = max(1, n // 2)
     i = np.arange(m)[:, None]
     j = (i * n) // m + np.arange(4)[None, :]  # the new texel spans < 4 source texels... at most 4
@@ -80,7 +111,18 @@ def _down(level: np.ndarray, axis: int) -> np.ndarray:
 
 
 def mip_chain(level0: np.ndarray) -> list[np.ndarray]:
-    """Level 0 (h, w, 4) linear RGBA -> all levels down to 1x1 (columns then rows, float64)."""
+    """The box-filtered mip chain of a level 0.
+
+    Parameters
+    ----------
+    level0 : numpy.ndarray, shape (h, w, 4)
+        Linear RGBA.
+
+    Returns
+    -------
+    list of numpy.ndarray
+        Every level down to 1x1, float64 (each step filters columns, then rows).
+    """
     chain = [np.asarray(level0, dtype=np.float64)]
     while chain[-1].shape[:2] != (1, 1):
         chain.append(_down(_down(chain[-1], axis=1), axis=0))
@@ -88,6 +130,18 @@ def mip_chain(level0: np.ndarray) -> list[np.ndarray]:
 
 
 def level_sizes(h: int, w: int) -> list[tuple[int, int]]:
+    """The (height, width) of every mip level of an h x w texture.
+
+    Parameters
+    ----------
+    h, w : int
+        Level 0's size.
+
+    Returns
+    -------
+    list of tuple of int
+        Halved (floor, at least 1) step by step down to (1, 1).
+    """
     sizes = [(h, w)]
     while sizes[-1] != (1, 1):
         sizes.append((max(1, sizes[-1][0] // 2), max(1, sizes[-1][1] // 2)))
@@ -101,7 +155,20 @@ def _pair(wrap) -> tuple[str, str]:
 
 
 def reduce_coord(u: np.ndarray, mode: str) -> np.ndarray:
-    """The float32 reduction of u (or v) before it is scaled to texels."""
+    """The float32 reduction of u (or v) before it is scaled to texels.
+
+    Parameters
+    ----------
+    u : numpy.ndarray
+        Coordinates (converted to float32).
+    mode : {"repeat", "clamp", "mirror"}
+        The wrap mode: u - floor(u), clamp to [-1, 2], or u - 2 floor(u / 2).
+
+    Returns
+    -------
+    numpy.ndarray
+        float32, the same shape.
+    """
     u = u.astype(F32)
     if mode == "repeat":
         return u - np.floor(u)
@@ -111,6 +178,22 @@ def reduce_coord(u: np.ndarray, mode: str) -> np.ndarray:
 
 
 def wrap_index(i: np.ndarray, n: int, mode: str) -> np.ndarray:
+    """Texel indices wrapped into [0, n).
+
+    Parameters
+    ----------
+    i : numpy.ndarray
+        Integer texel indices (any).
+    n : int
+        The level's size along the axis.
+    mode : {"repeat", "clamp", "mirror"}
+        The wrap mode.
+
+    Returns
+    -------
+    numpy.ndarray
+        Indices in [0, n), the same shape.
+    """
     if mode == "repeat":
         return np.mod(i, n)
     if mode == "clamp":
@@ -119,9 +202,28 @@ def wrap_index(i: np.ndarray, n: int, mode: str) -> np.ndarray:
     return np.where(m < n, m, 2 * n - 1 - m)
 
 
-def texel_xy(u, v, h: int, w: int, wrap, uv_origin: str):
-    """float32 (x, y) in texel units of a level of size (h, w), and the mask of NaN points
-    (zeroed in the returned coordinates; their colour is (0, 0, 0, 0))."""
+def texel_xy(u: np.ndarray, v: np.ndarray, h: int, w: int, wrap: Any,
+             uv_origin: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Texture coordinates in texel units of one level, in float32 as the spec writes them.
+
+    Parameters
+    ----------
+    u, v : numpy.ndarray, shape (n,)
+        Texture coordinates.
+    h, w : int
+        The level's size.
+    wrap : str or pair of str
+        The wrap mode of u and v.
+    uv_origin : {"bottom_left", "top_left"}
+        Where v = 0 is: y = (1 - v) h or y = v h.
+
+    Returns
+    -------
+    x, y : numpy.ndarray, shape (n,)
+        float32 texel coordinates (0 at the NaN points).
+    bad : numpy.ndarray, shape (n,)
+        bool, where u or v is NaN (those points' colour is (0, 0, 0, 0)).
+    """
     wu, wv = _pair(wrap)
     with np.errstate(invalid="ignore"):
         ru, rv = reduce_coord(u, wu), reduce_coord(v, wv)
@@ -132,7 +234,22 @@ def texel_xy(u, v, h: int, w: int, wrap, uv_origin: str):
     return x, y, bad
 
 
-def nearest(level, u, v, wrap, uv_origin="bottom_left") -> np.ndarray:
+def nearest(level: np.ndarray, u: np.ndarray, v: np.ndarray, wrap: Any,
+            uv_origin: str = "bottom_left") -> np.ndarray:
+    """The nearest filter: the texel containing each point.
+
+    Parameters
+    ----------
+    level : numpy.ndarray, shape (h, w, 4)
+        One linear RGBA level.
+    u, v, wrap, uv_origin
+        As for ``texel_xy``.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n, 4) float64 RGBA.
+    """
     h, w = level.shape[:2]
     wu, wv = _pair(wrap)
     x, y, bad = texel_xy(u, v, h, w, wrap, uv_origin)
@@ -141,7 +258,21 @@ def nearest(level, u, v, wrap, uv_origin="bottom_left") -> np.ndarray:
     return np.where(bad[:, None], 0.0, level[r, j])
 
 
-def bilinear(level, u, v, wrap, uv_origin="bottom_left") -> np.ndarray:
+def bilinear(level: np.ndarray, u: np.ndarray, v: np.ndarray, wrap: Any,
+             uv_origin: str = "bottom_left") -> np.ndarray:
+    """The bilinear filter.
+
+    Parameters
+    ----------
+    level, u, v, wrap, uv_origin
+        As for ``nearest``.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n, 4) float64 RGBA: the four texels around (x - 1/2, y - 1/2), blended in float64 by
+        the float32 fractions.
+    """
     h, w = level.shape[:2]
     wu, wv = _pair(wrap)
     x, y, bad = texel_xy(u, v, h, w, wrap, uv_origin)
@@ -168,19 +299,62 @@ def _bilinear_at(chain, lvl, u, v, wrap, uv_origin) -> np.ndarray:
 # ------------------------------------------------------------------------------ level of detail
 
 def axes(duv: np.ndarray, h0: int, w0: int) -> tuple[np.ndarray, np.ndarray]:
-    """|ax|, |ay|: the lengths of the screen-x and screen-y footprints in level-0 texels."""
+    """The lengths of the screen-x and screen-y footprints in level-0 texels.
+
+    Parameters
+    ----------
+    duv : numpy.ndarray, shape (n, 4)
+        (du/dx, dv/dx, du/dy, dv/dy) per point.
+    h0, w0 : int
+        Level 0's size.
+
+    Returns
+    -------
+    ax, ay : numpy.ndarray, shape (n,)
+        |(du/dx w0, dv/dx h0)| and |(du/dy w0, dv/dy h0)|, float64.
+    """
     d = np.asarray(duv, dtype=np.float64)
     return np.hypot(d[:, 0] * w0, d[:, 1] * h0), np.hypot(d[:, 2] * w0, d[:, 3] * h0)
 
 
 def clamp_lambda(rho: np.ndarray, n_levels: int) -> np.ndarray:
-    """lambda = log2(rho) clamped to [0, L - 1]; rho = 0 or NaN -> 0, inf -> L - 1."""
+    """The level of detail of a footprint.
+
+    Parameters
+    ----------
+    rho : numpy.ndarray
+        Footprint lengths in level-0 texels.
+    n_levels : int
+        L, the chain's number of levels.
+
+    Returns
+    -------
+    numpy.ndarray
+        log2(rho) clamped to [0, L - 1] (rho = 0 or NaN -> 0, inf -> L - 1), float64.
+    """
     with np.errstate(divide="ignore", invalid="ignore"):
         lam = np.log2(rho)
     return np.clip(np.where(np.isnan(lam), 0.0, lam), 0.0, n_levels - 1)
 
 
-def trilinear(chain, u, v, lam, wrap, uv_origin="bottom_left") -> np.ndarray:
+def trilinear(chain: Sequence[np.ndarray], u: np.ndarray, v: np.ndarray, lam: np.ndarray,
+              wrap: Any, uv_origin: str = "bottom_left") -> np.ndarray:
+    """Bilinear on levels floor(lambda) and floor(lambda) + 1, blended by the fraction.
+
+    Parameters
+    ----------
+    chain : sequence of numpy.ndarray
+        The levels (``mip_chain``).
+    u, v, wrap, uv_origin
+        As for ``texel_xy``.
+    lam : numpy.ndarray, shape (n,)
+        The level of detail per point (``clamp_lambda``).
+
+    Returns
+    -------
+    numpy.ndarray
+        (n, 4) float64 RGBA.
+    """
     l0 = np.floor(lam).astype(np.int64)
     t = (lam - l0)[:, None]
     l1 = np.minimum(l0 + 1, len(chain) - 1)
@@ -193,9 +367,22 @@ ANISO_SLACK = 1 / 64  # ceil(Pmax / Pmin - 1/64): rounding-level anisotropy stay
 
 
 def aniso_count(la: np.ndarray, lb: np.ndarray, max_anisotropy: int) -> np.ndarray:
-    """N = min(ceil(Pmax / Pmin - 1/64), max_anisotropy); Pmin = 0 -> max_anisotropy; N >= 1.
-    (float64 here; the core's float32 ratio can only differ right at the steps
-    Pmax / Pmin = k + 1/64, which the tests avoid.)"""
+    """The anisotropic filter's number of probes.
+
+    Parameters
+    ----------
+    la, lb : numpy.ndarray, shape (n,)
+        The footprint's axis lengths (``axes``).
+    max_anisotropy : int
+        The most probes.
+
+    Returns
+    -------
+    numpy.ndarray
+        int64 N = min(ceil(Pmax / Pmin - 1/64), max_anisotropy), Pmin = 0 -> max_anisotropy,
+        N >= 1 (float64 here; the core's float32 ratio can only differ right at the steps
+        Pmax / Pmin = k + 1/64, which the tests avoid).
+    """
     pmax, pmin = np.maximum(la, lb), np.minimum(la, lb)
     with np.errstate(divide="ignore", invalid="ignore"):
         n = np.minimum(np.ceil(pmax / pmin - ANISO_SLACK), max_anisotropy)
@@ -203,7 +390,25 @@ def aniso_count(la: np.ndarray, lb: np.ndarray, max_anisotropy: int) -> np.ndarr
     return np.maximum(np.where(np.isnan(n), 1, n), 1).astype(np.int64)
 
 
-def anisotropic(chain, u, v, duv, wrap, max_anisotropy=16, uv_origin="bottom_left") -> np.ndarray:
+def anisotropic(chain: Sequence[np.ndarray], u: np.ndarray, v: np.ndarray, duv: np.ndarray,
+                wrap: Any, max_anisotropy: int = 16, uv_origin: str = "bottom_left") -> np.ndarray:
+    """The anisotropic filter: the mean of N trilinear probes along the footprint's major axis,
+    at uv + d ((i + 0.5) / N - 0.5), each at lambda = log2(Pmax / N).
+
+    Parameters
+    ----------
+    chain, u, v, wrap, uv_origin
+        As for ``trilinear``.
+    duv : numpy.ndarray, shape (n, 4)
+        (du/dx, dv/dx, du/dy, dv/dy) per point.
+    max_anisotropy : int
+        The most probes.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n, 4) float64 RGBA.
+    """
     h0, w0 = chain[0].shape[:2]
     d32 = np.asarray(duv, dtype=F32)
     la, lb = axes(d32, h0, w0)
@@ -227,9 +432,33 @@ def anisotropic(chain, u, v, duv, wrap, max_anisotropy=16, uv_origin="bottom_lef
 
 # ---------------------------------------------------------------------------------- entry points
 
-def sample_chain(chain, uv, duv=None, filter="bilinear", wrap=("repeat", "repeat"),
-                 max_anisotropy=16, uv_origin="bottom_left") -> np.ndarray:
-    """Sample a list of linear RGBA levels (level 0 first, as mip_chain returns) at (n, 2) uv."""
+def sample_chain(chain: Sequence[np.ndarray], uv: Any, duv: Any = None, filter: str = "bilinear",
+                 wrap: Any = ("repeat", "repeat"), max_anisotropy: int = 16,
+                 uv_origin: str = "bottom_left") -> np.ndarray:
+    """Sample a list of linear RGBA levels.
+
+    Parameters
+    ----------
+    chain : sequence of numpy.ndarray
+        (h_l, w_l, 4) levels, level 0 first (``mip_chain``, or e.g. the core's own tex.mip(l)).
+    uv : array_like, shape (n, 2)
+        Texture coordinates (converted to float32).
+    duv : array_like, shape (n, 4), optional
+        (du/dx, dv/dx, du/dy, dv/dy); zero when None.
+    filter : {"nearest", "bilinear", "trilinear", "anisotropic"}
+        The filter.
+    wrap : str or pair of str
+        The wrap mode of u and v ("repeat", "clamp" or "mirror").
+    max_anisotropy : int
+        The anisotropic filter's most probes.
+    uv_origin : {"bottom_left", "top_left"}
+        Where v = 0 is.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n, 4) float64 linear RGBA.
+    """
     uv = np.asarray(uv, dtype=F32).reshape(-1, 2)
     u, v = uv[:, 0], uv[:, 1]
     duv = np.zeros((len(uv), 4), F32) if duv is None else np.asarray(duv, dtype=F32).reshape(-1, 4)
@@ -246,8 +475,22 @@ def sample_chain(chain, uv, duv=None, filter="bilinear", wrap=("repeat", "repeat
     raise ValueError(f"unknown filter {filter!r}")
 
 
-def sample(image, uv, duv=None, filter="bilinear", wrap=("repeat", "repeat"), srgb=False,
-           max_anisotropy=16, uv_origin="bottom_left") -> np.ndarray:
-    """The reference of softrast.Texture(image, srgb, wrap=..., ...).sample(uv, duv, filter)."""
+def sample(image: Any, uv: Any, duv: Any = None, filter: str = "bilinear",
+           wrap: Any = ("repeat", "repeat"), srgb: bool = False, max_anisotropy: int = 16,
+           uv_origin: str = "bottom_left") -> np.ndarray:
+    """The reference of softrast.Texture(image, srgb, wrap=..., ...).sample(uv, duv, filter).
+
+    Parameters
+    ----------
+    image, srgb
+        The texture image, decoded by ``decode(image, srgb)``.
+    uv, duv, filter, wrap, max_anisotropy, uv_origin
+        As for ``sample_chain``.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n, 4) float64 linear RGBA.
+    """
     return sample_chain(mip_chain(decode(image, srgb)), uv, duv, filter, wrap, max_anisotropy,
                         uv_origin)

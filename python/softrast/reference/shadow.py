@@ -23,11 +23,15 @@ margin is below a small threshold (1e-5).
 """
 from __future__ import annotations
 
-from typing import Iterable, NamedTuple
+from typing import Any, Iterable, NamedTuple
 
 import numpy as np
 
-from .shading_reference import pose_at
+from .shading import pose_at
+
+__all__ = ["EPS_SCALE", "EXCLUDE_BAND", "RefLight", "light_pose", "light_from_pose", "scene_lights",
+           "mesh_triangles", "scene_triangles", "shadow_rays", "shadowed", "face_centroids",
+           "lights_blocked"]
 
 EPS_SCALE = 2.0 ** -19          # the rule's relative plane distance
 EXCLUDE_BAND = 4.0              # plane distances in [eps / 4, 4 eps] are ambiguous
@@ -43,32 +47,80 @@ class RefLight(NamedTuple):
     direction: np.ndarray
 
 
-def light_pose(position=(0.0, 0.0, 0.0), travel=(0.0, -1.0, 0.0)) -> np.ndarray:
-    """A rigid light-to-world pose at ``position`` whose -z axis (the way the light travels) is
-    ``travel`` (shading_reference.pose_at)."""
+def light_pose(position: Any = (0.0, 0.0, 0.0), travel: Any = (0.0, -1.0, 0.0)) -> np.ndarray:
+    """``softrast.reference.shading.pose_at`` with a light travelling down by default.
+
+    Parameters
+    ----------
+    position : array_like, shape (3,)
+        The light's position.
+    travel : array_like, shape (3,)
+        The way the light travels (the pose's -z axis).
+
+    Returns
+    -------
+    numpy.ndarray
+        (4, 4) float64 light-to-world pose.
+    """
     return pose_at(position, travel)
 
 
 def light_from_pose(kind: str, pose: np.ndarray) -> RefLight:
-    """The RefLight of a light of ``kind`` placed at ``pose`` (light-to-world)."""
+    """The RefLight of a light placed at a pose.
+
+    Parameters
+    ----------
+    kind : {"directional", "point", "spot"}
+        The light's kind.
+    pose : numpy.ndarray, shape (4, 4)
+        Light to world.
+
+    Returns
+    -------
+    RefLight
+    """
     pose = np.asarray(pose, np.float64)
     d = -pose[:3, 2]
     return RefLight(kind, pose[:3, 3].copy(), d / np.linalg.norm(d))
 
 
-def scene_lights(scene) -> list[RefLight]:
-    """The world-space lights of an ``sr.Scene`` (camera-space lights are not supported here)."""
+def scene_lights(scene: Any) -> list[RefLight]:
+    """The world-space lights of a scene.
+
+    Parameters
+    ----------
+    scene : softrast.Scene
+        Its ``lights`` (camera-space lights are not supported here: ValueError).
+
+    Returns
+    -------
+    list of RefLight
+    """
     out = []
     for li in scene.lights:
         if li.camera_space:
-            raise ValueError("shadow_reference: camera-space lights are not supported")
+            raise ValueError("softrast.reference.shadow: camera-space lights are not supported")
         out.append(light_from_pose(li.light._kind, li.pose))
     return out
 
 
-def mesh_triangles(positions, faces, pose=None) -> np.ndarray:
-    """(F, 3, 3) float64 world triangles of a mesh: its (float32-stored) positions in float64,
-    under ``pose`` (model-to-world)."""
+def mesh_triangles(positions: Any, faces: Any, pose: Any = None) -> np.ndarray:
+    """The world triangles of a mesh.
+
+    Parameters
+    ----------
+    positions : array_like, shape (n, 3)
+        Its (float32-stored) positions, taken in float64.
+    faces : array_like, shape (F, 3)
+        Vertex indices.
+    pose : array_like, shape (4, 4), optional
+        Model to world.
+
+    Returns
+    -------
+    numpy.ndarray
+        (F, 3, 3) float64.
+    """
     pos = np.asarray(positions, np.float64)
     if pose is not None:
         pose = np.asarray(pose, np.float64)
@@ -76,11 +128,26 @@ def mesh_triangles(positions, faces, pose=None) -> np.ndarray:
     return pos[np.asarray(faces, np.int64)]
 
 
-def scene_triangles(scene, include_blend: bool = False, return_owner: bool = False):
-    """The world triangles that cast shadows in an ``sr.Scene``: every mesh instance's, in the
-    order added, except those whose material has ``alpha_mode="blend"`` (unless
-    ``include_blend``). With ``return_owner`` also an (N, 2) int array of (index of the instance
-    in ``scene.instances``, face index)."""
+def scene_triangles(scene: Any, include_blend: bool = False, return_owner: bool = False) -> Any:
+    """The world triangles that cast shadows in a scene.
+
+    Parameters
+    ----------
+    scene : softrast.Scene
+        Every mesh instance's triangles, in the order added, except those whose material has
+        ``alpha_mode="blend"``.
+    include_blend : bool
+        Keep the blended instances too.
+    return_owner : bool
+        Also return who owns each triangle.
+
+    Returns
+    -------
+    triangles : numpy.ndarray, shape (N, 3, 3)
+        float64 world triangles.
+    owner : numpy.ndarray, shape (N, 2)
+        With ``return_owner``: (index of the instance in ``scene.instances``, face index).
+    """
     tris, owner = [], []
     for k, inst in enumerate(scene.instances):
         mat = inst.material
@@ -107,13 +174,26 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def shadow_rays(triangles: np.ndarray, points: np.ndarray, light: RefLight,
                 unlimited: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """(blocked (M,) bool, margin (M,) float64) for each point under ``light``.
+    """The rule's decision and its margin for each point under ``light``.
 
-    triangles : (N, 3, 3) world triangles (float64; the casters).
-    points : (M, 3) world points (the shaded points).
-    light : a RefLight.
-    unlimited : for point / spot lights, accept blockers at any t > 0 (beyond the light too);
-        not the rule: tests use it to show that a blocker beyond the light would shadow.
+    Parameters
+    ----------
+    triangles : numpy.ndarray, shape (N, 3, 3)
+        World triangles (float64; the casters).
+    points : numpy.ndarray, shape (M, 3)
+        World points (the shaded points).
+    light : RefLight
+        The light.
+    unlimited : bool
+        For point / spot lights, accept blockers at any t > 0 (beyond the light too); not the
+        rule: tests use it to show that a blocker beyond the light would shadow.
+
+    Returns
+    -------
+    blocked : numpy.ndarray, shape (M,)
+        bool.
+    margin : numpy.ndarray, shape (M,)
+        float64, how far the decision is from flipping (the module docstring).
     """
     tris = np.asarray(triangles, np.float64).reshape(-1, 3, 3)
     pts = np.asarray(points, np.float64).reshape(-1, 3)
@@ -177,16 +257,51 @@ def shadow_rays(triangles: np.ndarray, points: np.ndarray, light: RefLight,
 
 
 def shadowed(triangles: np.ndarray, points: np.ndarray, light: RefLight) -> np.ndarray:
-    """(M,) bool: the rule's decision only."""
+    """The rule's decision only.
+
+    Parameters
+    ----------
+    triangles, points, light
+        As for ``shadow_rays``.
+
+    Returns
+    -------
+    numpy.ndarray
+        (M,) bool, ``shadow_rays(...)[0]``.
+    """
     return shadow_rays(triangles, points, light)[0]
 
 
 def face_centroids(triangles: np.ndarray) -> np.ndarray:
-    """(N, 3) centroids of (N, 3, 3) triangles, in float64."""
+    """The centroids of triangles.
+
+    Parameters
+    ----------
+    triangles : array_like, shape (N, 3, 3)
+        The triangles.
+
+    Returns
+    -------
+    numpy.ndarray
+        (N, 3) float64.
+    """
     return np.asarray(triangles, np.float64).mean(axis=1)
 
 
 def lights_blocked(triangles: np.ndarray, points: np.ndarray,
                    lights: Iterable[RefLight]) -> list[tuple[np.ndarray, np.ndarray]]:
-    """shadow_rays for each light in turn."""
+    """``shadow_rays`` for each light in turn.
+
+    Parameters
+    ----------
+    triangles, points
+        As for ``shadow_rays``.
+    lights : iterable of RefLight
+        The lights.
+
+    Returns
+    -------
+    list of tuple
+        (blocked, margin) per light.
+    """
     return [shadow_rays(triangles, points, li) for li in lights]

@@ -7,8 +7,10 @@ core, so the renderer can be tested against it. Everything is vectorised over N 
         -> (N, 3) float64 linear radiance, unclamped
     srgb_encode(linear) -> uint8     IEC 61966-2-1 curve on clamp(x, 0, 1), floor(v * 255 + 0.5)
     linear_encode(linear) -> uint8   floor(clamp(x, 0, 1) * 255 + 0.5)
+    pyrender_encode(linear) -> uint8 pyrender's pow(c, 1/2.2)   (the three from .encoding)
     headlight(view_matrix, ambient) -> (lights, ambient_light) of a scene without lights
     light_records(scene, view_matrix) -> the core records of a scene's lights (camera_space too)
+    unproject(depth, view, proj) -> world positions of pixel centres from a depth output
 
 A light record here is a tuple of what ``Light._record_fields(pose_world)`` holds by name: (kind 0
 directional / 1 point / 2 spot, radiance rgb = colour * intensity, position, direction of travel
@@ -17,9 +19,17 @@ directional / 1 point / 2 spot, radiance rgb = colour * intensity, position, dir
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 from typing import Any, Sequence
 
 import numpy as np
+
+from .encoding import linear_encode, pyrender_encode, srgb_curve, srgb_encode
+
+__all__ = ["DIRECTIONAL", "POINT", "SPOT", "MODELS", "pose_at", "light_dir_and_radiance",
+           "view_vectors", "pbr_brdf", "radiance", "srgb_curve", "srgb_encode", "linear_encode",
+           "pyrender_encode", "camera_to_world", "headlight", "as_tuple", "light_records",
+           "scene_lighting", "unproject"]
 
 DIRECTIONAL, POINT, SPOT = 0, 1, 2
 MODELS = ("unlit", "lambert", "phong", "blinn_phong", "pbr", "normal")
@@ -31,9 +41,25 @@ SPEC_EPS = 0.001      # the specular denominator is 4 * nl * nv + 0.001
 # A mesh without a material rendered with "pbr" uses softrast.Material()'s defaults.
 DEFAULT_METALLIC, DEFAULT_ROUGHNESS = 0.0, 0.5
 
+Lighting = tuple[list[tuple[Any, ...]], tuple[float, float, float]]
 
-def pose_at(position=(0.0, 0.0, 0.0), travel=(0.0, 0.0, -1.0)) -> np.ndarray:
-    """A rigid light pose at ``position`` whose -z axis (the direction of travel) is ``travel``."""
+
+def pose_at(position: Any = (0.0, 0.0, 0.0), travel: Any = (0.0, 0.0, -1.0)) -> np.ndarray:
+    """A rigid light pose at ``position`` whose -z axis (the direction of travel) is ``travel``.
+
+    Parameters
+    ----------
+    position : array_like, shape (3,)
+        The pose's origin (world).
+    travel : array_like, shape (3,)
+        The direction the light travels (any length > 0).
+
+    Returns
+    -------
+    numpy.ndarray
+        (4, 4) float64 light-to-world pose; its x axis is chosen from the world x (or y, when
+        ``travel`` is nearly along x) axis.
+    """
     z = -np.asarray(travel, float) / np.linalg.norm(travel)
     helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     x = np.cross(helper, z)
@@ -60,8 +86,23 @@ def _rows(x: Any, n: int) -> np.ndarray:
 
 
 def light_dir_and_radiance(light: Sequence[Any], p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(l, I): the unit vector from each point towards the light and the radiance arriving there
-    (colour * intensity * 1/r^2 if inverse_square * spot cone factor)."""
+    """The direction towards a light and the radiance arriving from it, at N points.
+
+    Parameters
+    ----------
+    light : tuple or light record
+        A light record (see the module docstring, or anything ``as_tuple`` reads).
+    p : numpy.ndarray, shape (N, 3)
+        World positions.
+
+    Returns
+    -------
+    l : numpy.ndarray, shape (N, 3)
+        Unit vectors from each point towards the light.
+    I : numpy.ndarray, shape (N, 3)
+        Arriving radiance: colour * intensity, times 1/r^2 if inverse_square, times the spot cone
+        factor clamp(cos * scale + offset, 0, 1)^2.
+    """
     kind, rgb, pos, d, inverse_square, scale, offset = as_tuple(light)
     n = p.shape[0]
     rgb = np.broadcast_to(np.asarray(rgb, dtype=np.float64), (n, 3)).copy()
@@ -83,7 +124,22 @@ def light_dir_and_radiance(light: Sequence[Any], p: np.ndarray) -> tuple[np.ndar
 
 
 def view_vectors(p: np.ndarray, eye: Any, orthographic_dir: Any = None) -> np.ndarray:
-    """v: unit vector towards the viewer; -viewing direction for orthographic cameras."""
+    """v: the unit vectors towards the viewer.
+
+    Parameters
+    ----------
+    p : numpy.ndarray, shape (N, 3)
+        World positions.
+    eye : array_like, shape (3,)
+        The camera centre (perspective cameras).
+    orthographic_dir : array_like, shape (3,), optional
+        The viewing direction of an orthographic camera; v is then -direction everywhere.
+
+    Returns
+    -------
+    numpy.ndarray
+        (N, 3) float64 unit vectors (a point at the eye gets 0).
+    """
     if orthographic_dir is not None:
         d = np.asarray(orthographic_dir, dtype=np.float64)
         return np.broadcast_to(-d / np.linalg.norm(d), p.shape).copy()
@@ -92,7 +148,24 @@ def view_vectors(p: np.ndarray, eye: Any, orthographic_dir: Any = None) -> np.nd
 
 def pbr_brdf(n: np.ndarray, v: np.ndarray, l: np.ndarray, base: np.ndarray, metallic: float,
              roughness: float, radiance: np.ndarray) -> np.ndarray:
-    """One light's contribution, exactly pyrender 0.1.45's compute_brdf (docs/pbr_notes.md)."""
+    """One light's contribution to "pbr", exactly pyrender 0.1.45's compute_brdf.
+
+    Parameters
+    ----------
+    n, v, l : numpy.ndarray, shape (N, 3)
+        Unit normal, direction to the viewer and direction to the light.
+    base : numpy.ndarray, shape (N, 3)
+        Base colour (linear).
+    metallic, roughness : float
+        The material's factors (clamped to [0, 1] and [0.04, 1]).
+    radiance : numpy.ndarray, shape (N, 3)
+        The light's arriving radiance (``light_dir_and_radiance``).
+
+    Returns
+    -------
+    numpy.ndarray
+        (N, 3) float64: NdotL * radiance * (diffuse + specular), docs/pbr_notes.md.
+    """
     roughness = min(max(roughness, MIN_ROUGHNESS), 1.0)
     metallic = min(max(metallic, 0.0), 1.0)
     c_diff = base * (1.0 - MIN_ROUGHNESS) * (1.0 - metallic)
@@ -116,12 +189,34 @@ def pbr_brdf(n: np.ndarray, v: np.ndarray, l: np.ndarray, base: np.ndarray, meta
 
 def radiance(model: str, n: Any, p: Any, base_rgb: Any, material: Any, lights: Sequence[Any],
              ambient_light: Any, eye: Any, orthographic_dir: Any = None) -> np.ndarray:
-    """(N, 3) float64 linear radiance of ``model`` at N points (see the module docstring).
+    """The linear radiance of a shading model at N points.
 
-    n : (N, 3) unit normals of the visible side; p : (N, 3) world positions; base_rgb : (N, 3)
-    (or (3,)) base colour; material : softrast.Material or None (kd = ka = base, ks = 0,
-    emissive 0, pbr: metallic 0, roughness 0.5); lights : light records; ambient_light : RGB;
-    eye : camera centre; orthographic_dir : the viewing direction of an orthographic camera.
+    Parameters
+    ----------
+    model : str
+        One of ``MODELS``.
+    n : array_like, shape (N, 3)
+        Unit normals of the visible side.
+    p : array_like, shape (N, 3) or (3,)
+        World positions.
+    base_rgb : array_like, shape (N, 3) or (3,)
+        Base colour (linear).
+    material : softrast.Material or None
+        Its kd, ka, ks, shininess, emissive, metallic and roughness are read; None: kd = ka =
+        base, ks = 0, emissive 0, and for "pbr" metallic 0, roughness 0.5.
+    lights : sequence of light records
+        See the module docstring (or anything ``as_tuple`` reads).
+    ambient_light : array_like, shape (3,)
+        The ambient light's RGB.
+    eye : array_like, shape (3,)
+        The camera centre.
+    orthographic_dir : array_like, shape (3,), optional
+        The viewing direction of an orthographic camera.
+
+    Returns
+    -------
+    numpy.ndarray
+        (N, 3) float64 linear radiance, unclamped.
     """
     if model not in MODELS:
         raise ValueError(f"unknown model {model!r}")
@@ -166,38 +261,40 @@ def radiance(model: str, n: Any, p: Any, base_rgb: Any, material: Any, lights: S
     return out
 
 
-def srgb_curve(linear: Any) -> np.ndarray:
-    """The IEC 61966-2-1 encoding of clamp(x, 0, 1), as floats in [0, 1]."""
-    x = np.clip(np.asarray(linear, dtype=np.float64), 0.0, 1.0)
-    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
-
-
-def srgb_encode(linear: Any) -> np.ndarray:
-    """uint8 sRGB: floor(curve(clamp(x, 0, 1)) * 255 + 0.5)."""
-    return np.floor(srgb_curve(linear) * 255.0 + 0.5).astype(np.uint8)
-
-
-def linear_encode(linear: Any) -> np.ndarray:
-    """uint8 without a transfer curve: floor(clamp(x, 0, 1) * 255 + 0.5)."""
-    x = np.clip(np.asarray(linear, dtype=np.float64), 0.0, 1.0)
-    return np.floor(x * 255.0 + 0.5).astype(np.uint8)
-
-
-def pyrender_encode(linear: Any) -> np.ndarray:
-    """pyrender's output: clamp(pow(c, 1/2.2), 0, 1), stored to RGBA8 (round to nearest)."""
-    x = np.maximum(np.asarray(linear, dtype=np.float64), 0.0)
-    return np.floor(np.clip(np.power(x, 1.0 / 2.2), 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
-
-
 def camera_to_world(view_matrix: Any) -> np.ndarray:
-    """The inverse of a (rigid) world-to-view matrix: camera (OpenGL axes) to world."""
+    """The inverse of a (rigid) world-to-view matrix.
+
+    Parameters
+    ----------
+    view_matrix : array_like, shape (4, 4)
+        World to view (OpenGL axes).
+
+    Returns
+    -------
+    numpy.ndarray
+        (4, 4) float64 camera-to-world pose.
+    """
     return np.linalg.inv(np.asarray(view_matrix, dtype=np.float64))
 
 
-def headlight(view_matrix: Any, ambient: float) -> tuple[list[tuple[Any, ...]], tuple[float, float, float]]:
-    """The lights of a scene without lights: one white directional light of intensity
-    (1 - ambient) travelling along the camera's viewing axis (its -z in world space), and an
-    ambient light of (ambient, ambient, ambient)."""
+def headlight(view_matrix: Any, ambient: float) -> Lighting:
+    """The lights of a scene without lights.
+
+    Parameters
+    ----------
+    view_matrix : array_like, shape (4, 4)
+        The camera's world-to-view matrix.
+    ambient : float
+        The renderer's ``ambient`` option.
+
+    Returns
+    -------
+    lights : list of tuple
+        One record: a white directional light of intensity (1 - ambient) travelling along the
+        camera's viewing axis (its -z in world space).
+    ambient_light : tuple of float
+        (ambient, ambient, ambient).
+    """
     pose = camera_to_world(view_matrix)
     d = -pose[:3, 2] / np.linalg.norm(pose[:3, 2])
     a = float(ambient)
@@ -207,12 +304,24 @@ def headlight(view_matrix: Any, ambient: float) -> tuple[list[tuple[Any, ...]], 
 
 
 def as_tuple(light: Any) -> tuple[Any, ...]:
-    """A light record's fields by name (``Light._record_fields(pose)``, float64, or a
-    ``softrast._core.Light``, float32) as this module's tuple; a tuple is returned as it is."""
+    """A light record as this module's tuple.
+
+    Parameters
+    ----------
+    light : tuple, list, dict or object
+        A tuple or list (returned as a tuple), the dict of ``Light._record_fields(pose)``
+        (float64), or an object with the same attributes (e.g. a ``softrast._core.Light``,
+        float32).
+
+    Returns
+    -------
+    tuple
+        (kind, radiance, position, direction, inverse_square, cone_scale, cone_offset), kind 0
+        directional, 1 point, 2 spot.
+    """
     if isinstance(light, (tuple, list)):
         return tuple(light)
     if isinstance(light, dict):
-        from types import SimpleNamespace
         light = SimpleNamespace(**light)
     kind = ("directional", "point", "spot").index(light.kind)
     return (kind, light.radiance, light.position, light.direction, light.inverse_square,
@@ -220,15 +329,44 @@ def as_tuple(light: Any) -> tuple[Any, ...]:
 
 
 def light_records(scene: Any, view_matrix: Any) -> list[tuple[Any, ...]]:
-    """The world-space records of ``scene.lights`` (camera_space poses are light-to-camera)."""
+    """The world-space records of a scene's lights.
+
+    Parameters
+    ----------
+    scene : softrast.Scene
+        Its ``lights`` are read (camera_space poses are light-to-camera).
+    view_matrix : array_like, shape (4, 4)
+        The camera's world-to-view matrix.
+
+    Returns
+    -------
+    list of tuple
+        One record per light, in the scene's order.
+    """
     cam = camera_to_world(view_matrix)
     return [as_tuple(li.light._record_fields(cam @ li.pose if li.camera_space else li.pose))
             for li in scene.lights]
 
 
-def scene_lighting(scene: Any, view_matrix: Any, ambient: float) -> tuple[list[tuple[Any, ...]], tuple[float, float, float]]:
-    """(lights, ambient_light) a render of ``scene`` uses: the headlight without lights, and
-    scene.ambient_light (None => 0 with lights, ``ambient`` without)."""
+def scene_lighting(scene: Any, view_matrix: Any, ambient: float) -> Lighting:
+    """The lights and ambient light a render of a scene uses.
+
+    Parameters
+    ----------
+    scene : softrast.Scene
+        Its ``lights`` and ``ambient_light`` are read.
+    view_matrix : array_like, shape (4, 4)
+        The camera's world-to-view matrix.
+    ambient : float
+        The renderer's ``ambient`` option (used when the scene has no lights).
+
+    Returns
+    -------
+    lights : list of tuple
+        ``light_records``, or the ``headlight`` of a scene without lights.
+    ambient_light : tuple of float
+        scene.ambient_light; when None, 0 with lights and ``ambient`` without.
+    """
     if not scene.lights:
         lights, amb = headlight(view_matrix, ambient)
         if scene.ambient_light is not None:
@@ -244,8 +382,21 @@ def unproject(depth: np.ndarray, view: Any, proj: Any, rows: np.ndarray | None =
 
     Solves the projection for x_view, y_view given z_view = -depth at the pixel centre's NDC
     (ndc_x = 2 (j + 0.5) / W - 1, ndc_y = 1 - 2 (i + 0.5) / H); works for perspective,
-    orthographic and intrinsics (off-centre, skewed) projections. Returns (N, 3) float64 for
-    the pixels given (all pixels, flattened row-major, when rows/cols are None).
+    orthographic and intrinsics (off-centre, skewed) projections.
+
+    Parameters
+    ----------
+    depth : numpy.ndarray, shape (H, W)
+        The depth output.
+    view, proj : array_like, shape (4, 4)
+        The camera's view and projection matrices.
+    rows, cols : numpy.ndarray, optional
+        The pixels (integer indices); all pixels, row-major, when None.
+
+    Returns
+    -------
+    numpy.ndarray
+        (N, 3) float64 world positions.
     """
     h, w = depth.shape
     if rows is None:
