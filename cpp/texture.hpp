@@ -1,6 +1,6 @@
 // Textures: texel storage, mip chains and filtered sampling (nearest, bilinear, trilinear,
 // anisotropic) with repeat / clamp / mirror wrapping. python/softrast/texture.py states the
-// contract (coordinates, decoding, the mip filter, level of detail); tests/support/texture_reference.py
+// contract (coordinates, decoding, the mip filter, level of detail); python/softrast/reference/texture.py
 // is an independent NumPy implementation of it.
 //
 // Sampling is scalar and out of line (texture.cpp, compiled once for the generic x86-64 target):
