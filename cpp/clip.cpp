@@ -26,8 +26,9 @@ bool precedes(const ClipPoint& a, const ClipPoint& b) {
 // which decided that it does). The crossing is found on the double positions, whose distances
 // are exact to double rounding; should they put it outside the segment (an endpoint within float
 // rounding of the plane), it is clamped to the endpoint.
+template <typename Planes>
 ClipPoint intersect(const ClipPoint& a_in, const ClipPoint& b_in, double da_in, double db_in, int plane,
-                    const ClipPlanes& planes) {
+                    const Planes& planes) {
   const bool swap = precedes(b_in, a_in);  // canonical order => same bits from either triangle
   const ClipPoint& a = swap ? b_in : a_in;
   const ClipPoint& b = swap ? a_in : b_in;
@@ -52,7 +53,8 @@ ClipPoint intersect(const ClipPoint& a_in, const ClipPoint& b_in, double da_in, 
 
 }  // namespace
 
-int clip_triangle(const ClipPoint in[3], uint8_t planes_mask, const ClipPlanes& planes,
+template <typename Planes>
+int clip_triangle(const ClipPoint in[3], uint8_t planes_mask, const Planes& planes,
                   ClipPoint out[kMaxClipPoints]) {
   ClipPoint buffer[2][kMaxClipPoints];
   ClipPoint* poly = buffer[0];
@@ -79,5 +81,9 @@ int clip_triangle(const ClipPoint in[3], uint8_t planes_mask, const ClipPlanes& 
   for (int i = 0; i < n; ++i) out[i] = poly[i];
   return n;
 }
+
+template int clip_triangle(const ClipPoint[3], uint8_t, const ClipPlanes&, ClipPoint[kMaxClipPoints]);
+template int clip_triangle(const ClipPoint[3], uint8_t, const ClipSpacePlanes&,
+                           ClipPoint[kMaxClipPoints]);
 
 }  // namespace sr

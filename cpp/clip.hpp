@@ -51,13 +51,41 @@ struct ClipPlanes {
   }
 };
 
+// nvdiffrast's clip volume, for positions given in clip space (clip_raster.hpp, softrast.nv):
+// near -w <= z and far z <= w (OpenGL's depth range, on the clip position itself, not on a view
+// depth), and ClipPlanes' guard band. The same bit per plane as ClipPlanes' (ClipPlaneBit).
+struct ClipSpacePlanes {
+  ClipPlanes band;  // the guard band (its near and far planes are not read)
+
+  double distance(int plane, const vec4& p_clip, float depth_view) const {
+    return distance(plane, dvec4(p_clip), double(depth_view));
+  }
+  double distance(int plane, const dvec4& p_clip, double depth_view) const {
+    switch (plane) {
+      case 0: return p_clip.z + p_clip.w;
+      case 1: return p_clip.w - p_clip.z;
+      default: return band.distance(plane, p_clip, depth_view);
+    }
+  }
+  // Bit set per plane the point is outside of: exactly distance() >= 0 (NaN => out), so the
+  // vertex pass and clip_triangle decide every side alike.
+  uint8_t outcode(const vec4& p_clip) const {
+    uint8_t code = 0;
+    for (int plane = 0; plane < kNumClipPlanes; ++plane)
+      if (!(distance(plane, p_clip, 0.0f) >= 0.0)) code = uint8_t(code | (1u << plane));
+    return code;
+  }
+};
+
 // Clips the triangle `in` against the planes in `planes_mask` (Sutherland-Hodgman). Returns the
 // number of polygon vertices written to `out` (0 or 3..kMaxClipPoints), in the input's winding.
 // A new vertex on an edge shared by two triangles is computed from the edge's endpoints in a
 // canonical order, so both triangles get bit-identical vertices: clipping keeps meshes watertight.
 // Which side of a plane a point is on is decided on its float position (as the vertex pass
 // decided which faces to clip); where a new point lies, on the double positions.
-int clip_triangle(const ClipPoint in[3], uint8_t planes_mask, const ClipPlanes& planes,
+// `Planes`: ClipPlanes (a render's camera) or ClipSpacePlanes (clip_raster.cpp).
+template <typename Planes>
+int clip_triangle(const ClipPoint in[3], uint8_t planes_mask, const Planes& planes,
                   ClipPoint out[kMaxClipPoints]);
 
 }  // namespace sr

@@ -112,12 +112,9 @@ void perspective_weights(const ProjectedVertex* const o[3], int64_t positive_are
                       : j == k ? a.persp[j] : 0.0f;
 }
 
-// Builds the records for one snapped triangle whose corners are the mesh's vertices `vertex` (or
-// null for a piece of a clipped face), `a` only if params.shade (its clip_ref left to the caller),
-// `e` only if params.exact_weights;
-// `positive_area2` receives twice its area (> 0). Returns
-// false if it is culled, degenerate, or has no sample centre in its box or covers none of the
-// one or two there; those integer tests come before any floating-point work.
+}  // namespace
+
+// (setup.hpp)
 bool setup_triangle(const ProjectedVertex* const v[3], const SetupParams& params, uint32_t prim,
                     const int32_t* vertex, TriangleSetup& t, TriangleShading& a, ExactWeights& e,
                     int64_t& positive_area2) {
@@ -174,6 +171,8 @@ bool setup_triangle(const ProjectedVertex* const v[3], const SetupParams& params
   }
   return true;
 }
+
+namespace {
 
 void clip_and_setup(const ivec3& face, uint8_t planes_mask, const SetupParams& params,
                     uint32_t prim, SetupChunk& out) {

@@ -29,6 +29,16 @@ struct SetupParams {
                                // normal output reads the exact weights)
 };
 
+// Builds the records for one snapped triangle whose corners are the mesh's vertices `vertex` (or
+// null for a piece of a clipped face), `a` only if params.shade (its clip_ref left to the caller),
+// `e` only if params.exact_weights; `positive_area2` receives twice its area (> 0). Returns
+// false if it is culled, degenerate, or has no sample centre in its box or covers none of the
+// one or two there; those integer tests come before any floating-point work. (Also the setup of
+// triangles given in clip space: clip_raster.cpp.)
+bool setup_triangle(const ProjectedVertex* const v[3], const SetupParams& params, uint32_t prim,
+                    const int32_t* vertex, TriangleSetup& t, TriangleShading& a, ExactWeights& e,
+                    int64_t& positive_area2);
+
 // Sets up faces [begin, end) of one draw and bins them (out is cleared first).
 void setup_chunk(const SetupParams& params, std::size_t begin, std::size_t end, SetupChunk& out);
 

@@ -127,3 +127,27 @@ def core_options(view, proj, orthographic: bool, near: float, far: float, output
     return dict(view=np.asarray(view, np.float64), proj=np.asarray(proj, np.float64),
                 orthographic=bool(orthographic), near=float(near), far=float(far),
                 outputs=list(outputs), **kw)
+
+
+def nv_clip_scene(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """softrast.nv's input (pos (2, n, 4) float32 clip space, tri (m, 3) int32) exercising every
+    raster path of ``_core._rasterize_clip``: an icosphere's small triangles at two poses, random
+    triangles of every size crossing the near and far planes and w = 0 (clipped), and a floor
+    reaching far past the image (the guard band) and behind the eye."""
+    t = 1.0 / math.tan(math.radians(30.0))
+    n, f = 0.1, 20.0
+    proj = np.array([[t, 0, 0, 0], [0, t, 0, 0], [0, 0, -(f + n) / (f - n), -2 * f * n / (f - n)],
+                     [0, 0, -1, 0]])
+    sphere = trimesh.creation.icosphere(subdivisions=4)
+    floor = np.array([[-500.0, -1.0, -500.0], [500.0, -1.0, -500.0], [500.0, -1.0, 50.0], [-500.0, -1.0, 50.0]])
+    soup = (rng.uniform([-2.0, -1.5, -6.0], [2.0, 1.5, 0.5], (30, 1, 3))
+            + rng.uniform(-1.5, 1.5, (30, 3, 3))).reshape(90, 3)
+    points = np.concatenate([sphere.vertices + [0.3, 0.0, -3.0], floor, soup])
+    tri = np.concatenate([sphere.faces, np.array([[0, 1, 2], [0, 2, 3]]) + len(sphere.vertices),
+                          np.arange(90).reshape(-1, 3) + len(sphere.vertices) + 4]).astype(np.int32)
+    pos = []
+    for angle in (0.0, 0.4):
+        c, s = math.cos(angle), math.sin(angle)
+        model = np.array([[c, 0, s, 0], [0, 1, 0, 0], [-s, 0, c, 0], [0, 0, 0, 1]])
+        pos.append(np.c_[points, np.ones(len(points))] @ (proj @ model).T)
+    return np.asarray(pos, np.float32), tri

@@ -12,7 +12,7 @@ import pytest
 
 import softrast as sr
 import softrast.nv as dr
-from softrast import nv
+from softrast import _core, nv
 
 
 def centres(height: int, width: int, dx: float = 0.0, dy: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
@@ -619,3 +619,27 @@ def test_rasterize_budget_bounds_what_it_allocates(budget, case):
     budget(peak - 1)
     with pytest.raises(ValueError, match="memory budget"):
         dr.rasterize(*args)
+
+
+def test_core_entry_point_checks_its_arrays():
+    """_core._rasterize_clip (nv's raster) refuses what it could not read or write safely, even
+    though nv's checks come first: wrong dtypes, an index outside pos, ranges outside tri, an
+    output of the wrong shape or read-only, rast and rast_db sharing memory."""
+    pos = np.ascontiguousarray(TRI_POS)
+    ranges = np.array([[0, 1]], np.int64)
+    rast = np.zeros((1, 8, 8, 4), np.float32)
+    read_only = rast.copy()
+    read_only.flags.writeable = False
+    cases = [((pos.astype(np.float64), TRI, ranges, 8, 8, rast, None), "pos"),
+             ((pos, TRI + 1, ranges, 8, 8, rast, None), "tri"),
+             ((pos, TRI.astype(np.int64), ranges, 8, 8, rast, None), "tri"),
+             ((pos, TRI, np.array([[0, 2]], np.int64), 8, 8, rast, None), "ranges"),
+             ((pos, TRI, ranges, 8, 9, rast, None), "rast"),
+             ((pos, TRI, ranges, 8, 8, read_only, None), "rast"),
+             ((pos, TRI, ranges, 8, 8, rast, rast), "share memory"),
+             ((pos, TRI, ranges, 0, 8, np.zeros((1, 8, 0, 4), np.float32), None), "width")]
+    for args, match in cases:
+        with pytest.raises(ValueError, match=match):
+            _core._rasterize_clip(*args)
+    _core._rasterize_clip(pos, TRI, ranges, 8, 8, rast, None)
+    np.testing.assert_array_equal(rast, dr.rasterize(TRI_POS, TRI, (8, 8))[0])

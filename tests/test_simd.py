@@ -9,7 +9,8 @@ import pytest
 import trimesh
 
 import softrast as sr
-from conftest import ALL_OUTPUTS, icosphere, pixel_mesh, pixel_ortho, scene_of
+from conftest import ALL_OUTPUTS, icosphere, nv_clip_scene, pixel_mesh, pixel_ortho, scene_of
+from softrast.nv._raster import _rasterize_clip
 
 
 def _cpu_has_avx2() -> bool:
@@ -125,6 +126,19 @@ def test_orthographic_pixel_grid_same_bits(rng):
     a, b = _both(scene_of(mesh), pixel_ortho(w, h), w, h, cull="none", shading="unlit")
     _assert_same_bits(a, b)
     assert (a.coverage == 1).all()  # the grid covers the image exactly once, on either path
+
+
+def test_nv_rasterize_clip_same_bits(rng):
+    # softrast.nv's entry point (_core._rasterize_clip): triangles given in clip space, clipped
+    # (near, far, w = 0, guard band) and rasterized by the core, in instanced and range mode.
+    pos, tri = nv_clip_scene(rng)
+    ranges = np.array([[0, len(tri)], [len(tri) // 3, len(tri) // 2]])
+    for p, r in ((pos, np.array([[0, len(tri)]] * 2)), (pos[:1], ranges)):
+        fast = _rasterize_clip(p, tri, r, 150, 230, True, threads=2)
+        generic = _rasterize_clip(p, tri, r, 150, 230, True, threads=2, simd=False)
+        for x, y in zip(fast, generic):
+            assert x.tobytes() == y.tobytes(), "AVX2 and generic kernels differ"
+        assert (fast[0][..., 3] > 0).mean() > 0.5 and len(np.unique(fast[0][..., 3])) > 100
 
 
 @pytest.mark.parametrize("outputs", [("depth",), ("color",), ("normal", "mask"),

@@ -12,7 +12,8 @@ import trimesh
 import softrast as sr
 from support.gil_probe import calls_that_let_python_run
 from softrast import _core
-from conftest import core_options
+from conftest import core_options, nv_clip_scene
+from softrast.nv._raster import _rasterize_clip
 
 OUTPUTS = ("color", "depth", "normal", "triangle_id", "coverage")
 
@@ -87,6 +88,30 @@ def test_gil_is_released_while_rendering():
                         cam.far, ["color", "depth", "normal"])  # no lights: the headlight
     progressed = calls_that_let_python_run(lambda: renderer._core.render(draws, spec))
     assert progressed >= 3, progressed
+
+
+def test_nv_rasterize_clip_same_bits_for_any_thread_count_and_releases_the_gil(rng):
+    # softrast.nv's entry point: the same bytes on 1, 2 and 3 threads, from several Python threads
+    # at once (each call its own pool while another holds the kept one), and without the GIL.
+    pos, tri = nv_clip_scene(rng)
+    ranges = np.array([[0, len(tri)]] * 2)
+    expected = _rasterize_clip(pos, tri, ranges, 200, 170, True, threads=1)
+    for threads in (2, 3, 0):
+        got = _rasterize_clip(pos, tri, ranges, 200, 170, True, threads=threads)
+        assert all(g.tobytes() == e.tobytes() for g, e in zip(got, expected)), threads
+    mismatches: list[int] = []
+
+    def work(i: int) -> None:
+        for _ in range(5):
+            got = _rasterize_clip(pos, tri, ranges, 200, 170, True, threads=1 + i % 3)
+            if not all(g.tobytes() == e.tobytes() for g, e in zip(got, expected)):
+                mismatches.append(i)
+
+    _run_in_threads(work, 4)
+    assert mismatches == []
+    rast = np.empty((2, 512, 512, 4), np.float32)
+    args = (pos, tri, ranges.astype(np.int64), 512, 512, rast, None, 1, True)
+    assert calls_that_let_python_run(lambda: _core._rasterize_clip(*args)) >= 3
 
 
 def test_eight_threads_eight_scenes_mixed_outputs_match_one_by_one():

@@ -2,7 +2,8 @@
 // module, its constants and option names), mesh.cpp (geometry uploaded without copies),
 // texture.cpp, records.cpp (materials, lights, draws, lines and points as named records),
 // render.cpp (a render: its options by name, the GIL, framebuffers handed over without copies),
-// distortion.cpp (lens distortion's per-pixel passes), encode.cpp (image files for datasets). Each file's bind_* adds its part.
+// distortion.cpp (lens distortion's per-pixel passes), encode.cpp (image files for datasets),
+// clip_raster.cpp (triangles given in clip space, for softrast.nv). Each file's bind_* adds its part.
 //
 // Records cross the binding with named fields (Record below), each field checked when it is set;
 // the render's options are a dict read by name (render.cpp). Both tables are exported
@@ -35,6 +36,7 @@ void bind_records(py::module_& m);
 void bind_render(py::module_& m);
 void bind_distortion(py::module_& m);
 void bind_encode(py::module_& m);
+void bind_clip_raster(py::module_& m);
 
 // Names of option values, the one place each is spelled (module.cpp); exported to Python
 // (CULL_MODES, SHADING_MODELS, ...), which checks a render's options against them.

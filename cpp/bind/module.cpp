@@ -109,5 +109,6 @@ PYBIND11_MODULE(_core, m) {
   bind_render(m);
   bind_distortion(m);
   bind_encode(m);
+  bind_clip_raster(m);
   m.attr("RECORDS") = record_docs();
 }

@@ -4,13 +4,14 @@ Code written for nvdiffrast (``import nvdiffrast.torch as dr``, CUDA only) runs 
 converting its tensors to NumPy arrays (``t.detach().cpu().numpy()``): the forward pass of
 ``rasterize`` and ``interpolate`` only (no gradients, no ``texture`` or ``antialias``), their
 outputs channel for channel as nvdiffrast's, ``pos`` in clip space and image row 0 at the
-BOTTOM (see ``rasterize`` and ``interpolate``). The triangles are clipped and drawn by
-``_raster`` (softrast's exact fixed-point rasterizer); the arguments are checked by
-``_arguments``. See docs/interop.md.
+BOTTOM (see ``rasterize`` and ``interpolate``). The triangles are clipped and drawn by the
+core's own clipping and exact fixed-point rasterizer (``_raster``: ``_core._rasterize_clip``);
+the arguments are checked by ``_arguments``. See docs/interop.md.
 """
 from __future__ import annotations
 
 import inspect
+import os
 from typing import Any
 
 import numpy as np
@@ -18,7 +19,7 @@ import numpy as np
 from ..limits import check_budget
 from ._arguments import (_check_ranges, _check_resolution, _check_tri, _float32_values, _index_array,
                          _real_array, _shape_text)
-from ._raster import _SHADE_BLOCK, _float_to_ids, _shade, _visible_triangles
+from ._raster import _float_to_ids, _rasterize_clip
 from ._raster import _ids_to_float  # noqa: F401 (tests check the id encoding both ways)
 
 __all__ = ["RasterizeCudaContext", "RasterizeGLContext", "interpolate", "rasterize"]
@@ -92,43 +93,36 @@ def _rasterize(glctx: _Context | None, pos: Any, tri: Any, resolution: Any, rang
     height, width = _check_resolution(resolution)
     if not isinstance(grad_db, (bool, np.bool_)):
         raise ValueError(f"grad_db must be True or False, got {grad_db!r:.80}")
-    # (clip-space vertices, first triangle) per image; ranges are ignored in instanced mode.
+    # Per image (first triangle, count); ranges are ignored in instanced mode, where image k
+    # draws every triangle with pos[k]. Range mode: every image draws with the one pos.
     if p.ndim == 3:
-        jobs = [(p[k], 0, len(t)) for k in range(p.shape[0])]
+        ranges = np.tile(np.array([0, len(t)], dtype=np.int64), (p.shape[0], 1))
     else:
-        jobs = [(p, int(first), int(n)) for first, n in _check_ranges(ranges, len(t))]
+        ranges = _check_ranges(ranges, len(t))
     output_db = glctx is None or glctx.output_db
-    _check_rasterize_budget(len(jobs), height, width, output_db, max((n for _, _, n in jobs), default=0),
-                            "pos" if p.ndim == 3 else "ranges")
-    rast = np.zeros((len(jobs), height, width, 4), dtype=np.float32)
-    rast_db = np.zeros((len(jobs), height, width, 4 if output_db else 0), dtype=np.float32)
-    for k, (vertices, first, n) in enumerate(jobs):
-        if n == 0:
-            continue
-        clip = vertices[t[first:first + n]]  # (n, 3, 4)
-        _shade(clip, _visible_triangles(clip, height, width), first, rast[k], rast_db[k])
-    return rast, rast_db
+    _check_rasterize_budget(len(ranges), height, width, output_db, p.size // 4,
+                            int(ranges[:, 1].max(initial=0)), "pos" if p.ndim == 3 else "ranges")
+    return _rasterize_clip(p if p.ndim == 3 else p[None], t, ranges, height, width, output_db)
 
 
-# rasterize's working memory besides its outputs, bytes (NumPy's allocations as tracemalloc traces
-# them, with margin; tests/test_nv.py checks that these bound them): per pixel of an image (the
-# visibility map, the covered pixels' indices), per pixel shaded at once (_SHADE_BLOCK of them at
-# most: the float64 barycentrics and derivatives), per triangle of an image (culling, clipping).
-_PIXEL_WORK, _SHADED_PIXEL_WORK, _TRIANGLE_WORK = 40, 450, 1700
+# rasterize's working memory besides its outputs, bytes (tests/test_nv.py checks that these bound
+# NumPy's allocations as tracemalloc traces them; the core's are counted from its records): per
+# vertex of pos (the checked float64 copy and its check, the float32 copy, the core's snapped
+# vertex), per triangle of an image (tri's checked copies, the core's setup record and its tile
+# lists, the pieces clipping makes), per thread (the core's tile scratch, one per core).
+_VERTEX_WORK, _TRIANGLE_WORK, _THREAD_WORK = 128, 400, 64 << 10
 
 
-def _check_rasterize_budget(images: int, height: int, width: int, output_db: bool, triangles: int,
-                            minibatch_from: str) -> None:
+def _check_rasterize_budget(images: int, height: int, width: int, output_db: bool, vertices: int,
+                            triangles: int, minibatch_from: str) -> None:
     """rast and rast_db, and the work of one image, against the memory budget before any of it
     is allocated, naming the arguments that set the size."""
-    pixels = height * width
-    outputs = images * pixels * (32 if output_db else 16)  # (h, w, 4) float32 each
-    work = (pixels * _PIXEL_WORK + min(pixels, _SHADE_BLOCK) * _SHADED_PIXEL_WORK
-            + triangles * _TRIANGLE_WORK)
+    outputs = images * height * width * (32 if output_db else 16)  # (h, w, 4) float32 each
+    work = vertices * _VERTEX_WORK + triangles * _TRIANGLE_WORK + (os.cpu_count() or 1) * _THREAD_WORK
     check_budget(outputs + work,
                  f"rasterize(): rast{' and rast_db' if output_db else ''} for {images} images "
-                 f"({minibatch_from}) at resolution ({height}, {width}), with the work of up to "
-                 f"{triangles} triangles (tri) an image,")
+                 f"({minibatch_from}) at resolution ({height}, {width}), with the work of "
+                 f"{vertices} vertices (pos) and up to {triangles} triangles (tri) an image,")
 
 
 _RASTERIZE_SIGNATURE = inspect.signature(_rasterize).replace(
@@ -170,8 +164,8 @@ def rasterize(*args: Any, **kwargs: Any) -> tuple[np.ndarray, np.ndarray]:
     a ``RasterizeCudaContext`` or ``RasterizeGLContext`` from this module) and ``rasterize(pos,
     ...)`` (nvdiffrast.tensorflow, no context).
 
-    pos : clip-space vertex positions (x, y, z, w), float32 (any real dtype is accepted and used
-        as given, in float64). Instanced mode: (minibatch_size, num_vertices, 4), every image
+    pos : clip-space vertex positions (x, y, z, w), float32 (any real dtype is accepted and
+        rounded to float32, as nvdiffrast's tensors are). Instanced mode: (minibatch_size, num_vertices, 4), every image
         draws all of ``tri`` with its own positions. Range mode: (num_vertices, 4) with ``ranges``.
     tri : (num_triangles, 3) int32 vertex indices.
     resolution : (height, width) in pixels.
@@ -192,15 +186,18 @@ def rasterize(*args: Any, **kwargs: Any) -> tuple[np.ndarray, np.ndarray]:
       computed exactly at the pixel centre; 0 where empty. A ``RasterizeGLContext(output_db=False)``
       gives an empty (minibatch_size, height, width, 0) array instead, as in nvdiffrast.
 
-    Triangles are clipped against -w <= z <= w; the nearest z/w wins the depth test (an exact
-    tie keeps the earlier triangle); both windings are drawn. Coverage is softrast's exact
-    fixed-point test (top-left fill rule, 1/256 px vertex precision).
+    Triangles are clipped against -w <= z <= w; the nearest z/w wins the depth test (a tie, or
+    a fragment nearer by less than (z/w + 2) 2**-20, keeps the earlier triangle); both windings are drawn. Coverage is
+    softrast's exact fixed-point test (top-left fill rule, 1/256 px vertex precision); the
+    outputs are computed in float64 from the triangle's clip-space corners at the pixel centre
+    and rounded to float32 once (cpp/clip_raster.hpp), the same bits on any machine.
 
     Raises ValueError naming the argument for a wrong shape or dtype, NaN, inf or a value beyond
     float32's range in ``pos``, an index in ``tri`` outside [0, num_vertices), ``ranges``
     reaching outside ``tri``, a resolution outside [1, MAX_IMAGE_SIDE], a ``glctx`` that is
     not a context of this module (positional or by keyword), or outputs and working memory
-    (about 40 bytes a pixel and 1.7 kB a triangle of an image besides rast and rast_db) beyond
+    (about 130 bytes a vertex of ``pos`` and 400 bytes a triangle of an image besides rast and
+    rast_db) beyond
     the memory budget (``softrast.set_memory_budget``), before allocating them.
     """
     glctx: _Context | None = None
