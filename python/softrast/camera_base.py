@@ -1,16 +1,9 @@
 """The camera base class: a pose (camera-to-world) plus a projection to OpenGL clip space. The
 cameras themselves are in ``softrast.camera``.
 
-Conventions (shared with the C++ core, see ``_core.pyi``):
-
-* ``view_matrix()`` is world-to-view in OpenGL's view space: x right, y up, the camera looks
-  down -z. ``projection_matrix(w, h)`` maps view space to clip space; NDC = clip.xyz / clip.w.
-* Window space: x_win = (ndc_x + 1) / 2 * W, y_win = (1 - ndc_y) / 2 * H; row 0 is the top of
-  the image and the centre of pixel (row i, col j) is at (j + 0.5, i + 0.5).
-* For a world point X: clip = P @ view @ [X, 1].
-* ``pose`` is a (4, 4) float64 rigid camera-to-world transform whose axes follow
-  ``convention``: "opengl" (x right, y up, looking down -z) or "opencv" (x right, y down,
-  looking down +z; only ``IntrinsicsCamera`` offers it).
+The conventions shared with the C++ core (``_core.pyi``): view, clip, NDC and window spaces,
+row 0 at the top, pixel centres at (j + 0.5, i + 0.5), the pose's axes for ``convention``
+"opengl" and "opencv", are in docs/conventions.md, "Spaces" and "Pixels and images".
 """
 from __future__ import annotations
 

@@ -1,42 +1,9 @@
 """Datasets: many views of a scene rendered and written to a directory, with the cameras in
-``cameras.json`` (``write_dataset``, ``load_cameras``).
+``cameras.json`` (``write_dataset``, ``load_cameras``, ``DatasetJob``, ``render_dataset``).
 
-``write_dataset`` renders with ``Renderer.render_many`` and hands each frame to a small pool of
-writer threads (OpenImageIO releases the GIL while it encodes), so encoding overlaps rendering;
-files are written atomically, so an interrupted run leaves only complete files, and a rerun
-skips the views whose files are all there and intact (``resume``: each decodes, as
-``Frame.load`` reads it, to the output's dtype, channels and image size; a view with a
-truncated, empty or corrupt file is rendered again).
-
-``cameras.json``::
-
-    {"format": "softrast cameras 1",
-     "conventions": "...",
-     "frames": [{"stem": "000000", "width": 640, "height": 480, "near": 0.05, "far": 100.0,
-                 "orthographic": false,
-                 "K": [[fx, 0, cx], [0, fy, cy], [0, 0, 1]],      # OpenCV; null if orthographic
-                 "dist": [k1, k2, p1, p2, k3, ...],               # OpenCV; null if none
-                 "xmag": null, "ymag": null,                      # orthographic half-extents
-                 "pose_opencv": 4x4,   # camera-to-world, axes x right, y down, z forward
-                 "pose_opengl": 4x4,   # camera-to-world, axes x right, y up, z backward
-                 "files": {"color": "000000_color.png", ...}}, ...]}  # in softrast.OUTPUTS order
-
-K follows OpenCV: the centre of pixel (row i, col j) is at (u, v) = (j, i); a world point X is
-seen at K (R X + t) / z with [R | t] the inverse of ``pose_opencv``.
-
-``write_dataset(..., store="zarr")`` (``pip install softrast[zarr]``) writes each output as one
-zarr array (zarr format 2, read by zarr-python 2 and 3, xarray and ``dask.array.from_zarr``)
-instead of files, in ``directory/views.zarr``: shape (n_views, h, w[, c]) in the output's own
-dtype (``softrast.OUTPUT_TABLE``), one view a chunk, Blosc-compressed (LZ4, byte shuffle for
-the float outputs), consolidated metadata;
-``zarr.open_group(os.path.join(directory, "views.zarr"))["depth"][12]`` is view 12's depth.
-The same cameras.json is written beside it, each frame's ``files`` naming
-where its views are, as ``{"color": "views.zarr/color[12]", ...}`` (array ``color`` of the
-group, index 12 along its first axis). Chunks are written atomically and resume works as for
-files (a view is skipped when each of its chunks is there and decodes). A view never written
-reads as NaN (float outputs), -2**31 (ids) or 2**32 - 1 (coverage), values no render gives;
-colour and mask have no such value (no fill value: tell by the chunk file, or by cameras.json,
-written once every view is). ``softrast._zarr_store`` has the details.
+``write_dataset`` renders with ``Renderer.render_many`` while writer threads encode; files are
+written atomically and ``resume`` skips the views already written. The stores (files, zarr),
+``cameras.json``'s fields and the sharded runs are in docs/file_formats.md, "Datasets".
 """
 from __future__ import annotations
 

@@ -1,48 +1,9 @@
-"""Lights, placed like pyrender's: ``scene.add(light, pose=)`` with a 4x4 light-to-world pose.
+"""Lights, placed like pyrender's: ``scene.add(light, pose=)`` with a 4x4 light-to-world pose
+(``DirectionalLight``, ``PointLight``, ``SpotLight``).
 
-A light shines along its local -z axis (the pose's z column, of any nonzero length); a point or
-spot light sits at the pose's translation. ``scene.add(light, pose=, camera_space=True)`` fixes a
-light to the camera instead (the pose is then light-to-camera, in the camera's OpenGL axes: x
-right, y up, looking down -z). The radiance a light sends is ``color * intensity`` (intensity
->= 0, at most float32's 3.4e38), times ``1 / r**2`` for point and spot lights with
-``falloff="inverse_square"`` (the default; ``"none"`` drops it, as classic Phong and PyTorch3D
-do), times glTF's smooth cone factor for spot lights (KHR_lights_punctual):
-
-    t = clamp((cos(angle to the axis) - cos(outer_cone)) / (cos(inner_cone) - cos(outer_cone)), 0, 1)
-    factor = t * t
-
-A scene without lights is lit by a headlight: a white directional light along the camera's
-viewing axis of intensity ``1 - ambient`` (render's ``ambient``) plus an ambient light of
-``ambient``, which is exactly today's Lambert shading.
-
-Shadows: every light type takes ``shadows=False`` (default), ``True`` or ``"exact"`` (the same),
-or ``"map"``.
-
-An exact shadow is a hard shadow decided where the light is evaluated (each pixel; each vertex or
-face centre at those frequencies) by a ray to the light (toward a point or spot light's position,
-blockers between the point and the light only; along the direction of a directional light),
-tested in double precision against every triangle of the scene's opaque and masked meshes
-(both faces, in the view or not; masked ones by their geometry; blended ones cast no shadow).
-There is no bias to tune: a triangle whose plane passes through the shaded point, within the
-float32 precision of its coordinates (2^-19 of their magnitude), does not shadow it, so surfaces
-never shadow themselves (no acne, even at grazing light). A shadowed light is evaluated at
-every pixel (the ray starts there), so a flat face under directional lights, otherwise lit once
-per face, may differ from the unshadowed render in the last float32 bits.
-
-A shadow map is what pyrender and game engines draw: softrast renders the occluders' depth from
-the light (``shadow_resolution`` texels square, default 2048: an orthographic view fitted to the
-occluders for a directional light, a perspective one over the cone for a spot light, a cube of
-six for a point light or a spot wider than 150 degrees; softrast.shadow_maps) once per scene
-state, and filters its comparisons as pyrender does (3 x 3 bilinear percentage-closer
-filtering: soft edges a few texels wide), with a bias of ``shadow_bias`` scene units (default
-0.005) plus a slope-scaled term of two texels (cpp/shadow.hpp). A map is kept with the scene
-until the scene changes (a camera-space light's, which moves with every view, is rendered for
-each render); each face holds resolution² float32 depths (16 MB at 2048, six faces for a cube).
-Lines and points cast no shadow with either method.
-
-A shadowed light's diffuse and specular terms are multiplied by its visibility (0 or 1 exact, a
-fraction with maps) in every lit model; ambient and emissive light are not shadowed.
-``render(shadows=...)`` overrides every light's setting for one render.
+How a light is placed and attenuated (falloff, the spot cone), the headlight, and both shadow
+methods (``shadows="exact"``: a ray per shaded point; ``"map"``: pyrender's shadow maps) are
+in docs/conventions.md, "Lights and shadows".
 """
 from __future__ import annotations
 

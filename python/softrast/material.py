@@ -1,39 +1,9 @@
-"""Materials: how a surface reflects light, for every shading model (see ``softrast.render``).
+"""Materials: how a surface reflects light, for every shading model (``Material``, ``MODELS``,
+``ALPHA_MODES``).
 
-Colours are linear RGB in [0, 1] (not sRGB-encoded). One ``Material`` carries the parameters of
-every model, so the same mesh can be rendered with any ``shading=``:
-
-============== ===========================================================================
-model          radiance (summed over lights; ``I`` = light colour x intensity x attenuation)
-============== ===========================================================================
-unlit          base colour
-lambert        ka*Ia + sum kd*I*max(0, n.l) + emissive
-phong          lambert + sum [n.l > 0] ks*I*max(0, r.v)^shininess, r = 2(n.l)n - l
-blinn_phong    lambert + sum [n.l > 0] ks*I*max(0, n.h)^shininess, h = (l + v)/|l + v|
-pbr            glTF 2.0 metallic-roughness as pyrender's mesh.frag computes it (shading.py)
-normal         (n + 1) / 2, the visible side's world-space unit normal
-============== ===========================================================================
-
-``kd`` is the base colour unless given (the per-vertex colours of a mesh that has them, else
-``base_color``); ``ka`` is ``kd`` unless given; ``Ia`` is the scene's ambient light.
-
-Textures (``softrast.Texture``; conventions in ``softrast.texture``) are sampled per pixel at the
-mesh's uvs: ``base_color_texture`` multiplies the base colour (so ``kd`` where ``kd`` is the base
-colour, as ``map_Kd`` does in MTL files), ``emissive_texture`` multiplies ``emissive`` (then
-added per pixel), ``normal_texture`` is a tangent-space normal map (OpenGL-style, green = +v;
-``normal_map_convention="directx"`` for green = -v; x and y scaled by ``normal_scale``) in the
-tangent frame of each triangle (tangent = the direction of +u, made orthogonal to the
-interpolated normal; bitangent = n x t, flipped where the uvs are mirrored). At the vertex and
-face frequencies the lighting is computed without textures and modulated per pixel by the base
-colour texture (OpenGL's GL_MODULATE), and normal maps are not read.
-``metallic_roughness_texture`` (glTF: blue x ``metallic``, green x ``roughness``, per pixel),
-``occlusion_texture`` (red: the ambient term times 1 + ``occlusion_strength`` (red - 1), as glTF
-defines it: only indirect light is occluded) and ``bump_texture`` (a height map, first channel:
-the course notes' bump mapping, dU = ``bump_scale`` (h(u + 1/w) - h(u)), dV likewise along v,
-tangent-space normal (-dU, -dV, 1); used where there is no ``normal_texture``) and
-``specular_texture`` (its rgb times ``ks``: phong and blinn_phong, MTL's ``map_Ks``) are read at
-the pixel frequency. Data slots (normal, metallic-roughness, occlusion, bump, specular) read
-linear values unless their texture says ``srgb=True``.
+One ``Material`` carries the parameters of every model, in linear colours. The models'
+formulas and what each texture slot does are in docs/conventions.md, "Materials and shading
+models"; the ``pbr`` model, term by term, in docs/pbr_notes.md.
 """
 from __future__ import annotations
 
@@ -109,8 +79,8 @@ class Material:
     normal_texture : Texture or None, a tangent-space normal map (linear unless the texture says
         ``srgb=True``); ``normal_scale`` (finite) scales its x and y;
         ``normal_map_convention``: "opengl" (default, green = +v) or "directx" (green = -v).
-    metallic_roughness_texture, occlusion_texture, bump_texture : Texture or None (see the
-        module docstring); ``occlusion_strength`` in [0, 1], ``bump_scale`` finite.
+    metallic_roughness_texture, occlusion_texture, bump_texture : Texture or None (see
+        docs/conventions.md); ``occlusion_strength`` in [0, 1], ``bump_scale`` finite.
     specular_texture : Texture or None: its rgb scales ``ks`` per pixel in the phong and
         blinn_phong models (MTL's ``map_Ks``); linear unless the texture says ``srgb=True``.
         Read at the pixel frequency; ``pbr`` does not read it.

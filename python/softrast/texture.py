@@ -1,53 +1,10 @@
 """Textures: images a material samples per pixel (``Material(base_color_texture=...)`` and the
-other texture slots), filtered in the C++ core.
+other texture slots), filtered in the C++ core: ``Texture``, ``load_texture``.
 
-Conventions (``tests/support/texture_reference.py`` implements every rule below independently):
-
-* **uv origin.** ``uv_origin="bottom_left"`` (default; OpenGL, and glTF files as trimesh loads
-  them): v points up, the image's row 0 (its top) is at v = 1::
-
-        v = 1  +---------+  image row 0
-               |  image  |
-        v = 0  +---------+  image row h - 1
-             u = 0     u = 1
-
-  Texel corners are at multiples of 1/w and 1/h: texel (row r, column j) covers
-  u in [j/w, (j+1)/w], v in [1 - (r+1)/h, 1 - r/h]; its centre is at ((j + 0.5)/w,
-  1 - (r + 0.5)/h). ``uv_origin="top_left"`` (DirectX, and raw glTF uvs): row 0 at v = 0.
-* **Decoding.** uint8 and uint16 texels are scaled to [0, 1]; float32 texels are taken as they
-  are, 1 being full intensity (a material warns of values above 1 in a colour slot, since a
-  float image holding 0..255 draws white, and refuses negative ones there). 8- and 16-bit
-  colour textures are sRGB-encoded (IEC 61966-2-1) and decoded to linear; data textures
-  (normal, height, metallic-roughness, occlusion) are linear. ``srgb=None`` (default) lets the
-  slot decide for 8- and 16-bit images: ``base_color_texture`` and ``emissive_texture`` decode
-  sRGB, every other slot reads linear values. Float images are linear wherever they are used
-  (the EXR / HDR convention) unless the texture says ``srgb=True``; ``Texture.sample`` reads
-  them the same way. Decoding a float image whose values overflow float32 once decoded raises
-  a ValueError. Alpha is never sRGB-encoded. 1 channel is grey (L, L, L, 1); 2 are grey and
-  alpha; 3 are RGB (alpha 1); 4 are RGBA.
-* **Wrap** (per axis): ``"repeat"``, ``"clamp"`` (to the edge texel) or ``"mirror"`` (OpenGL's
-  mirrored repeat). uvs are reduced to one period exactly before scaling, so uvs of 1e6 keep
-  their fraction.
-* **Filters.** ``"nearest"`` (the texel containing the point), ``"bilinear"`` (the four nearest
-  texel centres), ``"trilinear"`` (bilinear on the two mip levels around the level of detail,
-  blended) and ``"anisotropic"`` (up to ``max_anisotropy`` trilinear probes along the major axis
-  of the pixel's footprint, at the level of its minor axis: EXT_texture_filter_anisotropic).
-  The level of detail is log2 of the longer footprint axis in texels, from the exact screen
-  derivatives of the uvs (the triangle's plane equations, not finite differences between
-  pixels).
-* **Mip chains** are built once per texture, on the first render (or ``sample``) that needs
-  them, in linear space with straight alpha: each level halves each side (floor, at least 1)
-  with an exact area-weighted box filter (an odd side's texels are split between neighbours by
-  overlap), down to 1 x 1. Levels are float32 RGBA: a chain costs about 21 bytes per texel of
-  level 0 (16/3 x 4), built in C++ at about 10 ns per texel; the build peaks near 28 bytes per
-  texel (a float32 RGBA copy of level 0, a half-width pass and level 1), and that peak is checked
-  against ``softrast.set_memory_budget`` first, naming the texture, as is the float32 copy a
-  texture other than uint8 (or float32 read as linear) is converted to.
-* **NaN uvs** (and infinite ones with repeat or mirror) sample as (0, 0, 0, 0): black and
-  transparent, never an out-of-bounds read. With clamp an infinite uv reads the edge texel.
-
-The image is viewed, not copied, where its layout allows (a C-contiguous uint8 array, or a
-float32 one read as linear): do not modify it after the first render, whose mip chain stays.
+The rules (uv origin, decoding and sRGB, channels, wrap modes, filters and the level of detail,
+mip chains and their memory, NaN uvs, when the image is viewed rather than copied) are in
+docs/file_formats.md, "Textures"; ``tests/support/texture_reference.py`` implements every one
+of them independently.
 """
 from __future__ import annotations
 
@@ -134,7 +91,7 @@ class Texture:
     ----------
     image : (h, w, c) or (h, w) array, uint8, uint16 or float32 (float64 is converted), c in 1..4.
     srgb : True (sRGB-encoded colour), False (linear data) or None (8- and 16-bit images: the
-        material slot decides; float images: linear. See the module docstring).
+        material slot decides; float images: linear. See docs/file_formats.md, "Textures").
     filter : "nearest", "bilinear", "trilinear" (default) or "anisotropic";
         ``render(texture_filter=)`` overrides it for one render.
     wrap : "repeat" (default), "clamp" or "mirror", or a pair (wrap_u, wrap_v).
