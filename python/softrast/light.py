@@ -27,8 +27,25 @@ _DIRECTIONAL, _POINT, _SPOT = _core.LIGHT_KINDS  # "directional", "point", "spot
 
 
 def shadow_method(value: Any, name: str = "shadows") -> str | bool:
-    """False, or the shadow method ``value`` names (True means "exact"); ValueError naming
-    ``name`` otherwise."""
+    """False, or the shadow method ``value`` names (True means "exact").
+
+    Parameters
+    ----------
+    value : bool or str
+        False, True, "exact" or "map".
+    name : str, optional
+        The argument's name, for the error.
+
+    Returns
+    -------
+    False or str
+        False, "exact" or "map".
+
+    Raises
+    ------
+    ValueError
+        Naming ``name``, for any other value.
+    """
     if value is False:
         return False
     if isinstance(value, (bool, np.bool_)):
@@ -64,7 +81,31 @@ def _intensity(value: Any) -> float:
 
 
 class Light:
-    """Base class of the light types (not made directly)."""
+    """Base class of the light types (not made directly); immutable, hashable, picklable.
+
+    Lights are placed by ``Scene.add(light, pose=)``: they shine along the pose's -z axis. The
+    rules (falloff, the spot cone, the headlight, both shadow methods) are in
+    docs/conventions.md, "Lights and shadows".
+
+    Parameters
+    ----------
+    color : sequence of 3 floats, optional
+        Linear RGB in [0, 1] (default white).
+    intensity : float, optional
+        >= 0, at most float32's 3.4e38 (default 1). The light sends ``color * intensity``.
+    shadows : bool or str, optional
+        False (default), True or "exact" (the same: a ray per shaded point) or "map" (shadow maps);
+        ``render(shadows=)`` overrides it for one render.
+    shadow_resolution : int, optional
+        A shadow map's side in texels, in [1, 16384] (default 2048).
+    shadow_bias : float, optional
+        A shadow map's bias in scene units, finite and >= 0 (default 0.005), plus a slope term.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a bad argument, naming it.
+    """
 
     __slots__ = ("color", "intensity", "shadows", "shadow_resolution", "shadow_bias")
     _kind = ""
@@ -131,7 +172,27 @@ class Light:
 
 
 class DirectionalLight(Light):
-    """Light from infinitely far away along the pose's -z axis (the sun). pyrender's name."""
+    """Light from infinitely far away along the pose's -z axis (the sun). pyrender's name.
+
+    Parameters
+    ----------
+    color : sequence of 3 floats, optional
+        Linear RGB in [0, 1] (default white).
+    intensity : float, optional
+        >= 0, at most float32's 3.4e38 (default 1). The light sends ``color * intensity``.
+    shadows : bool or str, optional
+        False (default), True or "exact" (the same: a ray per shaded point) or "map" (shadow maps);
+        ``render(shadows=)`` overrides it for one render.
+    shadow_resolution : int, optional
+        A shadow map's side in texels, in [1, 16384] (default 2048).
+    shadow_bias : float, optional
+        A shadow map's bias in scene units, finite and >= 0 (default 0.005), plus a slope term.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a bad argument, naming it.
+    """
 
     __slots__ = ()
     _kind = _DIRECTIONAL
@@ -140,7 +201,26 @@ class DirectionalLight(Light):
 class PointLight(Light):
     """Light from the pose's translation in every direction.
 
-    falloff : "inverse_square" (default: radiance / r**2, physical and pyrender's) or "none".
+    Parameters
+    ----------
+    color : sequence of 3 floats, optional
+        Linear RGB in [0, 1] (default white).
+    intensity : float, optional
+        >= 0, at most float32's 3.4e38 (default 1). The light sends ``color * intensity``.
+    falloff : str, optional
+        "inverse_square" (default: radiance / r**2, physical and pyrender's) or "none".
+    shadows : bool or str, optional
+        False (default), True or "exact" (the same: a ray per shaded point) or "map" (shadow maps);
+        ``render(shadows=)`` overrides it for one render.
+    shadow_resolution : int, optional
+        A shadow map's side in texels, in [1, 16384] (default 2048).
+    shadow_bias : float, optional
+        A shadow map's bias in scene units, finite and >= 0 (default 0.005), plus a slope term.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a bad argument, naming it.
     """
 
     __slots__ = ("falloff",)
@@ -157,9 +237,32 @@ class PointLight(Light):
 class SpotLight(Light):
     """A point light restricted to a cone around the pose's -z axis.
 
-    inner_cone, outer_cone : half-angles in radians, 0 <= inner_cone < outer_cone <= pi / 2 (as
-        glTF's KHR_lights_punctual and pyrender; defaults 0 and pi / 4). Full intensity inside
-        the inner cone, none outside the outer one, glTF's smooth falloff between.
+    Full intensity inside the inner cone, none outside the outer one, glTF's smooth falloff
+    between.
+
+    Parameters
+    ----------
+    color : sequence of 3 floats, optional
+        Linear RGB in [0, 1] (default white).
+    intensity : float, optional
+        >= 0, at most float32's 3.4e38 (default 1). The light sends ``color * intensity``.
+    inner_cone, outer_cone : float, optional
+        Half-angles in radians, 0 <= inner_cone < outer_cone <= pi / 2 (as glTF's
+        KHR_lights_punctual and pyrender; defaults 0 and pi / 4).
+    falloff : str, optional
+        "inverse_square" (default: radiance / r**2) or "none".
+    shadows : bool or str, optional
+        False (default), True or "exact" (the same: a ray per shaded point) or "map" (shadow maps);
+        ``render(shadows=)`` overrides it for one render.
+    shadow_resolution : int, optional
+        A shadow map's side in texels, in [1, 16384] (default 2048).
+    shadow_bias : float, optional
+        A shadow map's bias in scene units, finite and >= 0 (default 0.005), plus a slope term.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a bad argument, naming it.
     """
 
     __slots__ = ("inner_cone", "outer_cone", "falloff")

@@ -85,18 +85,35 @@ def _check_image(image: Any) -> np.ndarray:
 
 
 class Texture:
-    """An image that a material samples, with its sampling options.
+    """An image that a material samples, with its sampling options; immutable.
+
+    The sampling rules are in docs/file_formats.md, "Textures".
 
     Parameters
     ----------
-    image : (h, w, c) or (h, w) array, uint8, uint16 or float32 (float64 is converted), c in 1..4.
-    srgb : True (sRGB-encoded colour), False (linear data) or None (8- and 16-bit images: the
+    image : array_like, shape (h, w, c) or (h, w)
+        uint8, uint16 or float32 (float64 is converted), c in 1..4. Viewed, not copied, where its
+        layout allows: do not modify it after the first render.
+    srgb : bool or None, optional
+        True (sRGB-encoded colour), False (linear data) or None (8- and 16-bit images: the
         material slot decides; float images: linear. See docs/file_formats.md, "Textures").
-    filter : "nearest", "bilinear", "trilinear" (default) or "anisotropic";
+    filter : str, optional
+        "nearest", "bilinear", "trilinear" (default) or "anisotropic";
         ``render(texture_filter=)`` overrides it for one render.
-    wrap : "repeat" (default), "clamp" or "mirror", or a pair (wrap_u, wrap_v).
-    max_anisotropy : probes of the anisotropic filter at most, an int >= 1 (default 16).
-    uv_origin : "bottom_left" (OpenGL, default) or "top_left" (DirectX, raw glTF).
+    wrap : str or pair of str, optional
+        "repeat" (default), "clamp" or "mirror", or a pair (wrap_u, wrap_v).
+    max_anisotropy : int, optional
+        Probes of the anisotropic filter at most, in [1, 64] (default 16).
+    uv_origin : str, optional
+        "bottom_left" (OpenGL, default) or "top_left" (DirectX, raw glTF).
+    name : str or None, optional
+        A label (the file's name for ``load_texture``), used in error messages.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a bad argument, naming it: a dtype other than those above, a shape other than (h, w)
+        or (h, w, 1..4), an empty image, a side over 2 x ``MAX_IMAGE_SIDE``, a non-finite texel.
     """
 
     __slots__ = ("image", "srgb", "filter", "wrap", "max_anisotropy", "uv_origin", "name",
@@ -141,7 +158,18 @@ class Texture:
                              "texture.replace(...))")
 
     def replace(self, **changes: Any) -> "Texture":
-        """A copy with some options changed (the image is shared, not copied)."""
+        """A copy with some options changed (the image is shared, not copied).
+
+        Parameters
+        ----------
+        **changes
+            Any of the constructor's arguments by name.
+
+        Returns
+        -------
+        Texture
+            The new texture, checked like the constructor's.
+        """
         args = {k: getattr(self, k) for k in ("image", "srgb", "filter", "wrap", "max_anisotropy",
                                                "uv_origin", "name")}
         args.update(changes)
@@ -149,14 +177,17 @@ class Texture:
 
     @property
     def height(self) -> int:
+        """Image height in texels."""
         return int(self.image.shape[0])
 
     @property
     def width(self) -> int:
+        """Image width in texels."""
         return int(self.image.shape[1])
 
     @property
     def channels(self) -> int:
+        """Channels of the image, 1 to 4."""
         return int(self.image.shape[2])
 
     def _decodes_srgb(self, slot_srgb: bool | None = None) -> bool:
@@ -247,13 +278,36 @@ class Texture:
 
     @property
     def levels(self) -> list[tuple[int, int]]:
-        """The (height, width) of each mip level, level 0 first, the last 1 x 1."""
+        """The (height, width) of each mip level, level 0 first, the last 1 x 1.
+
+        Returns
+        -------
+        list of tuple of int
+        """
         core = self._core()
         return [tuple(core.level_size(level)) for level in range(core.num_levels)]
 
     def mip(self, level: int) -> np.ndarray:
-        """Mip level ``level`` as (h, w, 4) float32 linear RGBA (the chain built on first use;
-        it and the array are checked against the memory budget first)."""
+        """One mip level as linear RGBA.
+
+        The chain is built on first use; it and the array are checked against the memory budget
+        first.
+
+        Parameters
+        ----------
+        level : int
+            In [0, len(levels)).
+
+        Returns
+        -------
+        ndarray, shape (h, w, 4), float32
+            Linear RGBA.
+
+        Raises
+        ------
+        ValueError
+            For a level outside that range, or beyond ``softrast.get_memory_budget()``.
+        """
         core = self._core()
         level = integer(level, "level")
         if not 0 <= level < core.num_levels:
@@ -266,9 +320,28 @@ class Texture:
 
     def sample(self, uv: npt.ArrayLike, duv: npt.ArrayLike | None = None,
                filter: str | None = None) -> np.ndarray:
-        """Samples at n points exactly as a render does: ``uv`` (n, 2), ``duv`` (n, 4) the
-        screen derivatives (du/dx, dv/dx, du/dy, dv/dy) in uv units per pixel (None: zeros,
-        level 0); ``filter`` None = the texture's. Returns (n, 4) float32 linear RGBA."""
+        """Sample at n points exactly as a render does.
+
+        Parameters
+        ----------
+        uv : array_like, shape (n, 2)
+            Texture coordinates.
+        duv : array_like, shape (n, 4), optional
+            The screen derivatives (du/dx, dv/dx, du/dy, dv/dy) in uv units per pixel; None: zeros
+            (level 0).
+        filter : str, optional
+            None: the texture's own filter.
+
+        Returns
+        -------
+        ndarray, shape (n, 4), float32
+            Linear RGBA.
+
+        Raises
+        ------
+        ValueError
+            For a uv or duv of the wrong shape or dtype, or a mip chain beyond the memory budget.
+        """
         uv_arr = np.asarray(uv)
         if uv_arr.dtype.kind not in "fiu" or uv_arr.ndim != 2 or uv_arr.shape[1] != 2:
             raise ValueError(f"uv must be a real (n, 2) array, got shape {uv_arr.shape} dtype {uv_arr.dtype}")
@@ -297,9 +370,30 @@ class Texture:
 
 
 def load_texture(path: str | os.PathLike[str], srgb: bool | None = None, **options: Any) -> Texture:
-    """Reads an image file (PNG, JPEG, TGA, EXR, TIFF, ... through OpenImageIO) as a Texture;
-    ``options`` are Texture's (filter, wrap, max_anisotropy, uv_origin). 8-bit files stay uint8
-    (viewed), 16-bit ones uint16, floating-point ones float32."""
+    """Read an image file as a Texture.
+
+    PNG, JPEG, TGA, EXR, TIFF, ... through OpenImageIO: 8-bit files stay uint8 (viewed), 16-bit
+    ones uint16, floating-point ones float32.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The image file.
+    srgb : bool or None, optional
+        As for ``Texture``.
+    **options
+        Texture's other arguments (filter, wrap, max_anisotropy, uv_origin; ``name`` defaults to
+        the file's name).
+
+    Returns
+    -------
+    Texture
+
+    Raises
+    ------
+    FileNotFoundError, ValueError
+        As ``softrast.imread``; ValueError naming the file for an image Texture refuses.
+    """
     image = imread(path)
     if image.dtype == np.float16 or image.dtype == np.float64:
         image = image.astype(np.float32)
