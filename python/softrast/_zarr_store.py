@@ -115,10 +115,33 @@ def _describe(zarray: dict) -> str:
 
 
 def prepare(root: str, n: int, h: int, w: int, names: Sequence[str]) -> dict[str, _Array]:
-    """Make (or check, or grow to ``n`` views) the group ``root`` and one array per output, and
-    return them. Only what differs from what is on disk is written (the metadata of a resumed
-    run, or of a shard after ``render_dataset`` made the arrays, is left untouched), each file
-    atomically, .zmetadata last."""
+    """Make (or check, or grow to ``n`` views) the group ``root`` and one array per output.
+
+    Only what differs from what is on disk is written (the metadata of a resumed run, or of a
+    shard after ``render_dataset`` made the arrays, is left untouched), each file atomically,
+    .zmetadata last.
+
+    Parameters
+    ----------
+    root : str
+        The group's directory.
+    n : int
+        Views.
+    h, w : int
+        Image size.
+    names : sequence of str
+        The outputs.
+
+    Returns
+    -------
+    dict of str to _Array
+        The arrays by output.
+
+    Raises
+    ------
+    ValueError
+        Naming the array, for one of another image size, dtype or codec.
+    """
     Blosc = _blosc()
     os.makedirs(root, exist_ok=True)
     if os.path.exists(os.path.join(root, "zarr.json")):
@@ -230,14 +253,26 @@ def _write_view(arrays: dict[str, _Array], frame: Any, k: int) -> None:
 
 
 def entry(name: str, k: int) -> str:
-    """Where view ``k`` of output ``name`` is, relative to the dataset directory."""
+    """Where view ``k`` of output ``name`` is, relative to the dataset directory.
+
+    Returns
+    -------
+    str
+        ``views.zarr/{name}[{k}]``.
+    """
     return f"{GROUP}/{name}[{k}]"
 
 
 def write_views(scene: Any, cams: Sequence[Any], directory: str, outputs: Sequence[str],
                 renderer: Any, n_writers: int, progress: bool, resume: bool, first: int,
                 cameras_json: bool, formats: dict[str, str], options: dict[str, Any]) -> Any:
-    """``write_dataset`` for store="zarr" (its arguments checked there)."""
+    """``write_dataset`` for store="zarr" (its arguments checked there).
+
+    Returns
+    -------
+    WrittenViews
+        As ``write_dataset``'s.
+    """
     _blosc()
     if formats:
         raise ValueError("formats: for store='files' only (store='zarr' keeps each output in its "
@@ -292,8 +327,19 @@ def write_views(scene: Any, cams: Sequence[Any], directory: str, outputs: Sequen
 
 
 def prepare_job(job: Any) -> None:
-    """``render_dataset``: each mesh's arrays made once, for all the job's views, before the
-    shards write their (disjoint) views into them."""
+    """``render_dataset``: each mesh's arrays made once, for all the job's views.
+
+    Made before the shards write their (disjoint) views into them.
+
+    Parameters
+    ----------
+    job : DatasetJob
+
+    Raises
+    ------
+    ValueError
+        Unless every camera has one image size.
+    """
     sizes = {(c.width, c.height) for c in job.cameras}
     if len(sizes) != 1 or None in next(iter(sizes)):
         raise ValueError(f"cameras: all must have one image size, got {sorted(sizes, key=str)}")

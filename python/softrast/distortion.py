@@ -138,7 +138,29 @@ def _maps_normal(inst: Any) -> bool:
 
 def render_distorted(renderer: Any, scene: Any, camera: Any, names: Any, options: RenderOptions,
                      out: Any) -> Any:
-    """``Renderer.render`` for a camera with lens distortion (docs/conventions.md, "How a distorted camera is rendered")."""
+    """``Renderer.render`` for a camera with lens distortion.
+
+    docs/conventions.md, "How a distorted camera is rendered", states each step.
+
+    Parameters
+    ----------
+    renderer : Renderer
+        Its size is the output's.
+    scene : Scene
+    camera : IntrinsicsCamera
+        With ``dist``.
+    names : sequence of str
+        The outputs, checked.
+    options : RenderOptions
+        Resolved (no anti-aliasing, wireframe or ``alpha_threshold``: ``Renderer.render`` refuses
+        them first).
+    out : Frame or dict of str to ndarray or None
+        As ``Renderer.render``'s.
+
+    Returns
+    -------
+    Frame
+    """
     w, h = renderer.width, renderer.height
     rays = _rays(camera, w, h)
     wanted = list(names)
