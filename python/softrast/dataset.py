@@ -41,6 +41,7 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
     Parameters
     ----------
     scene : Scene
+        What is drawn.
     cameras : sequence of Camera
         Posed cameras, each with its image size (all the same size: one renderer).
     directory : str or os.PathLike
@@ -306,6 +307,7 @@ def render_dataset(job: DatasetJob, executor: concurrent.futures.Executor | None
     Parameters
     ----------
     job : DatasetJob
+        The dataset to render.
     executor : concurrent.futures.Executor, optional
         Any Executor: a ``ProcessPoolExecutor``, or a Dask cluster's ``client.get_executor()``;
         None: one process, here.

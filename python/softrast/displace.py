@@ -30,7 +30,7 @@ __all__ = ["displace"]
 
 def displace(mesh: Mesh, texture: Texture, scale: float, subdivisions: int = 0,
              midlevel: float = 0.0) -> Mesh:
-    """A new Mesh: ``mesh`` subdivided, then each vertex moved along its normal by the texture's height.
+    """Displace a mesh's geometry: subdivide it, then move each vertex along its normal.
 
     Each vertex moves along its unit normal by ``scale * (height - midlevel)``, the height being
     the texture's first channel at its uv (bilinear, level 0, linear unless the texture says
@@ -53,6 +53,7 @@ def displace(mesh: Mesh, texture: Texture, scale: float, subdivisions: int = 0,
     Returns
     -------
     Mesh
+        A new Mesh (``mesh`` is unchanged).
 
     Raises
     ------

@@ -145,7 +145,9 @@ class Frame:
         Parameters
         ----------
         directory : str or os.PathLike
+            Where ``save`` wrote.
         stem : str
+            ``save``'s stem.
 
         Returns
         -------

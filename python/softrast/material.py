@@ -93,10 +93,12 @@ class Material:
         Finite; scales the normal map's x and y (default 1).
     normal_map_convention : str, optional
         "opengl" (default, green = +v) or "directx" (green = -v).
-    metallic_roughness_texture, occlusion_texture, bump_texture : Texture or None, optional
+    metallic_roughness_texture, occlusion_texture : Texture or None, optional
         See docs/conventions.md, "Materials and shading models".
     occlusion_strength : float, optional
         In [0, 1] (default 1).
+    bump_texture : Texture or None, optional
+        A height map (docs/conventions.md).
     bump_scale : float, optional
         Finite (default 1).
     alpha_mode : str, optional

@@ -116,6 +116,7 @@ def orbit(target: npt.ArrayLike, radius: float, n: int, elevation: float = 20.0,
     convention : str, optional
         "opengl" (default: x right, y up, looking down -z, as ``PerspectiveCamera`` and pyrender)
         or "opencv" (x right, y down, looking down +z, as ``IntrinsicsCamera``'s default).
+
     Returns
     -------
     ndarray, shape (n, 4, 4), float64
@@ -157,6 +158,7 @@ def sphere_poses(target: npt.ArrayLike, radius: float, n: int, up: npt.ArrayLike
     convention : str, optional
         "opengl" (default: x right, y up, looking down -z, as ``PerspectiveCamera`` and pyrender)
         or "opencv" (x right, y down, looking down +z, as ``IntrinsicsCamera``'s default).
+
     Returns
     -------
     ndarray, shape (n, 4, 4), float64

@@ -239,6 +239,7 @@ class Renderer:
         Parameters
         ----------
         scene : Scene
+            What is drawn, uploaded once.
         cameras : iterable of Camera
             Any iterable (a generator of posed cameras, say), read as needed.
         outputs : str or sequence of str, optional

@@ -264,6 +264,7 @@ def to_pyrender(scene: Scene, camera: Camera | None = None) -> Any:
     Parameters
     ----------
     scene : Scene
+        The scene to convert.
     camera : Camera, optional
         Becomes the scene's main camera; render an ``IntrinsicsCamera`` at its own width x height.
 
