@@ -1,48 +1,8 @@
 """``write_dataset(store="zarr")``: each output as one chunked, compressed array of a zarr group.
 
-Layout, zarr format 2 (read by zarr-python 2 and 3, ``xarray.open_zarr``,
-``dask.array.from_zarr``, tensorstore, ...)::
-
-    <directory>/views.zarr/           the group: .zgroup, .zattrs, .zmetadata (consolidated)
-        color/.zarray                 (n_views, h, w, 3) uint8, chunks (1, h, w, 3): a view a chunk
-        color/.zattrs                 {"_ARRAY_DIMENSIONS": ["view", "y", "x", "color_channel"], ...}
-        color/12.0.0.0                view 12, Blosc-compressed
-        depth/12.0.0                  (n_views, h, w) float32
-        ...
-    <directory>/cameras.json          as for files, but each frame's "files" says where its views
-                                      are: {"color": "views.zarr/color[12]", ...}
-
-Each output keeps its own dtype and channels (``softrast.OUTPUT_TABLE``): mask bool, ids int32,
-coverage uint32, float outputs float32. Chunks are Blosc (LZ4, level 5; byte shuffle for float
-outputs, none for the others), chosen by measuring real frames (``bench_dataset.py --codecs``;
-benchmarks/RESULTS.md, "Datasets and encoders"). Unwritten views read as the fill value, which no render
-gives where one exists: NaN (float outputs), -2**31 (ids), 2**32 - 1 (coverage). Colour and mask
-have none (every value is a possible pixel: no fill value, null in .zarray), so a view is
-written if and only if its chunk file is there; ``cameras.json`` is written last, once every
-view is.
-
-Why format 2: every zarr reader reads it (zarr-python 2, still pinned by many environments,
-reads no format 3), xarray finds its dimension names in ``_ARRAY_DIMENSIONS`` and its
-consolidated metadata in ``.zmetadata`` (no warning, one read), and nothing here needs format
-3's features (one view a chunk: no sharding). xarray's default decoding masks fill values
-(ids then read as float64 with NaN for unwritten views; ``mask_and_scale=False`` keeps the
-stored dtypes); colour and mask, having no fill value, are never masked.
-
-The arrays' metadata is written here, as the zarr v2 spec gives it, and so are the chunks, not
-through zarr-python: its LocalStore writes atomically only from zarr 3.1.3 (earlier 3.x write
-in place), and its synchronous API runs the codecs on its own event loop's threads, not on the
-writer threads. The writer threads encode each view (numcodecs' Blosc releases the GIL, and
-outside the main thread runs blosc's context API with one internal thread, so the writer
-threads are the parallelism) and write each chunk atomically (a hidden temporary name in its
-array's folder, then ``os.replace``), so an interrupted run, even a killed one, leaves no
-partial chunk; the temporaries a killed run leaves are removed by the next run (only its own
-views', so shards of one job never touch each other's). The chunks are the bytes zarr-python
-writes for the same views (tested). Resume: a view is skipped when every output's chunk is
-there and decodes (its Blosc header gives the file's size and the view's bytes, and it
-decompresses); a missing, truncated or undecodable chunk renders the view again (Blosc 1 has no
-checksum: flipped bits inside a chunk may decode unseen, as in the files store's raw data).
-Arrays grow to hold more views but never shrink; an array of another image size, dtype or codec
-is refused (ValueError naming it).
+The layout (zarr format 2, a view a chunk, Blosc), fill values, why format 2, how chunks are
+written atomically by softrast itself (not through zarr-python) and how resume checks them are
+in docs/file_formats.md, "zarr (``write_dataset(store="zarr")``)".
 """
 from __future__ import annotations
 
@@ -155,10 +115,33 @@ def _describe(zarray: dict) -> str:
 
 
 def prepare(root: str, n: int, h: int, w: int, names: Sequence[str]) -> dict[str, _Array]:
-    """Make (or check, or grow to ``n`` views) the group ``root`` and one array per output, and
-    return them. Only what differs from what is on disk is written (the metadata of a resumed
-    run, or of a shard after ``render_dataset`` made the arrays, is left untouched), each file
-    atomically, .zmetadata last."""
+    """Make (or check, or grow to ``n`` views) the group ``root`` and one array per output.
+
+    Only what differs from what is on disk is written (the metadata of a resumed run, or of a
+    shard after ``render_dataset`` made the arrays, is left untouched), each file atomically,
+    .zmetadata last.
+
+    Parameters
+    ----------
+    root : str
+        The group's directory.
+    n : int
+        Views.
+    h, w : int
+        Image size.
+    names : sequence of str
+        The outputs.
+
+    Returns
+    -------
+    dict of str to _Array
+        The arrays by output.
+
+    Raises
+    ------
+    ValueError
+        Naming the array, for one of another image size, dtype or codec.
+    """
     Blosc = _blosc()
     os.makedirs(root, exist_ok=True)
     if os.path.exists(os.path.join(root, "zarr.json")):
@@ -270,14 +253,26 @@ def _write_view(arrays: dict[str, _Array], frame: Any, k: int) -> None:
 
 
 def entry(name: str, k: int) -> str:
-    """Where view ``k`` of output ``name`` is, relative to the dataset directory."""
+    """Where view ``k`` of output ``name`` is, relative to the dataset directory.
+
+    Returns
+    -------
+    str
+        ``views.zarr/{name}[{k}]``.
+    """
     return f"{GROUP}/{name}[{k}]"
 
 
 def write_views(scene: Any, cams: Sequence[Any], directory: str, outputs: Sequence[str],
                 renderer: Any, n_writers: int, progress: bool, resume: bool, first: int,
                 cameras_json: bool, formats: dict[str, str], options: dict[str, Any]) -> Any:
-    """``write_dataset`` for store="zarr" (its arguments checked there)."""
+    """``write_dataset`` for store="zarr" (its arguments checked there).
+
+    Returns
+    -------
+    WrittenViews
+        As ``write_dataset``'s.
+    """
     _blosc()
     if formats:
         raise ValueError("formats: for store='files' only (store='zarr' keeps each output in its "
@@ -332,8 +327,19 @@ def write_views(scene: Any, cams: Sequence[Any], directory: str, outputs: Sequen
 
 
 def prepare_job(job: Any) -> None:
-    """``render_dataset``: each mesh's arrays made once, for all the job's views, before the
-    shards write their (disjoint) views into them."""
+    """``render_dataset``: each mesh's arrays made once, for all the job's views.
+
+    Made before the shards write their (disjoint) views into them.
+
+    Parameters
+    ----------
+    job : DatasetJob
+
+    Raises
+    ------
+    ValueError
+        Unless every camera has one image size.
+    """
     sizes = {(c.width, c.height) for c in job.cameras}
     if len(sizes) != 1 or None in next(iter(sizes)):
         raise ValueError(f"cameras: all must have one image size, got {sorted(sizes, key=str)}")

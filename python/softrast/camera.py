@@ -1,15 +1,10 @@
-"""Cameras: a pose (camera-to-world) plus a projection to OpenGL clip space.
+"""Cameras: a pose (camera-to-world) plus a projection to OpenGL clip space
+(``PerspectiveCamera``, ``OrthographicCamera``, ``IntrinsicsCamera``; the base class is in
+``softrast.camera_base``).
 
-Conventions (shared with the C++ core, see ``_core.pyi``):
-
-* ``view_matrix()`` is world-to-view in OpenGL's view space: x right, y up, the camera looks
-  down -z. ``projection_matrix(w, h)`` maps view space to clip space; NDC = clip.xyz / clip.w.
-* Window space: x_win = (ndc_x + 1) / 2 * W, y_win = (1 - ndc_y) / 2 * H; row 0 is the top of
-  the image and the centre of pixel (row i, col j) is at (j + 0.5, i + 0.5).
-* For a world point X: clip = P @ view @ [X, 1].
-* ``pose`` is a (4, 4) float64 rigid camera-to-world transform whose axes follow
-  ``convention``: "opengl" (x right, y up, looking down -z) or "opencv" (x right, y down,
-  looking down +z; only ``IntrinsicsCamera`` offers it).
+The conventions shared with the C++ core (``_core.pyi``: view, clip, NDC and window spaces, row
+0 at the top, pixel centres, the pose's axes for each ``convention``) and each camera's rules
+are in docs/conventions.md, "Spaces", "Pixels and images" and "Cameras".
 """
 from __future__ import annotations
 
@@ -29,15 +24,34 @@ __all__ = ["Camera", "PerspectiveCamera", "OrthographicCamera", "IntrinsicsCamer
 
 
 class PerspectiveCamera(Camera):
-    """A pinhole camera with a vertical field of view (gluPerspective's projection, as pyrender's
-    ``PerspectiveCamera``, but pyrender's ``yfov`` is in RADIANS: ``fov_y=math.degrees(yfov)``).
+    """A pinhole camera with a vertical field of view.
 
-    fov_y : vertical field of view in DEGREES, in (0, 180), and large enough that the projection
-        is finite in float32 (at least 5.5e-33 degrees without a fixed aspect or image size).
-        A value in [0.1, 3.2) warns (UserWarning): it looks like radians.
-    aspect : width / height of the view volume; None => the aspect of the rendered image.
-    width, height : optional image size in pixels (informational; None if not fixed).
-    near, far : clipping distances in scene units, 0 < near < far.
+    gluPerspective's projection, as pyrender's ``PerspectiveCamera``, but pyrender's ``yfov`` is
+    in RADIANS: ``fov_y=math.degrees(yfov)``.
+
+    Parameters
+    ----------
+    fov_y : float, optional
+        Vertical field of view in DEGREES, in (0, 180) (default 45), and large enough that the
+        projection is finite in float32 (at least 5.5e-33 degrees without a fixed aspect or image
+        size).
+    width, height : int, optional
+        Image size in pixels (informational; None if not fixed).
+    near, far : float, optional
+        Clipping distances along the viewing axis in scene units, 0 < near < far (defaults 0.05 and
+        100).
+    aspect : float, optional
+        Width / height of the view volume; None => the aspect of the rendered image.
+
+    Raises
+    ------
+    ValueError
+        For a value outside those ranges, naming it.
+
+    Warns
+    -----
+    UserWarning
+        For a ``fov_y`` in [0.1, 3.2): it looks like radians.
     """
 
     def __init__(self, fov_y: float = 45.0, width: int | None = None, height: int | None = None,
@@ -84,6 +98,17 @@ class PerspectiveCamera(Camera):
         return self._aspect
 
     def projection_matrix(self, width: int | None = None, height: int | None = None) -> npt.NDArray[np.float64]:
+        """The (4, 4) float64 view-to-clip matrix (OpenGL) for a ``width`` x ``height`` image.
+
+        Parameters
+        ----------
+        width, height : int, optional
+            The image size; None: the camera's own (needed unless ``aspect`` is fixed).
+
+        Returns
+        -------
+        ndarray, shape (4, 4), float64
+        """
         w, h = self._render_size(width, height)
         aspect = self._aspect if self._aspect is not None else w / h
         f = 1.0 / math.tan(math.radians(self._fov_y) / 2.0)
@@ -100,9 +125,23 @@ class PerspectiveCamera(Camera):
 class OrthographicCamera(Camera):
     """A parallel projection (pyrender's meaning of xmag / ymag).
 
-    xmag, ymag : half-width and half-height of the view volume in scene units (> 0).
-    near, far : clipping distances along the viewing axis, 0 < near < far.
-    Depth output is still the distance along the viewing axis (-z_view).
+    The depth output is still the distance along the viewing axis (-z_view).
+
+    Parameters
+    ----------
+    xmag, ymag : float, optional
+        Half-width and half-height of the view volume in scene units (> 0, and 1 / xmag finite in
+        float32; default 1).
+    width, height : int, optional
+        Image size in pixels (informational; None if not fixed).
+    near, far : float, optional
+        Clipping distances along the viewing axis in scene units, 0 < near < far (defaults 0.05 and
+        100).
+
+    Raises
+    ------
+    ValueError
+        For a value outside those ranges, naming it.
     """
 
     orthographic = True
@@ -121,13 +160,26 @@ class OrthographicCamera(Camera):
 
     @property
     def xmag(self) -> float:
+        """Half-width of the view volume in scene units."""
         return self._xmag
 
     @property
     def ymag(self) -> float:
+        """Half-height of the view volume in scene units."""
         return self._ymag
 
     def projection_matrix(self, width: int | None = None, height: int | None = None) -> npt.NDArray[np.float64]:
+        """The (4, 4) float64 view-to-clip matrix (OpenGL); the image size does not enter it.
+
+        Parameters
+        ----------
+        width, height : int, optional
+            Checked, not used (xmag and ymag fix the extent).
+
+        Returns
+        -------
+        ndarray, shape (4, 4), float64
+        """
         # The image size does not enter the matrix (xmag / ymag fix the extent); still validate it.
         if width is not None:
             _image_side(width, "width", optional=False)
@@ -149,14 +201,33 @@ class OrthographicCamera(Camera):
 class IntrinsicsCamera(Camera):
     """A pinhole camera from a calibration matrix K = [[fx, 0, cx], [0, fy, cy], [0, 0, 1]].
 
-    fx, fy : focal lengths in pixels (> 0). cx, cy : principal point in pixels.
-    width, height : the image size K was calibrated for (required, pixels).
-    convention :
-      "opencv" (default) -- ``pose`` axes are x right, y down, z forward, and K follows OpenCV:
-          pixel (row i, col j) has its centre at (u, v) = (j, i), so a point that
-          ``cv2.projectPoints`` maps to (u, v) lands in pixel (round(v), round(u)).
-      "opengl" -- exactly pyrender's IntrinsicsCamera: ``pose`` in OpenGL axes, and (cx, cy)
-          measured from the image's top-left corner (pixel centres at j + 0.5, i + 0.5).
+    Parameters
+    ----------
+    fx, fy : float
+        Focal lengths in pixels (> 0).
+    cx, cy : float
+        Principal point in pixels.
+    width, height : int
+        The image size K was calibrated for (required, pixels).
+    near, far : float, optional
+        Clipping distances along the viewing axis in scene units, 0 < near < far (defaults 0.05 and
+        100).
+    convention : str, optional
+        "opencv" (default): ``pose`` axes are x right, y down, z forward, and K follows OpenCV:
+        pixel (row i, col j) has its centre at (u, v) = (j, i), so a point that
+        ``cv2.projectPoints`` maps to (u, v) lands in pixel (round(v), round(u)). "opengl": exactly
+        pyrender's IntrinsicsCamera: ``pose`` in OpenGL axes, and (cx, cy) measured from the
+        image's top-left corner (pixel centres at j + 0.5, i + 0.5).
+    dist : array_like, optional
+        OpenCV distortion coefficients, as for ``from_opencv``; None: an ideal pinhole.
+    oversample : int, optional
+        In [1, 16] (default 2): with ``dist``, how much finer than the output the ideal view is
+        sampled.
+
+    Raises
+    ------
+    ValueError
+        For a value outside those ranges, naming it.
     """
 
     def __init__(self, fx: float, fy: float, cx: float, cy: float, width: int, height: int,
@@ -186,6 +257,7 @@ class IntrinsicsCamera(Camera):
 
     @property
     def fx(self) -> float:
+        """Focal length along x, pixels."""
         return self._fx
 
     def __getstate__(self) -> dict[str, Any]:
@@ -210,15 +282,35 @@ class IntrinsicsCamera(Camera):
 
     @property
     def oversample(self) -> int:
-        """With ``dist``: the ideal view a render samples is this many times finer than the
-        output (``softrast.distortion``); a silhouette is placed to 0.71 / oversample pixels."""
+        """With ``dist``: how many times finer than the output the ideal view a render samples is.
+
+        A silhouette is placed to 0.71 / oversample pixels (docs/conventions.md, "Lens distortion").
+        """
         return self._oversample
 
     def project(self, points: npt.ArrayLike, width: int | None = None,
                 height: int | None = None) -> npt.NDArray[np.float64]:
-        """(n, 2) float64 OpenCV pixel coordinates (u, v) of (n, 3) world points, lens distortion
-        included (``cv2.projectPoints`` with ``to_opencv()``'s K, R, t, dist); points on or behind
-        the camera plane give NaN."""
+        """OpenCV pixel coordinates (u, v) of world points, lens distortion included.
+
+        Equal to ``cv2.projectPoints`` with ``to_opencv()``'s K, R, t, dist.
+
+        Parameters
+        ----------
+        points : array_like, shape (n, 3)
+            World points.
+        width, height : int, optional
+            Checked against the calibrated size (K is for one image size).
+
+        Returns
+        -------
+        ndarray, shape (n, 2), float64
+            Points on or behind the camera plane give NaN.
+
+        Raises
+        ------
+        ValueError
+            For points of another shape or another image size.
+        """
         if self._dist is None:
             return super().project(points, width, height)
         pts = real_array(points, "points")
@@ -234,9 +326,22 @@ class IntrinsicsCamera(Camera):
         return uv
 
     def unproject(self, depth: npt.ArrayLike, space: str = "world") -> npt.NDArray[np.float64]:
-        """As ``Camera.unproject``, each pixel's point on its own (distorted) ray: OpenCV's model
-        inverted at the pixel centre (``softrast.lens.undistort``); pixels no ray reaches
-        give 0."""
+        """As ``Camera.unproject``, each pixel's point on its own (distorted) ray.
+
+        OpenCV's model inverted at the pixel centre (``softrast.lens.undistort``).
+
+        Parameters
+        ----------
+        depth : array_like, shape (h, w)
+            The renderer's depth (0 = background).
+        space : str, optional
+            "world" (default) or "camera", as for ``Camera.unproject``.
+
+        Returns
+        -------
+        ndarray, shape (h, w, 3), float64
+            Background pixels and pixels no ray reaches give 0.
+        """
         if self._dist is None:
             return super().unproject(depth, space)
         choice(space, "space", ("world", "camera"))
@@ -256,14 +361,17 @@ class IntrinsicsCamera(Camera):
 
     @property
     def fy(self) -> float:
+        """Focal length along y, pixels."""
         return self._fy
 
     @property
     def cx(self) -> float:
+        """Principal point x, pixels (in this camera's ``convention``)."""
         return self._cx
 
     @property
     def cy(self) -> float:
+        """Principal point y, pixels (in this camera's ``convention``)."""
         return self._cy
 
     @classmethod
@@ -272,22 +380,39 @@ class IntrinsicsCamera(Camera):
                     near: float = 0.05, far: float = 100.0, oversample: int = 2) -> "IntrinsicsCamera":
         """A camera from an OpenCV calibration: ``x_cam = R @ X_world + t``, pixel ``K @ x_cam``.
 
-        K : (3, 3) [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] in OpenCV's pixel coordinates (pixel
-            (row i, col j) has its centre at (u, v) = (j, i)); zero skew.
-        rvec_or_R : a Rodrigues rotation vector (3 numbers, as ``cv2.solvePnP`` / ``cv2.calibrateCamera``
-            return it) or a (3, 3) rotation matrix, world-to-camera.
-        tvec : 3 numbers, world-to-camera translation (OpenCV's ``tvec``).
-        width, height : the image size K was calibrated for, pixels.
-        dist : OpenCV distortion coefficients (k1, k2, p1, p2[, k3[, k4, k5, k6[, s1, s2, s3,
-            s4[, tauX, tauY]]]]), or None; renders see through the distorted lens
-            (``softrast.distortion``; a tilted sensor, tauX or tauY non-zero, is refused).
-        oversample : with ``dist``, how much finer than the output the ideal view is sampled
-            (default 2; see ``softrast.distortion``).
-        near, far : clipping distances along the viewing axis (scene units).
+        Parameters
+        ----------
+        K : array_like, shape (3, 3)
+            [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] in OpenCV's pixel coordinates (pixel (row i, col j)
+            has its centre at (u, v) = (j, i)); zero skew.
+        rvec_or_R : array_like, shape (3,) or (3, 3)
+            A Rodrigues rotation vector (as ``cv2.solvePnP`` / ``cv2.calibrateCamera`` return it) or a
+            rotation matrix, world-to-camera.
+        tvec : array_like, shape (3,)
+            World-to-camera translation (OpenCV's ``tvec``).
+        width, height : int
+            The image size K was calibrated for, pixels.
+        dist : array_like, optional
+            OpenCV distortion coefficients (k1, k2, p1, p2[, k3[, k4, k5, k6[, s1, s2, s3, s4[, tauX,
+            tauY]]]]), or None; renders see through the distorted lens (docs/conventions.md, "Lens
+            distortion"; a tilted sensor, tauX or tauY non-zero, is refused).
+        near, far : float, optional
+            Clipping distances along the viewing axis (scene units).
+        oversample : int, optional
+            With ``dist``, how much finer than the output the ideal view is sampled (default 2).
 
-        Returns an ``IntrinsicsCamera(convention="opencv")`` whose pose is the inverse of [R | t]:
-        a point ``cv2.projectPoints(X, rvec, tvec, K, dist)`` maps to (u, v) is drawn in pixel
-        (round(v), round(u)).
+        Returns
+        -------
+        IntrinsicsCamera
+            ``convention="opencv"``, whose pose is the inverse of [R | t]: a point
+            ``cv2.projectPoints(X, rvec, tvec, K, dist)`` maps to (u, v) is drawn in pixel
+            (round(v), round(u)).
+
+        Raises
+        ------
+        ValueError
+            For a K with skew or not finite, a rotation that is not proper, a tvec that is not 3 finite
+            numbers, or a bad camera argument.
         """
         k = real_array(K, "K")
         if k.shape != (3, 3):
@@ -311,11 +436,20 @@ class IntrinsicsCamera(Camera):
 
     def to_opencv(self) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64],
                                  npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-        """(K, R, t, dist) for OpenCV: ``x_cam = R @ X_world + t``, pixels ``K @ x_cam``, (3, 3),
-        (3, 3), (3,) and (5,) (or (8,), (12,)) float64; ``cv2.Rodrigues(R)[0]`` gives an ``rvec``.
-        ``dist`` is the camera's (``dist``), zeros for an ideal pinhole. Works for either ``convention``: an "opengl"
-        camera's principal point is shifted by half a pixel to OpenCV's pixel-centre coordinates
-        and its pose's y and z axes flipped, so the same world point lands on the same pixel.
+        """The camera as OpenCV sees it: ``x_cam = R @ X_world + t``, pixels ``K @ x_cam``.
+
+        Works for either ``convention``: an "opengl" camera's principal point is shifted by half a
+        pixel to OpenCV's pixel-centre coordinates and its pose's y and z axes flipped, so the same
+        world point lands on the same pixel.
+
+        Returns
+        -------
+        K : ndarray, shape (3, 3), float64
+        R : ndarray, shape (3, 3), float64
+            ``cv2.Rodrigues(R)[0]`` gives an ``rvec``.
+        t : ndarray, shape (3,), float64
+        dist : ndarray, shape (5,) (or (8,), (12,)), float64
+            The camera's (``dist``), zeros for an ideal pinhole.
         """
         half = 0.0 if self._convention == "opencv" else 0.5
         k = np.array([[self._fx, 0.0, self._cx - half], [0.0, self._fy, self._cy - half], [0.0, 0.0, 1.0]])
@@ -324,6 +458,22 @@ class IntrinsicsCamera(Camera):
         return k, view_cv[:3, :3].copy(), view_cv[:3, 3].copy(), np.zeros(5) if dist is None else dist
 
     def projection_matrix(self, width: int | None = None, height: int | None = None) -> npt.NDArray[np.float64]:
+        """The (4, 4) float64 view-to-clip matrix (OpenGL).
+
+        Parameters
+        ----------
+        width, height : int, optional
+            Must be the calibrated size (None: it).
+
+        Returns
+        -------
+        ndarray, shape (4, 4), float64
+
+        Raises
+        ------
+        ValueError
+            For another image size: K is in pixels of one specific image size.
+        """
         w, h = self._render_size(width, height)
         if (w, h) != (self._width, self._height):  # K is in pixels of one specific image size
             raise ValueError(

@@ -1,16 +1,9 @@
 """The camera base class: a pose (camera-to-world) plus a projection to OpenGL clip space. The
 cameras themselves are in ``softrast.camera``.
 
-Conventions (shared with the C++ core, see ``_core.pyi``):
-
-* ``view_matrix()`` is world-to-view in OpenGL's view space: x right, y up, the camera looks
-  down -z. ``projection_matrix(w, h)`` maps view space to clip space; NDC = clip.xyz / clip.w.
-* Window space: x_win = (ndc_x + 1) / 2 * W, y_win = (1 - ndc_y) / 2 * H; row 0 is the top of
-  the image and the centre of pixel (row i, col j) is at (j + 0.5, i + 0.5).
-* For a world point X: clip = P @ view @ [X, 1].
-* ``pose`` is a (4, 4) float64 rigid camera-to-world transform whose axes follow
-  ``convention``: "opengl" (x right, y up, looking down -z) or "opencv" (x right, y down,
-  looking down +z; only ``IntrinsicsCamera`` offers it).
+The conventions shared with the C++ core (``_core.pyi``): view, clip, NDC and window spaces,
+row 0 at the top, pixel centres at (j + 0.5, i + 0.5), the pose's axes for ``convention``
+"opengl" and "opencv", are in docs/conventions.md, "Spaces" and "Pixels and images".
 """
 from __future__ import annotations
 
@@ -106,9 +99,22 @@ def _rotation(value: Any) -> npt.NDArray[np.float64]:
 
 
 class Camera(abc.ABC):
-    """Base class: near/far planes, pose, look_at and the view matrix.
+    """Base class of the cameras: near/far planes, pose, look_at, the view matrix, OpenCV's K.
 
     Subclasses implement ``projection_matrix(width, height)``.
+
+    Parameters
+    ----------
+    near, far : float, optional
+        Clipping distances along the viewing axis in scene units, 0 < near < far (defaults 0.05
+        and 100), giving a projection finite in float32.
+    width, height : int, optional
+        Image size in pixels fixed by the camera, or None.
+
+    Raises
+    ------
+    ValueError
+        For a bad near / far pair or image size, naming it.
     """
 
     orthographic: bool = False  # True => parallel projection (clip w = 1)
@@ -167,7 +173,11 @@ class Camera(abc.ABC):
 
     @property
     def pose(self) -> npt.NDArray[np.float64]:
-        """(4, 4) float64 camera-to-world rigid transform (read-only copy); axes per ``convention``."""
+        """(4, 4) float64 camera-to-world rigid transform (read-only); axes per ``convention``.
+
+        Settable: a new pose must be rigid (orthonormal rotation, determinant +1, last row
+        [0, 0, 0, 1]), else ValueError; it is stored as a new read-only array.
+        """
         return self._pose
 
     @pose.setter
@@ -178,7 +188,21 @@ class Camera(abc.ABC):
                 up: npt.ArrayLike = (0.0, 1.0, 0.0)) -> "Camera":
         """Place the camera at ``eye`` looking at ``target``, ``up`` pointing up in the image.
 
-        eye, target, up : 3 world-space numbers. Sets ``pose`` and returns ``self``.
+        Parameters
+        ----------
+        eye, target, up : array_like, shape (3,)
+            World-space points (``up`` a direction, default +y).
+
+        Returns
+        -------
+        Camera
+            ``self``, its ``pose`` set.
+
+        Raises
+        ------
+        ValueError
+            If eye and target coincide, ``up`` is zero or parallel to the view direction, or the
+            values overflow float64.
         """
         eye_w, target_w, up_w = _vec3(eye, "eye"), _vec3(target, "target"), _vec3(up, "up")
         with np.errstate(over="ignore", invalid="ignore"):  # checked below, by name
@@ -206,13 +230,30 @@ class Camera(abc.ABC):
         return self
 
     def view_matrix(self) -> npt.NDArray[np.float64]:
-        """(4, 4) float64 world-to-view; view space is OpenGL's (x right, y up, looking down -z)."""
+        """The (4, 4) float64 world-to-view matrix.
+
+        View space is OpenGL's (x right, y up, looking down -z), whatever the ``convention``.
+
+        Returns
+        -------
+        ndarray, shape (4, 4), float64
+        """
         view = _rigid_inverse(self._pose)
         return _GL_FROM_CV @ view if self._convention == "opencv" else view
 
     @abc.abstractmethod
     def projection_matrix(self, width: int | None = None, height: int | None = None) -> npt.NDArray[np.float64]:
-        """(4, 4) float64 view-to-clip (OpenGL) for a ``width`` x ``height`` pixel image."""
+        """The (4, 4) float64 view-to-clip matrix (OpenGL) for a ``width`` x ``height`` pixel image.
+
+        Parameters
+        ----------
+        width, height : int, optional
+            The image size; None: the camera's own.
+
+        Returns
+        -------
+        ndarray, shape (4, 4), float64
+        """
 
     def _render_matrices(self, width: int, height: int) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
         """(view, projection) for a render, read-only, cached: a render of a batch reuses them.
@@ -242,10 +283,25 @@ class Camera(abc.ABC):
     # Pixel coordinates follow OpenCV: the centre of pixel (row i, col j) is at (u, v) = (j, i).
 
     def intrinsics(self, width: int | None = None, height: int | None = None) -> npt.NDArray[np.float64]:
-        """(3, 3) float64 K = [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] in OpenCV's convention for a
-        ``width`` x ``height`` image (default: the camera's own size): a point at (x, y, z) in
-        OpenCV camera axes (x right, y down, z forward) is seen at pixel (u, v) = (fx x / z + cx,
-        fy y / z + cy). Orthographic cameras have none (ValueError)."""
+        """The pinhole matrix K in OpenCV's convention for a ``width`` x ``height`` image.
+
+        K = [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]: a point at (x, y, z) in OpenCV camera axes (x
+        right, y down, z forward) is seen at pixel (u, v) = (fx x / z + cx, fy y / z + cy).
+
+        Parameters
+        ----------
+        width, height : int, optional
+            Default: the camera's own size.
+
+        Returns
+        -------
+        ndarray, shape (3, 3), float64
+
+        Raises
+        ------
+        ValueError
+            For an orthographic camera (it has none), or without an image size.
+        """
         if self.orthographic:
             raise ValueError("an orthographic camera has no pinhole matrix K")
         w, h = self._render_size(width, height)
@@ -261,9 +317,27 @@ class Camera(abc.ABC):
 
     def project(self, points: npt.ArrayLike, width: int | None = None,
                 height: int | None = None) -> npt.NDArray[np.float64]:
-        """(n, 2) float64 OpenCV pixel coordinates (u, v) of (n, 3) world points, as the renderer
-        projects them (the centre of pixel (row i, col j) is (j, i)). Points on or behind the
-        camera plane of a perspective camera give NaN."""
+        """OpenCV pixel coordinates (u, v) of world points, as the renderer projects them.
+
+        The centre of pixel (row i, col j) is (j, i).
+
+        Parameters
+        ----------
+        points : array_like, shape (n, 3)
+            World points.
+        width, height : int, optional
+            Default: the camera's own size.
+
+        Returns
+        -------
+        ndarray, shape (n, 2), float64
+            Points on or behind the camera plane of a perspective camera give NaN.
+
+        Raises
+        ------
+        ValueError
+            For points of another shape, or without an image size.
+        """
         pts = real_array(points, "points")
         if pts.ndim != 2 or pts.shape[1] != 3:
             raise ValueError(f"points must have shape (n, 3), got {pts.shape}")
@@ -277,11 +351,27 @@ class Camera(abc.ABC):
         return uv
 
     def unproject(self, depth: npt.ArrayLike, space: str = "world") -> npt.NDArray[np.float64]:
-        """(h, w, 3) float64 points from a (h, w) ``depth`` image (the renderer's: distance along
-        the viewing axis; 0 = background, which gives 0): each pixel's centre pushed to its
-        depth along its ray. ``space``: "world", or "camera" -- the axes of ``pose`` (so that
-        world = pose @ camera point): OpenGL's (x right, y up, z backward, so z = -depth) for
-        ``convention="opengl"``, OpenCV's (x right, y down, z forward, z = depth) for "opencv"."""
+        """Points from a depth image: each pixel's centre pushed to its depth along its ray.
+
+        Parameters
+        ----------
+        depth : array_like, shape (h, w)
+            The renderer's depth: distance along the viewing axis, finite and >= 0; 0 = background,
+            which gives 0.
+        space : str, optional
+            "world" (default), or "camera": the axes of ``pose`` (so that world = pose @ camera point):
+            OpenGL's (x right, y up, z backward, so z = -depth) for ``convention="opengl"``, OpenCV's
+            (x right, y down, z forward, z = depth) for "opencv".
+
+        Returns
+        -------
+        ndarray, shape (h, w, 3), float64
+
+        Raises
+        ------
+        ValueError
+            For an empty or non-finite depth, a negative one, or another ``space``.
+        """
         choice(space, "space", ("world", "camera"))
         d = _depth_image(depth)
         h, w = d.shape

@@ -31,7 +31,21 @@ _CONVENTIONS = ("K: OpenCV, the centre of pixel (row i, col j) at (u, v) = (j, i
 
 
 def camera_record(camera: Camera, width: int | None = None, height: int | None = None) -> dict[str, Any]:
-    """The ``cameras.json`` entry of one camera (without ``stem`` and ``files``)."""
+    """The ``cameras.json`` entry of one camera (without ``stem`` and ``files``).
+
+    Parameters
+    ----------
+    camera : Camera
+    width, height : int, optional
+        The image size; default: the camera's own.
+
+    Returns
+    -------
+    dict
+        ``width``, ``height``, ``near``, ``far``, ``orthographic``, ``K`` and ``dist`` (OpenCV's;
+        None if orthographic or none), ``xmag`` and ``ymag`` (orthographic only), ``pose_opencv``
+        and ``pose_opengl`` (docs/file_formats.md, "``cameras.json``").
+    """
     w, h = camera._render_size(width, height)
     pose_cv = camera.pose @ _GL_FROM_CV if camera.convention == "opengl" else camera.pose
     pose_gl = pose_cv @ _GL_FROM_CV
@@ -51,13 +65,26 @@ def camera_record(camera: Camera, width: int | None = None, height: int | None =
 
 
 def load_cameras(path: str | os.PathLike[str]) -> list[Camera]:
-    """The cameras of a ``cameras.json`` (a file, or the dataset directory holding one), in frame
-    order: ``IntrinsicsCamera(convention="opencv")`` from K (the same projection as the camera
-    that rendered the frame, to float64 rounding) or ``OrthographicCamera``, posed, with the
-    frame's image size, near and far.
+    """The cameras of a ``cameras.json``, in frame order.
 
-    A file that is not a softrast cameras.json (not UTF-8 JSON, no ``frames`` list, a record
-    that is not a camera) raises ValueError naming it."""
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A file, or the dataset directory holding one.
+
+    Returns
+    -------
+    list of Camera
+        ``IntrinsicsCamera(convention="opencv")`` from K (the same projection as the camera that
+        rendered the frame, to float64 rounding) or ``OrthographicCamera``, posed, with the
+        frame's image size, near and far.
+
+    Raises
+    ------
+    ValueError
+        Naming the file, for a file that is not a softrast cameras.json (not UTF-8 JSON, no
+        ``frames`` list, a record that is not a camera).
+    """
     p = os.fspath(path)
     if os.path.isdir(p):
         p = os.path.join(p, "cameras.json")

@@ -1,42 +1,9 @@
 """Datasets: many views of a scene rendered and written to a directory, with the cameras in
-``cameras.json`` (``write_dataset``, ``load_cameras``).
+``cameras.json`` (``write_dataset``, ``load_cameras``, ``DatasetJob``, ``render_dataset``).
 
-``write_dataset`` renders with ``Renderer.render_many`` and hands each frame to a small pool of
-writer threads (OpenImageIO releases the GIL while it encodes), so encoding overlaps rendering;
-files are written atomically, so an interrupted run leaves only complete files, and a rerun
-skips the views whose files are all there and intact (``resume``: each decodes, as
-``Frame.load`` reads it, to the output's dtype, channels and image size; a view with a
-truncated, empty or corrupt file is rendered again).
-
-``cameras.json``::
-
-    {"format": "softrast cameras 1",
-     "conventions": "...",
-     "frames": [{"stem": "000000", "width": 640, "height": 480, "near": 0.05, "far": 100.0,
-                 "orthographic": false,
-                 "K": [[fx, 0, cx], [0, fy, cy], [0, 0, 1]],      # OpenCV; null if orthographic
-                 "dist": [k1, k2, p1, p2, k3, ...],               # OpenCV; null if none
-                 "xmag": null, "ymag": null,                      # orthographic half-extents
-                 "pose_opencv": 4x4,   # camera-to-world, axes x right, y down, z forward
-                 "pose_opengl": 4x4,   # camera-to-world, axes x right, y up, z backward
-                 "files": {"color": "000000_color.png", ...}}, ...]}  # in softrast.OUTPUTS order
-
-K follows OpenCV: the centre of pixel (row i, col j) is at (u, v) = (j, i); a world point X is
-seen at K (R X + t) / z with [R | t] the inverse of ``pose_opencv``.
-
-``write_dataset(..., store="zarr")`` (``pip install softrast[zarr]``) writes each output as one
-zarr array (zarr format 2, read by zarr-python 2 and 3, xarray and ``dask.array.from_zarr``)
-instead of files, in ``directory/views.zarr``: shape (n_views, h, w[, c]) in the output's own
-dtype (``softrast.OUTPUT_TABLE``), one view a chunk, Blosc-compressed (LZ4, byte shuffle for
-the float outputs), consolidated metadata;
-``zarr.open_group(os.path.join(directory, "views.zarr"))["depth"][12]`` is view 12's depth.
-The same cameras.json is written beside it, each frame's ``files`` naming
-where its views are, as ``{"color": "views.zarr/color[12]", ...}`` (array ``color`` of the
-group, index 12 along its first axis). Chunks are written atomically and resume works as for
-files (a view is skipped when each of its chunks is there and decodes). A view never written
-reads as NaN (float outputs), -2**31 (ids) or 2**32 - 1 (coverage), values no render gives;
-colour and mask have no such value (no fill value: tell by the chunk file, or by cameras.json,
-written once every view is). ``softrast._zarr_store`` has the details.
+``write_dataset`` renders with ``Renderer.render_many`` while writer threads encode; files are
+written atomically and ``resume`` skips the views already written. The stores (files, zarr),
+``cameras.json``'s fields and the sharded runs are in docs/file_formats.md, "Datasets".
 """
 from __future__ import annotations
 
@@ -66,34 +33,67 @@ def write_dataset(scene: Scene, cameras: Sequence[Camera], directory: str | os.P
                   writers: int | None = None, progress: bool = False, resume: bool = True,
                   first: int = 0, cameras_json: bool = True, store: str = "files",
                   **options: Any) -> WrittenViews:
-    """Render ``scene`` from every camera and write each frame as ``Frame.save`` does
-    (``{stem}_{output}.{ext}``, stems 000000, 000001, ...), plus ``cameras.json``; returns each
-    frame's {output: path}, in ``softrast.OUTPUTS`` order (as ``files`` in cameras.json: a
-    resumed run writes the same cameras.json, byte for byte, as an uninterrupted one), as a
-    ``WrittenViews`` list, whose ``rendered``, ``skipped`` and ``seconds`` say how many views
-    this call rendered, how many ``resume`` skipped, and the time the rendered ones took.
+    """Render ``scene`` from every camera and write each frame as ``Frame.save`` does, plus ``cameras.json``.
 
-    cameras : posed cameras, each with its image size (all the same size: one renderer).
-    renderer : the renderer to use (default: a new one, all cores, for the cameras' size).
-    writers : encoding threads (default: the renderer's thread count); encoding overlaps
-        rendering, at most 2 frames per writer wait to be written.
-    resume : skip the views whose files all exist and are intact (a rerun after an interruption
-        renders only what is missing; files are written atomically, so none is partial; the
-        hidden temporary files a killed run can leave are removed). Each file found is decoded
-        (by the writer threads) and must hold the output save writes, at the cameras' size; a
-        view with a truncated, empty or corrupt file (as far as its decoder or the .npy header
-        reveals it: PNG chunks carry checksums, compressed data mostly fails to inflate, but
+    Files are ``{stem}_{output}.{ext}``, stems 000000, 000001, ...; docs/file_formats.md,
+    "Datasets", has the layouts.
+
+    Parameters
+    ----------
+    scene : Scene
+        What is drawn.
+    cameras : sequence of Camera
+        Posed cameras, each with its image size (all the same size: one renderer).
+    directory : str or os.PathLike
+        An existing directory.
+    outputs : sequence of str, optional
+        Default ("color", "depth", "instance_id").
+    formats : dict of str to str, optional
+        {output: format} as ``Frame.save`` takes (store "files" only).
+    renderer : Renderer, optional
+        The renderer to use (default: a new one, all cores, for the cameras' size).
+    writers : int, optional
+        Encoding threads (default: the renderer's thread count); encoding overlaps rendering, at
+        most 2 frames per writer wait to be written.
+    progress : bool, optional
+        A tqdm bar over all the views, starting at the skipped ones (named in it); its rate
+        counts only the views rendered.
+    resume : bool, optional
+        Skip the views whose files all exist and are intact (default True: a rerun after an
+        interruption renders only what is missing; files are written atomically, so none is
+        partial; the hidden temporary files a killed run can leave are removed). Each file found
+        is decoded (by the writer threads) and must hold the output save writes, at the cameras'
+        size; a view with a truncated, empty or corrupt file (as far as its decoder or the .npy
+        header reveals it: PNG chunks carry checksums, compressed data mostly fails to inflate, but
         flipped bits in raw .npy data or uncompressed pixels go unseen) is rendered again.
-    progress : a tqdm bar over all the views, starting at the skipped ones (named in it); its
-        rate counts only the views rendered.
-    first : the index of the first camera's view (its stem); for a shard of a larger job.
-    cameras_json : write cameras.json (False for a shard: ``render_dataset`` writes it whole).
-    store : "files" (each output of each view a file, as above) or "zarr": each output one
-        chunked, Blosc-compressed array, a view a chunk, in ``directory/views.zarr`` (zarr
-        format 2; needs ``pip install softrast[zarr]``; ``formats`` does not apply); each
-        view's {output: path} is then ``directory/views.zarr/{output}[{view}]`` (the module
-        docstring has the layout). Atomic chunks and resume as for files.
-    options : passed to ``render`` (shading=, cull=, background=, ...).
+    first : int, optional
+        The index of the first camera's view (its stem); for a shard of a larger job.
+    cameras_json : bool, optional
+        Write cameras.json (False for a shard: ``render_dataset`` writes it whole).
+    store : str, optional
+        "files" (default: each output of each view a file, as above) or "zarr": each output one
+        chunked, Blosc-compressed array, a view a chunk, in ``directory/views.zarr`` (zarr format
+        2; needs ``pip install softrast[zarr]``; ``formats`` does not apply); each view's
+        {output: path} is then ``directory/views.zarr/{output}[{view}]`` (docs/file_formats.md,
+        "zarr", has the layout). Atomic chunks and resume as for files.
+    **options
+        Passed to ``render`` (shading=, cull=, background=, ...).
+
+    Returns
+    -------
+    WrittenViews
+        Each frame's {output: path}, in ``softrast.OUTPUTS`` order (as ``files`` in cameras.json:
+        a resumed run writes the same cameras.json, byte for byte, as an uninterrupted one), a
+        list whose ``rendered``, ``skipped`` and ``seconds`` say how many views this call
+        rendered, how many ``resume`` skipped, and the time the rendered ones took.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a bad argument: no cameras, a camera without an image size, cameras of different
+        sizes, an unknown store, ...
+    FileNotFoundError
+        If ``directory`` does not exist.
     """
     _check_store(store)
     cams = list(cameras)
@@ -192,16 +192,36 @@ def _check_store(store: Any) -> None:
 
 @dataclass(frozen=True)
 class DatasetJob:
-    """A dataset to render: every mesh file from every camera, into ``out_dir/<mesh file
-    stem>/`` (as ``write_dataset`` writes one). Picklable: shards of it run anywhere.
+    """A dataset to render: every mesh file from every camera, into ``out_dir/<mesh file stem>/``.
 
-    meshes : mesh file paths (readable where the shards run).
-    cameras : posed cameras, each with its image size (one size for all).
-    outputs : output names; formats : {output: format} as ``Frame.save`` takes.
-    shard_size : views per shard (a shard is one mesh x a run of cameras).
-    store : "files" or "zarr" (``write_dataset``'s): with "zarr", ``render_dataset`` makes each
-        mesh's arrays, for all the cameras, before the shards write their views into them.
-    options : ``render`` options (shading=, cull=, ...).
+    Each mesh's directory is written as ``write_dataset`` writes one. Picklable: shards of it run
+    anywhere.
+
+    Parameters
+    ----------
+    meshes : sequence of str or os.PathLike
+        Mesh file paths (readable where the shards run), with distinct file names.
+    cameras : sequence of Camera
+        Posed cameras, each with its image size (one size for all).
+    outputs : sequence of str, optional
+        Output names.
+    out_dir : str or os.PathLike, optional
+        Where the meshes' directories go (default ".").
+    formats : dict of str to str, optional
+        {output: format} as ``Frame.save`` takes (store "files" only).
+    shard_size : int, optional
+        Views per shard (>= 1, default 16; a shard is one mesh x a run of cameras).
+    store : str, optional
+        "files" or "zarr" (``write_dataset``'s): with "zarr", ``render_dataset`` makes each mesh's
+        arrays, for all the cameras, before the shards write their views into them.
+    **options
+        ``render`` options (shading=, cull=, ...).
+
+    Raises
+    ------
+    ValueError
+        For no mesh or camera, a bad shard size or store, formats with "zarr", or two meshes of
+        one file name (their directories would clash).
     """
 
     meshes: tuple
@@ -239,11 +259,27 @@ class DatasetJob:
             raise ValueError("meshes: two files have the same name (their directories would clash)")
 
     def shards(self) -> list[tuple[int, int, int]]:
-        """(mesh index, first camera, end camera) of each shard."""
+        """The shards: (mesh index, first camera, end camera) of each.
+
+        Returns
+        -------
+        list of tuple of int
+        """
         return [(m, a, min(a + self.shard_size, len(self.cameras)))
                 for m in range(len(self.meshes)) for a in range(0, len(self.cameras), self.shard_size)]
 
     def directory(self, m: int) -> str:
+        """The directory mesh ``m``'s views are written to: ``out_dir/<its file stem>``.
+
+        Parameters
+        ----------
+        m : int
+            The mesh's index.
+
+        Returns
+        -------
+        str
+        """
         return os.path.join(self.out_dir, os.path.splitext(os.path.basename(self.meshes[m]))[0])
 
 
@@ -263,12 +299,24 @@ def _render_shard(job: DatasetJob, shard: tuple[int, int, int]) -> list[dict[str
 
 def render_dataset(job: DatasetJob, executor: concurrent.futures.Executor | None = None
                    ) -> list[list[dict[str, str]]]:
-    """Run ``job``'s shards on ``executor`` (any ``concurrent.futures.Executor``: a
-    ``ProcessPoolExecutor``, or a Dask cluster's ``client.get_executor()``; None: one process,
-    here), then write each mesh's ``cameras.json``. Returns, per mesh, each view's
-    {output: path}. The files are the same, byte for byte, whichever executor runs it (with
-    ``store="zarr"`` too: each mesh's arrays are made here, then each shard writes its views'
-    chunks)."""
+    """Run ``job``'s shards on ``executor``, then write each mesh's ``cameras.json``.
+
+    The files are the same, byte for byte, whichever executor runs it (with ``store="zarr"`` too:
+    each mesh's arrays are made here, then each shard writes its views' chunks).
+
+    Parameters
+    ----------
+    job : DatasetJob
+        The dataset to render.
+    executor : concurrent.futures.Executor, optional
+        Any Executor: a ``ProcessPoolExecutor``, or a Dask cluster's ``client.get_executor()``;
+        None: one process, here.
+
+    Returns
+    -------
+    list of list of dict
+        Per mesh, each view's {output: path}.
+    """
     os.makedirs(job.out_dir, exist_ok=True)
     if job.store == "zarr":
         prepare_job(job)

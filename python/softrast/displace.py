@@ -30,10 +30,39 @@ __all__ = ["displace"]
 
 def displace(mesh: Mesh, texture: Texture, scale: float, subdivisions: int = 0,
              midlevel: float = 0.0) -> Mesh:
-    """A new Mesh: ``mesh`` subdivided ``subdivisions`` times (each splits every triangle into
-    four; uvs, normals and colours are interpolated linearly), then each vertex moved along its
-    unit normal by ``scale * (height - midlevel)``. ``mesh`` needs uvs; without normals, the
-    area-weighted vertex normals are used. The material is kept."""
+    """Displace a mesh's geometry: subdivide it, then move each vertex along its normal.
+
+    Each vertex moves along its unit normal by ``scale * (height - midlevel)``, the height being
+    the texture's first channel at its uv (bilinear, level 0, linear unless the texture says
+    ``srgb=True``). The material is kept.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        Needs uvs; without normals, the area-weighted vertex normals are used.
+    texture : Texture
+        The height map (first channel).
+    scale : float
+        Finite; scene units per unit of height.
+    subdivisions : int, optional
+        In [0, 8] (default 0): each splits every triangle into four; uvs, normals and colours are
+        interpolated linearly.
+    midlevel : float, optional
+        Finite; the height that does not move (default 0).
+
+    Returns
+    -------
+    Mesh
+        A new Mesh (``mesh`` is unchanged).
+
+    Raises
+    ------
+    TypeError
+        For a mesh or texture of another type.
+    ValueError
+        For a mesh without uvs, a bad number, too many faces, or a vertex moved beyond float32's
+        range.
+    """
     import trimesh
 
     if not isinstance(mesh, Mesh):

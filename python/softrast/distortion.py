@@ -1,42 +1,10 @@
 """Lens distortion: OpenCV's camera model (k1..k6 radial, p1 p2 tangential, s1..s4 thin prism)
-for ``IntrinsicsCamera(..., dist=)``.
+for ``IntrinsicsCamera(..., dist=)``, rendered by ``render_distorted``.
 
-A rasterizer draws straight edges; a distorted lens bends them. So a distorted camera is rendered
-ray by ray where geometry is concerned, and through an ideal pinhole view for colour:
-
-1. Every output pixel's own ray. The centre of pixel (row i, col j) is the distorted point
-   (u, v) = (j, i); its ray is the undistorted normalized point (x', y') that OpenCV's model
-   maps there, found by Newton's method in float64 (to 1e-12, checked). Pixels the model
-   cannot reach (beyond the fold of a strong barrel distortion) see nothing: background.
-   The rays are bucketed in a grid of the plane z = 1 (cells one ideal pixel wide), once per
-   camera and image size, and cached.
-2. Geometry, exactly (``cpp/distortion.cpp``, ``cast_distorted``, on the
-   renderer's threads): every triangle is taken to camera space in float64, clipped to the
-   depth range [near, far], and its box on z = 1 scattered over the grid; each ray in it is
-   tested (three edge planes through the camera centre, then the depth) and keeps its nearest
-   hit, ties to the first triangle in draw and face order. Culling is the pinhole render's
-   (``cull=``, mirroring poses, double-sided materials). A triangle far thinner than a pixel is
-   hit by every pixel ray that meets it, whatever ``oversample`` is
-   (tests/test_distortion_exact.py: needles 1/100 px wide, masks pixel for pixel against a
-   NumPy ray caster). From the hit come ``triangle_id``, ``instance_id``, ``mask``, ``alpha``,
-   ``coverage`` (every triangle the ray meets), ``depth``, ``ray_depth``, ``position`` and
-   ``barycentric`` (the point on the pixel's own ray, so it reprojects through
-   ``cv2.projectPoints`` to its pixel centre), ``uv`` and ``normal`` (the interpolated vertex
-   normal, computed as the pipeline does, in float64).
-3. Colour, through an ideal pinhole view with the same K, covering every ray with a margin and
-   ``oversample`` times finer (so ``oversample`` squared times as many pixels), rendered by the
-   ordinary pipeline only when ``color`` or ``radiance`` is asked for: each is the bilinear
-   interpolation of the four samples around the ray's point (what ``cv2.remap`` with
-   INTER_LINEAR does). Shading a hit exactly would need every shading model per ray; the remap
-   is what a distorted photograph's own resampling does, and ``oversample`` sharpens it.
-   Two cases still read the view's samples: alpha-masked materials (the alpha test is the
-   view's: such a triangle is hit where the nearest sample or one of the four around the ray
-   shows it), and ``normal_kind="shading"`` with normal or bump maps (the shaded normal of the
-   sample showing the hit triangle).
-
-Cost (``benchmarks/bench_stages.py --sections distortion``, RESULTS.md "Lens distortion"):
-geometry outputs no longer render the oversampled view, so their cost is the cast alone,
-whatever ``oversample`` is; colour is the view's render plus the remap.
+Geometry outputs come from each pixel's own ray, cast exactly against the triangles
+(``cpp/distortion.cpp``); colour from an ideal pinhole view remapped bilinearly. The model,
+each step and its cost are in docs/conventions.md, "Lens distortion" and "How a distorted
+camera is rendered".
 """
 from __future__ import annotations
 
@@ -170,7 +138,29 @@ def _maps_normal(inst: Any) -> bool:
 
 def render_distorted(renderer: Any, scene: Any, camera: Any, names: Any, options: RenderOptions,
                      out: Any) -> Any:
-    """``Renderer.render`` for a camera with lens distortion (see this module's docstring)."""
+    """``Renderer.render`` for a camera with lens distortion.
+
+    docs/conventions.md, "How a distorted camera is rendered", states each step.
+
+    Parameters
+    ----------
+    renderer : Renderer
+        Its size is the output's.
+    scene : Scene
+    camera : IntrinsicsCamera
+        With ``dist``.
+    names : sequence of str
+        The outputs, checked.
+    options : RenderOptions
+        Resolved (no anti-aliasing, wireframe or ``alpha_threshold``: ``Renderer.render`` refuses
+        them first).
+    out : Frame or dict of str to ndarray or None
+        As ``Renderer.render``'s.
+
+    Returns
+    -------
+    Frame
+    """
     w, h = renderer.width, renderer.height
     rays = _rays(camera, w, h)
     wanted = list(names)

@@ -22,12 +22,19 @@ _OUTPUT_BYTES = {row["name"]: row["bytes_per_pixel"] for row in _core.OUTPUT_TAB
 
 
 class Frame:
-    """The buffers of one render. Outputs that were not requested are ``None``.
-
-{outputs}
+    """The buffers of one render, as NumPy arrays. Outputs that were not requested are ``None``.
 
     Every array views memory the C++ renderer allocated for this frame alone (``arr.base`` owns
     it; nothing is copied). Later renders never write into it.
+
+    Parameters
+    ----------
+    buffers : dict of str to ndarray
+        The outputs by name (``Renderer.render`` makes Frames; ``Frame.load`` reads them back).
+
+    Attributes
+    ----------
+{outputs}
     """
 
     __slots__ = _core.OUTPUTS
@@ -41,29 +48,56 @@ class Frame:
         return tuple(n for n in self.__slots__ if getattr(self, n) is not None)
 
     def as_dict(self) -> dict[str, np.ndarray]:
+        """The outputs this frame holds, by name.
+
+        Returns
+        -------
+        dict of str to ndarray
+        """
         return {n: getattr(self, n) for n in self.outputs}
 
     def save(self, directory: str | os.PathLike[str], stem: str,
              formats: dict[str, str] | None = None) -> dict[str, str]:
-        """Write each output to ``directory/{stem}_{name}.{ext}``; returns {name: path}.
+        """Write each output to ``directory/{stem}_{name}.{ext}``.
 
-        formats : {output name: format} overriding the defaults, formats being
-            "png"   8-bit PNG: color, mask (0 / 255)
-            "jpg"   JPEG (lossy): color
-            "png16" 16-bit PNG: triangle_id, instance_id storing id + 1 (0 = background; ids
-                    must fit: at most 65534), coverage
-            "png16mm" 16-bit PNG of depth or ray_depth in millimetres (round half up, clipped to
-                    [1, 65535] where hit, 0 = background: lossy, for tools that want it)
-            "tif"   TIFF in the output's own dtype (deflated): every output
-            "exr"   float32 OpenEXR (zip, through OpenImageIO, 5-10x slower): every float output
-            "npy"   NumPy's .npy: every output, raw
-        Defaults: color and mask "png"; the float outputs "tif" (float32, which OpenCV,
-        scikit-image, imageio, tifffile and OpenImageIO open; Pillow the one-channel ones);
-        triangle_id and instance_id "png16" when every id fits, else "tif" (int32, the id
-        itself); coverage "tif". PNG and TIFF are written by softrast's own encoder
-        (``softrast.imwrite``), fast and with the GIL released. Every format but jpg and
-        png16mm gives the output back exactly (``Frame.load``), and the same frame gives the
-        same bytes (files are reproducible). Each file is written atomically.
+        PNG and TIFF are written by softrast's own encoder (``softrast.imwrite``), fast and with the
+        GIL released. Every format but jpg and png16mm gives the output back exactly (``Frame.load``),
+        and the same frame gives the same bytes (files are reproducible). Each file is written
+        atomically. docs/file_formats.md, "Frames on disk", has the table.
+
+        Parameters
+        ----------
+        directory : str or os.PathLike
+            Where to write.
+        stem : str
+            A non-empty file name part (no path separator).
+        formats : dict of str to str, optional
+            {output name: format} overriding the defaults, formats being:
+
+            - "png": 8-bit PNG: color, mask (0 / 255)
+            - "jpg": JPEG (lossy): color
+            - "png16": 16-bit PNG: triangle_id, instance_id storing id + 1 (0 = background; ids must
+              fit: at most 65534), coverage
+            - "png16mm": 16-bit PNG of depth or ray_depth in millimetres (round half up, clipped to
+              [1, 65535] where hit, 0 = background: lossy, for tools that want it)
+            - "tif": TIFF in the output's own dtype (deflated): every output
+            - "exr": float32 OpenEXR (zip, through OpenImageIO, 5-10x slower): every float output
+            - "npy": NumPy's .npy: every output, raw
+
+            Defaults: color and mask "png"; the float outputs "tif" (float32, which OpenCV,
+            scikit-image, imageio, tifffile and OpenImageIO open; Pillow the one-channel ones);
+            triangle_id and instance_id "png16" when every id fits, else "tif" (int32, the id itself);
+            coverage "tif".
+
+        Returns
+        -------
+        dict of str to str
+            {name: path} of the files written.
+
+        Raises
+        ------
+        ValueError
+            For a bad stem, a format an output cannot be saved in, or values a format cannot store.
         """
         if not isinstance(stem, str) or not stem or os.sep in stem:
             raise ValueError(f"stem must be a non-empty file name part, got {stem!r:.80}")
@@ -106,13 +140,31 @@ class Frame:
 
     @classmethod
     def load(cls, directory: str | os.PathLike[str], stem: str) -> "Frame":
-        """The frame ``save`` wrote as ``directory/{stem}_*``: each output as it was (png16 ids
-        less 1, masks as bool; png16mm depths in scene units, from millimetres).
+        """The frame ``save`` wrote as ``directory/{stem}_*``.
 
-        Each file must hold what ``save`` writes for its output (the dtype and channels of
-        ``softrast.OUTPUT_TABLE``, in a format ``save`` offers for it) and all of them one
-        (h, w); else ValueError naming the file. Two files of one output (say a .png and the
-        .tif of a later save in another format) are ambiguous: ValueError naming both."""
+        Parameters
+        ----------
+        directory : str or os.PathLike
+            Where ``save`` wrote.
+        stem : str
+            ``save``'s stem.
+
+        Returns
+        -------
+        Frame
+            Each output as it was (png16 ids less 1, masks as bool; png16mm depths in scene units,
+            from millimetres).
+
+        Raises
+        ------
+        ValueError
+            Naming the file, unless each file holds what ``save`` writes for its output (the dtype
+            and channels of ``softrast.OUTPUT_TABLE``, in a format ``save`` offers for it) and all of
+            them one (h, w). Two files of one output (say a .png and the .tif of a later save in
+            another format) are ambiguous: ValueError naming both.
+        FileNotFoundError
+            If no output was saved under that stem.
+        """
         directory = os.fspath(directory)
         buffers = {}
         first: tuple[str, tuple[int, ...]] | None = None

@@ -94,23 +94,34 @@ def _suggest(dtype: np.dtype) -> str:
 def imwrite(path: str | os.PathLike[str], array: npt.ArrayLike, compression: str | int | None = None) -> None:
     """Write ``array`` to ``path`` atomically; the format follows the file extension.
 
-    array : (h, w), (h, w, 1), (h, w, 3) or (h, w, 4) (.exr and .tif: (h, w, 2) too); row 0 is
-        the top of the image. dtype uint8, uint16, float32, float64 (stored as float32) or bool
-        (stored as uint8 0/255); .tif also stores int32 and uint32.
-        Channels are stored as given (gray, RGB, RGBA); RGBA is not premultiplied on the way.
-    compression : None (the default: .png and .tif by softrast's own encoder, deflated, the
-        fastest; OpenImageIO's default otherwise, zip for .exr) or, through OpenImageIO, for .png
-        a zlib level 0-9 (0 = stored; 9 = smallest and slowest); for .exr one of "none",
-        "rle", "zips", "zip", "piz", "pxr24" (lossy for float32: 24 bits), "b44", "b44a",
-        "dwaa", "dwab" (lossy); for .tif "none", "lzw", "zip", "packbits". Lossless ones
-        round-trip exactly.
-
     Files are reproducible: the same array gives the same bytes (no write time in EXR or TIFF
-    headers; softrast's encoder gives the same bytes on every machine).
+    headers; softrast's encoder gives the same bytes on every machine). The file is written under
+    a temporary name in the same directory and renamed into place, so an interrupted write never
+    leaves a partial file. docs/file_formats.md, "Image files", has the details.
 
-    Formats are never asked to quantize: float data to an 8-bit format such as PNG raises
-    ValueError (use .exr or .tif). The file is written under a temporary name in the same
-    directory and renamed into place, so an interrupted write never leaves a partial file.
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file to write; its extension picks the format.
+    array : array_like
+        (h, w), (h, w, 1), (h, w, 3) or (h, w, 4) (.exr and .tif: (h, w, 2) too); row 0 is the top
+        of the image. dtype uint8, uint16, float32, float64 (stored as float32) or bool (stored as
+        uint8 0/255); .tif also stores int32 and uint32. Channels are stored as given (gray, RGB,
+        RGBA); RGBA is not premultiplied on the way.
+    compression : str or int, optional
+        None (the default: .png and .tif by softrast's own encoder, deflated, the fastest;
+        OpenImageIO's default otherwise, zip for .exr) or, through OpenImageIO, for .png a zlib
+        level 0-9 (0 = stored; 9 = smallest and slowest); for .exr one of "none", "rle", "zips",
+        "zip", "piz", "pxr24" (lossy for float32: 24 bits), "b44", "b44a", "dwaa", "dwab" (lossy);
+        for .tif "none", "lzw", "zip", "packbits". Lossless ones round-trip exactly.
+
+    Raises
+    ------
+    TypeError
+        For a dtype not listed above.
+    ValueError
+        For a shape or compression the format does not take. Formats are never asked to
+        quantize: float data to an 8-bit format such as PNG raises ValueError (use .exr or .tif).
     """
     import OpenImageIO as oiio
 
@@ -198,16 +209,44 @@ _TIFF_SAMPLE = {_U8: 1, _U16: 1, _U32: 1, _I32: 2, _F32: 3}
 
 
 def encode_png(array: np.ndarray) -> bytes:
-    """PNG file bytes of a uint8 or uint16 (h, w) or (h, w, 1-4) array (softrast's encoder: a
-    filter per row and one deflate block of literals and runs; the GIL released)."""
+    """PNG file bytes of a uint8 or uint16 (h, w) or (h, w, 1-4) array.
+
+    softrast's encoder: a filter per row and one deflate block of literals and runs; the GIL
+    released.
+
+    Parameters
+    ----------
+    array : ndarray
+
+    Returns
+    -------
+    bytes
+    """
     return _core.encode_png(_rows_contiguous(array))
 
 
 def encode_tiff(array: np.ndarray, compress: bool = True) -> bytes:
-    """TIFF file bytes of an (h, w) or (h, w, 1-4) array of uint8, uint16, uint32, int32 or
-    float32, one strip; deflated (Adobe deflate) when ``compress``, integer samples after the
-    horizontal predictor (which every TIFF reader undoes), float samples without a predictor
-    (tifffile needs imagecodecs for the floating-point one, so scikit-image may not read it)."""
+    """TIFF file bytes of an (h, w) or (h, w, 1-4) array of uint8, uint16, uint32, int32 or float32.
+
+    One strip; deflated (Adobe deflate) when ``compress``, integer samples after the horizontal
+    predictor (which every TIFF reader undoes), float samples without a predictor (tifffile needs
+    imagecodecs for the floating-point one, so scikit-image may not read it).
+
+    Parameters
+    ----------
+    array : ndarray
+    compress : bool, optional
+        Deflate (default True).
+
+    Returns
+    -------
+    bytes
+
+    Raises
+    ------
+    TypeError
+        For another dtype.
+    """
     arr = _rows_contiguous(array)
     if arr.dtype not in _TIFF_SAMPLE:
         raise TypeError(f"array dtype must be uint8, uint16, uint32, int32 or float32, got {arr.dtype}")
@@ -276,14 +315,26 @@ def _decoded_bytes(spec: Any) -> int:
 def imread(path: str | os.PathLike[str]) -> np.ndarray:
     """Read an image file in its stored pixel type.
 
-    Returns (h, w, c) with the file's own dtype (uint8, uint16, float32, ...), or (h, w) when the
-    file has one channel; row 0 is the top of the image. Values are as stored (colour is not
-    premultiplied by alpha). Multi-part files: the first part.
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
 
-    Raises FileNotFoundError if ``path`` does not exist, ValueError (naming the file and giving
-    the decoder's message) if it cannot be decoded, or the decoder reports an error while
-    decoding it (a truncated or damaged file), or if its header declares more pixel bytes than
-    ``softrast.get_memory_budget()`` (checked before any pixel is read).
+    Returns
+    -------
+    ndarray
+        (h, w, c) with the file's own dtype (uint8, uint16, float32, ...), or (h, w) when the file
+        has one channel; row 0 is the top of the image. Values are as stored (colour is not
+        premultiplied by alpha). Multi-part files: the first part.
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    ValueError
+        Naming the file and giving the decoder's message, if it cannot be decoded, or the decoder
+        reports an error while decoding it (a truncated or damaged file), or if its header declares
+        more pixel bytes than ``softrast.get_memory_budget()`` (checked before any pixel is read).
     """
     import OpenImageIO as oiio
 

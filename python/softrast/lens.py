@@ -1,6 +1,8 @@
 """OpenCV's lens model (k1..k6 radial, p1 p2 tangential, s1..s4 thin prism): the coefficients
 checked, points distorted, and distorted points undistorted by Newton's method in float64. How a
-distorted camera is rendered is ``softrast.distortion``."""
+distorted camera is rendered is in docs/conventions.md, "How a distorted camera is rendered"
+(code: ``softrast.distortion``).
+"""
 from __future__ import annotations
 
 from typing import Any
@@ -24,8 +26,24 @@ _TOLERANCE = 1e-12  # normalized units: 1e-9 px at a focal length of 1000 px
 
 
 def check_dist(dist: Any) -> npt.NDArray[np.float64] | None:
-    """The 12 coefficients (k1, k2, p1, p2, k3, k4, k5, k6, s1, s2, s3, s4) of ``dist``, or None
-    for no distortion (None or all zeros). A tilted sensor (tauX, tauY non-zero) is refused."""
+    """The 12 coefficients of ``dist``, checked, or None for no distortion.
+
+    Parameters
+    ----------
+    dist : array_like or None
+        4, 5, 8, 12 or 14 finite OpenCV coefficients (k1, k2, p1, p2[, k3[, k4, k5, k6[, s1, s2,
+        s3, s4[, tauX, tauY]]]]).
+
+    Returns
+    -------
+    ndarray, shape (12,), float64, or None
+        (k1, k2, p1, p2, k3, k4, k5, k6, s1, s2, s3, s4), read-only; None for None or all zeros.
+
+    Raises
+    ------
+    ValueError
+        For another count, a non-finite value, or a tilted sensor (tauX, tauY non-zero).
+    """
     if dist is None:
         return None
     d = real_array(dist, "dist").reshape(-1)
@@ -47,8 +65,20 @@ def check_dist(dist: Any) -> npt.NDArray[np.float64] | None:
 
 def distort(x: npt.NDArray[np.float64], y: npt.NDArray[np.float64],
             d: npt.NDArray[np.float64]) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    """OpenCV's distortion of normalized points (x, y) = (X / Z, Y / Z): ``cv2.projectPoints``
-    before K."""
+    """OpenCV's distortion of normalized points (x, y) = (X / Z, Y / Z): ``cv2.projectPoints`` before K.
+
+    Parameters
+    ----------
+    x, y : ndarray
+        Normalized coordinates, float64.
+    d : ndarray, shape (12,)
+        ``check_dist``'s coefficients.
+
+    Returns
+    -------
+    xd, yd : ndarray
+        The distorted normalized coordinates.
+    """
     k1, k2, p1, p2, k3, k4, k5, k6, s1, s2, s3, s4 = d
     r2 = x * x + y * y
     radial = (1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))) / (1.0 + r2 * (k4 + r2 * (k5 + r2 * k6)))
@@ -77,10 +107,24 @@ def _jacobian(x: npt.NDArray[np.float64], y: npt.NDArray[np.float64], d: npt.NDA
 
 
 def undistort(xd: npt.ArrayLike, yd: npt.ArrayLike, d: npt.NDArray[np.float64]) -> tuple[Any, Any, Any]:
-    """(x, y, valid): the normalized points OpenCV's model distorts to (xd, yd), by Newton's
-    method from (xd, yd) in float64. ``valid`` is False where no such point was found to 1e-12
-    or where the model folds (its Jacobian is not positive there: a second, outer solution of a
-    strong barrel distortion, which a lens does not see); x and y are NaN there."""
+    """The normalized points OpenCV's model distorts to (xd, yd), by Newton's method in float64.
+
+    Parameters
+    ----------
+    xd, yd : array_like
+        Distorted normalized coordinates (broadcast together).
+    d : ndarray, shape (12,)
+        ``check_dist``'s coefficients.
+
+    Returns
+    -------
+    x, y : ndarray
+        The undistorted points, NaN where not ``valid``.
+    valid : ndarray of bool
+        False where no such point was found to 1e-12 or where the model folds (its Jacobian is not
+        positive there: a second, outer solution of a strong barrel distortion, which a lens does
+        not see).
+    """
     xd = np.asarray(xd, dtype=np.float64)
     yd = np.asarray(yd, dtype=np.float64)
     shape = np.broadcast(xd, yd).shape

@@ -1,48 +1,9 @@
-"""Lights, placed like pyrender's: ``scene.add(light, pose=)`` with a 4x4 light-to-world pose.
+"""Lights, placed like pyrender's: ``scene.add(light, pose=)`` with a 4x4 light-to-world pose
+(``DirectionalLight``, ``PointLight``, ``SpotLight``).
 
-A light shines along its local -z axis (the pose's z column, of any nonzero length); a point or
-spot light sits at the pose's translation. ``scene.add(light, pose=, camera_space=True)`` fixes a
-light to the camera instead (the pose is then light-to-camera, in the camera's OpenGL axes: x
-right, y up, looking down -z). The radiance a light sends is ``color * intensity`` (intensity
->= 0, at most float32's 3.4e38), times ``1 / r**2`` for point and spot lights with
-``falloff="inverse_square"`` (the default; ``"none"`` drops it, as classic Phong and PyTorch3D
-do), times glTF's smooth cone factor for spot lights (KHR_lights_punctual):
-
-    t = clamp((cos(angle to the axis) - cos(outer_cone)) / (cos(inner_cone) - cos(outer_cone)), 0, 1)
-    factor = t * t
-
-A scene without lights is lit by a headlight: a white directional light along the camera's
-viewing axis of intensity ``1 - ambient`` (render's ``ambient``) plus an ambient light of
-``ambient``, which is exactly today's Lambert shading.
-
-Shadows: every light type takes ``shadows=False`` (default), ``True`` or ``"exact"`` (the same),
-or ``"map"``.
-
-An exact shadow is a hard shadow decided where the light is evaluated (each pixel; each vertex or
-face centre at those frequencies) by a ray to the light (toward a point or spot light's position,
-blockers between the point and the light only; along the direction of a directional light),
-tested in double precision against every triangle of the scene's opaque and masked meshes
-(both faces, in the view or not; masked ones by their geometry; blended ones cast no shadow).
-There is no bias to tune: a triangle whose plane passes through the shaded point, within the
-float32 precision of its coordinates (2^-19 of their magnitude), does not shadow it, so surfaces
-never shadow themselves (no acne, even at grazing light). A shadowed light is evaluated at
-every pixel (the ray starts there), so a flat face under directional lights, otherwise lit once
-per face, may differ from the unshadowed render in the last float32 bits.
-
-A shadow map is what pyrender and game engines draw: softrast renders the occluders' depth from
-the light (``shadow_resolution`` texels square, default 2048: an orthographic view fitted to the
-occluders for a directional light, a perspective one over the cone for a spot light, a cube of
-six for a point light or a spot wider than 150 degrees; softrast.shadow_maps) once per scene
-state, and filters its comparisons as pyrender does (3 x 3 bilinear percentage-closer
-filtering: soft edges a few texels wide), with a bias of ``shadow_bias`` scene units (default
-0.005) plus a slope-scaled term of two texels (cpp/shadow.hpp). A map is kept with the scene
-until the scene changes (a camera-space light's, which moves with every view, is rendered for
-each render); each face holds resolution² float32 depths (16 MB at 2048, six faces for a cube).
-Lines and points cast no shadow with either method.
-
-A shadowed light's diffuse and specular terms are multiplied by its visibility (0 or 1 exact, a
-fraction with maps) in every lit model; ambient and emissive light are not shadowed.
-``render(shadows=...)`` overrides every light's setting for one render.
+How a light is placed and attenuated (falloff, the spot cone), the headlight, and both shadow
+methods (``shadows="exact"``: a ray per shaded point; ``"map"``: pyrender's shadow maps) are
+in docs/conventions.md, "Lights and shadows".
 """
 from __future__ import annotations
 
@@ -66,8 +27,25 @@ _DIRECTIONAL, _POINT, _SPOT = _core.LIGHT_KINDS  # "directional", "point", "spot
 
 
 def shadow_method(value: Any, name: str = "shadows") -> str | bool:
-    """False, or the shadow method ``value`` names (True means "exact"); ValueError naming
-    ``name`` otherwise."""
+    """False, or the shadow method ``value`` names (True means "exact").
+
+    Parameters
+    ----------
+    value : bool or str
+        False, True, "exact" or "map".
+    name : str, optional
+        The argument's name, for the error.
+
+    Returns
+    -------
+    False or str
+        False, "exact" or "map".
+
+    Raises
+    ------
+    ValueError
+        Naming ``name``, for any other value.
+    """
     if value is False:
         return False
     if isinstance(value, (bool, np.bool_)):
@@ -103,7 +81,31 @@ def _intensity(value: Any) -> float:
 
 
 class Light:
-    """Base class of the light types (not made directly)."""
+    """Base class of the light types (not made directly); immutable, hashable, picklable.
+
+    Lights are placed by ``Scene.add(light, pose=)``: they shine along the pose's -z axis. The
+    rules (falloff, the spot cone, the headlight, both shadow methods) are in
+    docs/conventions.md, "Lights and shadows".
+
+    Parameters
+    ----------
+    color : sequence of 3 floats, optional
+        Linear RGB in [0, 1] (default white).
+    intensity : float, optional
+        >= 0, at most float32's 3.4e38 (default 1). The light sends ``color * intensity``.
+    shadows : bool or str, optional
+        False (default), True or "exact" (the same: a ray per shaded point) or "map" (shadow maps);
+        ``render(shadows=)`` overrides it for one render.
+    shadow_resolution : int, optional
+        A shadow map's side in texels, in [1, 16384] (default 2048).
+    shadow_bias : float, optional
+        A shadow map's bias in scene units, finite and >= 0 (default 0.005), plus a slope term.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a bad argument, naming it.
+    """
 
     __slots__ = ("color", "intensity", "shadows", "shadow_resolution", "shadow_bias")
     _kind = ""
@@ -170,7 +172,27 @@ class Light:
 
 
 class DirectionalLight(Light):
-    """Light from infinitely far away along the pose's -z axis (the sun). pyrender's name."""
+    """Light from infinitely far away along the pose's -z axis (the sun). pyrender's name.
+
+    Parameters
+    ----------
+    color : sequence of 3 floats, optional
+        Linear RGB in [0, 1] (default white).
+    intensity : float, optional
+        >= 0, at most float32's 3.4e38 (default 1). The light sends ``color * intensity``.
+    shadows : bool or str, optional
+        False (default), True or "exact" (the same: a ray per shaded point) or "map" (shadow maps);
+        ``render(shadows=)`` overrides it for one render.
+    shadow_resolution : int, optional
+        A shadow map's side in texels, in [1, 16384] (default 2048).
+    shadow_bias : float, optional
+        A shadow map's bias in scene units, finite and >= 0 (default 0.005), plus a slope term.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a bad argument, naming it.
+    """
 
     __slots__ = ()
     _kind = _DIRECTIONAL
@@ -179,7 +201,26 @@ class DirectionalLight(Light):
 class PointLight(Light):
     """Light from the pose's translation in every direction.
 
-    falloff : "inverse_square" (default: radiance / r**2, physical and pyrender's) or "none".
+    Parameters
+    ----------
+    color : sequence of 3 floats, optional
+        Linear RGB in [0, 1] (default white).
+    intensity : float, optional
+        >= 0, at most float32's 3.4e38 (default 1). The light sends ``color * intensity``.
+    falloff : str, optional
+        "inverse_square" (default: radiance / r**2, physical and pyrender's) or "none".
+    shadows : bool or str, optional
+        False (default), True or "exact" (the same: a ray per shaded point) or "map" (shadow maps);
+        ``render(shadows=)`` overrides it for one render.
+    shadow_resolution : int, optional
+        A shadow map's side in texels, in [1, 16384] (default 2048).
+    shadow_bias : float, optional
+        A shadow map's bias in scene units, finite and >= 0 (default 0.005), plus a slope term.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a bad argument, naming it.
     """
 
     __slots__ = ("falloff",)
@@ -196,9 +237,32 @@ class PointLight(Light):
 class SpotLight(Light):
     """A point light restricted to a cone around the pose's -z axis.
 
-    inner_cone, outer_cone : half-angles in radians, 0 <= inner_cone < outer_cone <= pi / 2 (as
-        glTF's KHR_lights_punctual and pyrender; defaults 0 and pi / 4). Full intensity inside
-        the inner cone, none outside the outer one, glTF's smooth falloff between.
+    Full intensity inside the inner cone, none outside the outer one, glTF's smooth falloff
+    between.
+
+    Parameters
+    ----------
+    color : sequence of 3 floats, optional
+        Linear RGB in [0, 1] (default white).
+    intensity : float, optional
+        >= 0, at most float32's 3.4e38 (default 1). The light sends ``color * intensity``.
+    inner_cone, outer_cone : float, optional
+        Half-angles in radians, 0 <= inner_cone < outer_cone <= pi / 2 (as glTF's
+        KHR_lights_punctual and pyrender; defaults 0 and pi / 4).
+    falloff : str, optional
+        "inverse_square" (default: radiance / r**2) or "none".
+    shadows : bool or str, optional
+        False (default), True or "exact" (the same: a ray per shaded point) or "map" (shadow maps);
+        ``render(shadows=)`` overrides it for one render.
+    shadow_resolution : int, optional
+        A shadow map's side in texels, in [1, 16384] (default 2048).
+    shadow_bias : float, optional
+        A shadow map's bias in scene units, finite and >= 0 (default 0.005), plus a slope term.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a bad argument, naming it.
     """
 
     __slots__ = ("inner_cone", "outer_cone", "falloff")

@@ -23,6 +23,18 @@ def set_memory_budget(nbytes: int) -> None:
     """Set the largest allocation (in bytes) that a render, ``imread`` or ``load_mesh`` may make.
 
     Process-wide. The core still refuses framebuffers above ``_core.MAX_FRAMEBUFFER_BYTES``.
+
+    Parameters
+    ----------
+    nbytes : int
+        Positive.
+
+    Raises
+    ------
+    TypeError
+        For a non-int (bool included).
+    ValueError
+        For nbytes <= 0.
     """
     global _budget
     if isinstance(nbytes, bool):
@@ -38,7 +50,12 @@ def set_memory_budget(nbytes: int) -> None:
 
 
 def get_memory_budget() -> int:
-    """The current memory budget in bytes (default 4 GiB)."""
+    """The current memory budget in bytes (default 4 GiB).
+
+    Returns
+    -------
+    int
+    """
     return _budget
 
 
@@ -50,7 +67,20 @@ def _human(nbytes: int) -> str:
 
 
 def check_budget(nbytes: Any, what: str) -> None:
-    """Raise ValueError if ``nbytes`` exceeds the budget; ``what`` names the argument or file."""
+    """Raise ValueError if ``nbytes`` exceeds the budget.
+
+    Parameters
+    ----------
+    nbytes : int
+        The bytes an allocation needs.
+    what : str
+        Names the argument or file in the error.
+
+    Raises
+    ------
+    ValueError
+        If ``nbytes`` exceeds ``get_memory_budget()``.
+    """
     needed, budget = int(nbytes), _budget
     if needed > budget:
         raise ValueError(

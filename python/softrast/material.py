@@ -1,39 +1,9 @@
-"""Materials: how a surface reflects light, for every shading model (see ``softrast.render``).
+"""Materials: how a surface reflects light, for every shading model (``Material``, ``MODELS``,
+``ALPHA_MODES``).
 
-Colours are linear RGB in [0, 1] (not sRGB-encoded). One ``Material`` carries the parameters of
-every model, so the same mesh can be rendered with any ``shading=``:
-
-============== ===========================================================================
-model          radiance (summed over lights; ``I`` = light colour x intensity x attenuation)
-============== ===========================================================================
-unlit          base colour
-lambert        ka*Ia + sum kd*I*max(0, n.l) + emissive
-phong          lambert + sum [n.l > 0] ks*I*max(0, r.v)^shininess, r = 2(n.l)n - l
-blinn_phong    lambert + sum [n.l > 0] ks*I*max(0, n.h)^shininess, h = (l + v)/|l + v|
-pbr            glTF 2.0 metallic-roughness as pyrender's mesh.frag computes it (shading.py)
-normal         (n + 1) / 2, the visible side's world-space unit normal
-============== ===========================================================================
-
-``kd`` is the base colour unless given (the per-vertex colours of a mesh that has them, else
-``base_color``); ``ka`` is ``kd`` unless given; ``Ia`` is the scene's ambient light.
-
-Textures (``softrast.Texture``; conventions in ``softrast.texture``) are sampled per pixel at the
-mesh's uvs: ``base_color_texture`` multiplies the base colour (so ``kd`` where ``kd`` is the base
-colour, as ``map_Kd`` does in MTL files), ``emissive_texture`` multiplies ``emissive`` (then
-added per pixel), ``normal_texture`` is a tangent-space normal map (OpenGL-style, green = +v;
-``normal_map_convention="directx"`` for green = -v; x and y scaled by ``normal_scale``) in the
-tangent frame of each triangle (tangent = the direction of +u, made orthogonal to the
-interpolated normal; bitangent = n x t, flipped where the uvs are mirrored). At the vertex and
-face frequencies the lighting is computed without textures and modulated per pixel by the base
-colour texture (OpenGL's GL_MODULATE), and normal maps are not read.
-``metallic_roughness_texture`` (glTF: blue x ``metallic``, green x ``roughness``, per pixel),
-``occlusion_texture`` (red: the ambient term times 1 + ``occlusion_strength`` (red - 1), as glTF
-defines it: only indirect light is occluded) and ``bump_texture`` (a height map, first channel:
-the course notes' bump mapping, dU = ``bump_scale`` (h(u + 1/w) - h(u)), dV likewise along v,
-tangent-space normal (-dU, -dV, 1); used where there is no ``normal_texture``) and
-``specular_texture`` (its rgb times ``ks``: phong and blinn_phong, MTL's ``map_Ks``) are read at
-the pixel frequency. Data slots (normal, metallic-roughness, occlusion, bump, specular) read
-linear values unless their texture says ``srgb=True``.
+One ``Material`` carries the parameters of every model, in linear colours. The models'
+formulas and what each texture slot does are in docs/conventions.md, "Materials and shading
+models"; the ``pbr`` model, term by term, in docs/pbr_notes.md.
 """
 from __future__ import annotations
 
@@ -79,56 +49,92 @@ def _unit_real(value: Any, name: str) -> float:
 class Material:
     """A surface's reflectance for every shading model; immutable (make a new one to change it).
 
+    Colours are linear RGB(A) in [0, 1]. The models' formulas and the texture slots' rules are in
+    docs/conventions.md, "Materials and shading models".
+
     Parameters
     ----------
-    base_color : RGBA (or RGB) in [0, 1], linear, or None (default): 0.8 grey, or white (1, 1,
-        1, 1) where a ``base_color_texture`` is given, as glTF's ``baseColorFactor`` and
-        pyrender default to, so the texture shows as it is. The colour of ``unlit``, the albedo
-        of ``pbr`` and the default ``kd``; it multiplies the ``base_color_texture``. A mesh's
-        per-vertex colours replace it where present.
-    ka, kd, ks : RGB in [0, 1] (one number is grey: ``ks=0.5``) or None: ambient, diffuse and
-        specular reflectance of the lambert / phong / blinn_phong models. ``kd=None`` => the base colour; ``ka=None`` =>
+    base_color : sequence of 3 or 4 floats, optional
+        RGBA (or RGB) in [0, 1], linear, or None (default): 0.8 grey, or white (1, 1, 1, 1) where a
+        ``base_color_texture`` is given, as glTF's ``baseColorFactor`` and pyrender default to, so
+        the texture shows as it is. The colour of ``unlit``, the albedo of ``pbr`` and the default
+        ``kd``; it multiplies the ``base_color_texture``. A mesh's per-vertex colours replace it
+        where present.
+    ka, kd, ks : sequence of 3 floats, float or None, optional
+        RGB in [0, 1] (one number is grey: ``ks=0.5``): ambient, diffuse and specular reflectance
+        of the lambert / phong / blinn_phong models. ``kd=None`` => the base colour; ``ka=None`` =>
         ``kd``; ``ks`` defaults to 0.5 grey (a mesh without any material has ks = 0).
-    shininess : the specular exponent p >= 0 (``Ns`` in MTL files). Default 32. It and the other
-        numbers below are held in float32 by the core: beyond its range (3.4e38) is refused.
-    metallic, roughness : glTF metallic-roughness factors in [0, 1] (``pbr``). Defaults 0 and
-        0.5 (glTF files default to 1 and 1 when they give none; the file readers apply that).
-    emissive : RGB in [0, 1] (or one number, grey), added to the radiance of every lit model.
-    double_sided : as glTF's doubleSided: never culled (whatever ``render(cull=)`` says, unless
-        ``render(cull_double_sided=True)``), and back faces are lit with the flipped normal.
-        False: a back face (visible only with ``cull="none"`` or ``"front"``) is lit with its
+    shininess : float, optional
+        The specular exponent p >= 0 (``Ns`` in MTL files). Default 32. It and the other numbers
+        below are held in float32 by the core: beyond its range (3.4e38) is refused.
+    metallic, roughness : float, optional
+        glTF metallic-roughness factors in [0, 1] (``pbr``). Defaults 0 and 0.5 (glTF files default
+        to 1 and 1 when they give none; the file readers apply that).
+    emissive : sequence of 3 floats or float, optional
+        RGB in [0, 1] (or one number, grey), added to the radiance of every lit model.
+    double_sided : bool, optional
+        As glTF's doubleSided: never culled (whatever ``render(cull=)`` says, unless
+        ``render(cull_double_sided=True)``), and back faces are lit with the flipped normal. False
+        (default): a back face (visible only with ``cull="none"`` or ``"front"``) is lit with its
         own normal, which faces away from the camera, so it gets only the ambient and emissive
         terms, as OpenGL renders a single-sided material. Meshes without a material are lit
         two-sided but culled by ``render(cull=)``.
-    model : the shading model ``render(shading="auto")`` uses for this material, one of
+    model : str or None, optional
+        The shading model ``render(shading="auto")`` uses for this material, one of
         ``softrast.material.MODELS``, or None: "blinn_phong" (the file readers set "pbr" for glTF
         and MTL materials: docs/file_formats.md states how MTL's Ks and Ns become roughness).
-    name : a label (the file's material name), not used for rendering.
-    base_color_texture, emissive_texture : Texture or None; sRGB-decoded unless the texture
-        says ``srgb=False``.
-    normal_texture : Texture or None, a tangent-space normal map (linear unless the texture says
-        ``srgb=True``); ``normal_scale`` (finite) scales its x and y;
-        ``normal_map_convention``: "opengl" (default, green = +v) or "directx" (green = -v).
-    metallic_roughness_texture, occlusion_texture, bump_texture : Texture or None (see the
-        module docstring); ``occlusion_strength`` in [0, 1], ``bump_scale`` finite.
-    specular_texture : Texture or None: its rgb scales ``ks`` per pixel in the phong and
-        blinn_phong models (MTL's ``map_Ks``); linear unless the texture says ``srgb=True``.
-        Read at the pixel frequency; ``pbr`` does not read it.
-    alpha_mode : "opaque" (default: alpha is ignored) or "mask" (glTF's alphaMode MASK): a
-        fragment is drawn only where its alpha >= ``alpha_cutoff`` (finite; default 0.5, as
-        glTF's), else it is discarded before the depth test, so what lies behind shows through,
-        in every output (depth, ids, mask, colour) and whatever the shading model. The alpha is
-        ``base_color``'s (or the mesh's interpolated per-vertex alpha where it has vertex
-        colours) times the ``base_color_texture``'s alpha at the pixel, sampled with the same uv,
-        filter and level of detail as its colour. ``coverage`` counts only the fragments kept.
-        "blend" (glTF's alphaMode BLEND): the material is translucent with that same alpha. At
-        every pixel its fragments in front of the nearest opaque surface are composited in exact
-        depth order (whatever the draw order; fragments at equal depth in draw order), in linear
-        light, over that surface or the background. ``color`` and ``radiance`` are composited,
-        ``alpha`` is the total coverage; ``depth``, ids, ``mask``, ``normal`` and the surface
-        outputs follow the nearest opaque surface, and ``coverage`` counts opaque fragments
-        only. A blended draw whose one alpha is 1 (no vertex colours, no texture alpha) is drawn
-        opaque, the same colours.
+    name : str or None, optional
+        A label (the file's material name), not used for rendering.
+    base_color_texture, emissive_texture : Texture or None, optional
+        sRGB-decoded unless the texture says ``srgb=False``.
+    normal_texture : Texture or None, optional
+        A tangent-space normal map (linear unless the texture says ``srgb=True``).
+    normal_scale : float, optional
+        Finite; scales the normal map's x and y (default 1).
+    normal_map_convention : str, optional
+        "opengl" (default, green = +v) or "directx" (green = -v).
+    metallic_roughness_texture, occlusion_texture : Texture or None, optional
+        See docs/conventions.md, "Materials and shading models".
+    occlusion_strength : float, optional
+        In [0, 1] (default 1).
+    bump_texture : Texture or None, optional
+        A height map (docs/conventions.md).
+    bump_scale : float, optional
+        Finite (default 1).
+    alpha_mode : str, optional
+        "opaque" (default: alpha is ignored) or "mask" (glTF's alphaMode MASK): a fragment is drawn
+        only where its alpha >= ``alpha_cutoff``, else it is discarded before the depth test, so
+        what lies behind shows through, in every output (depth, ids, mask, colour) and whatever the
+        shading model. The alpha is ``base_color``'s (or the mesh's interpolated per-vertex alpha
+        where it has vertex colours) times the ``base_color_texture``'s alpha at the pixel, sampled
+        with the same uv, filter and level of detail as its colour. ``coverage`` counts only the
+        fragments kept. "blend" (glTF's alphaMode BLEND): the material is translucent with that
+        same alpha. At every pixel its fragments in front of the nearest opaque surface are
+        composited in exact depth order (whatever the draw order; fragments at equal depth in draw
+        order), in linear light, over that surface or the background. ``color`` and ``radiance``
+        are composited, ``alpha`` is the total coverage; ``depth``, ids, ``mask``, ``normal`` and
+        the surface outputs follow the nearest opaque surface, and ``coverage`` counts opaque
+        fragments only. A blended draw whose one alpha is 1 (no vertex colours, no texture alpha)
+        is drawn opaque, the same colours.
+    alpha_cutoff : float, optional
+        Finite; default 0.5, as glTF's.
+    specular_texture : Texture or None, optional
+        Its rgb scales ``ks`` per pixel in the phong and blinn_phong models (MTL's ``map_Ks``);
+        linear unless the texture says ``srgb=True``. Read at the pixel frequency; ``pbr`` does not
+        read it.
+
+    Attributes
+    ----------
+    base_color : tuple of 4 floats
+        As given or defaulted; every other argument is an attribute too, as checked (``ka`` and
+        ``kd`` None when not given, ``ks`` a 3-tuple).
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a bad argument, naming it (a colour outside [0, 1], a model not in ``MODELS``, a
+        texture slot holding something other than a Texture, ...). A colour slot's float texture
+        with a negative value raises ValueError; one with values above 1 warns (UserWarning).
     """
 
     __slots__ = ("base_color", "ka", "kd", "ks", "shininess", "metallic", "roughness", "emissive",
@@ -234,8 +240,10 @@ class Material:
 
     @property
     def plain(self) -> bool:
-        """True if the material is lambert shading of its base colour, two-sided: what a mesh
-        without a material gets (render's fast headlight path takes it too)."""
+        """True if the material is lambert shading of its base colour, two-sided.
+
+        What a mesh without a material gets (render's fast headlight path takes it too).
+        """
         return (self.ka is None and self.kd is None and self.emissive == (0.0, 0.0, 0.0)
                 and self.double_sided and not self.textured and self.alpha_mode == "opaque")
 
@@ -245,7 +253,18 @@ class Material:
         return any(getattr(self, slot) is not None for slot in self._TEXTURE_SLOTS)
 
     def replace(self, **changes: Any) -> "Material":
-        """A copy with some parameters changed (checked like the constructor's)."""
+        """A copy with some parameters changed.
+
+        Parameters
+        ----------
+        **changes
+            Any of the constructor's arguments by name.
+
+        Returns
+        -------
+        Material
+            The new material, checked like the constructor's.
+        """
         args = {k: getattr(self, k) for k in self._FIELDS}
         args.update(changes)
         return Material(**args)

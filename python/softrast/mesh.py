@@ -245,41 +245,53 @@ def _warn_if_imprecise(given: np.ndarray, stored: np.ndarray) -> None:
 
 
 class Mesh:
-    """An indexed triangle mesh with optional per-vertex attributes.
+    """An indexed triangle mesh with optional per-vertex attributes; immutable.
 
-    Parameters
-    ----------
-    positions : (n, 3) real array, object-space coordinates (finite); stored as float32.
-    faces : (m, 3) integer array of vertex indices in [0, n); stored as int32.
-        Counter-clockwise faces (seen from outside) are front faces, as in OpenGL.
-    normals : (n, 3) real array or None, per-vertex normals; None => flat face normals.
-    uvs : (n, 2) real array or None, texture coordinates (u right, v up).
-    colors : (n, 3) or (n, 4) uint8 (0-255) or float in [0, 1], or None;
-        stored as (n, 4) float32 RGBA in [0, 1] (alpha 1 when absent).
-    color : 3 or 4 floats in [0, 1], the base colour used when ``colors`` is None.
-    material : a ``softrast.Material`` or None. With a material, ``color`` is its base colour
-        (a ``color`` given as well must agree). None: lambert shading of the base colour,
-        two-sided, no specular term (``Scene.add(..., material=)`` overrides it per instance).
-
-    All stored arrays are immutable copies, so later edits to the inputs never reach the mesh.
+    Stored arrays are immutable copies (later edits to the inputs never reach the mesh);
     ``copy.copy`` and ``copy.deepcopy`` return the mesh itself (it cannot change); pickling
     rebuilds it through this constructor, read-only and bit-identical.
 
-    Raises TypeError / ValueError naming the argument (and the vertex or face) for a wrong dtype
-    or shape, NaN or inf, a finite value beyond float32's range (|x| > 3.4028235e38, e.g. 1e39,
-    which float32 would store as inf), colours outside [0, 1] or an index outside [0, n); and
-    ValueError if the stored arrays (4 bytes per value) exceed ``softrast.get_memory_budget()``,
-    checked from the shapes before anything is converted. Validation works in chunks of 65,536
-    rows, so it needs about 2 MiB beyond the stored arrays whatever the input's size or dtype.
+    Parameters
+    ----------
+    positions : array_like, shape (n, 3)
+        Real object-space coordinates (finite); stored as float32.
+    faces : array_like, shape (m, 3)
+        Integer vertex indices in [0, n); stored as int32. Counter-clockwise faces (seen from
+        outside) are front faces, as in OpenGL.
+    normals : array_like, shape (n, 3), optional
+        Real per-vertex normals; None => flat face normals.
+    uvs : array_like, shape (n, 2), optional
+        Real texture coordinates (u right, v up).
+    colors : array_like, shape (n, 3) or (n, 4), optional
+        uint8 (0-255) or float in [0, 1]; stored as (n, 4) float32 RGBA (alpha 1 if absent).
+    color : sequence of 3 or 4 floats, optional
+        In [0, 1], the base colour used when ``colors`` is None.
+    material : Material, optional
+        With a material, ``color`` is its base colour (a ``color`` given as well must agree).
+        None: lambert shading of the base colour, two-sided, no specular term (``Scene.add(...,
+        material=)`` overrides it per instance).
 
-    Warns ``softrast.PrecisionWarning`` when storing positions as float32 moves a vertex by more
-    than ``PRECISION_WARNING_FRACTION`` (1e-4) of the mesh's bounding-box diagonal: a tenth of a
-    pixel when the mesh spans 1,000 pixels, one pixel at 10,000. float32 keeps 24 bits, so this
-    happens once coordinates are about 2**24 * 1e-4 ~ 1,700 times (or more) farther from the
-    mesh's origin than its size, e.g. a 1 m object at 10 km, or a 20 m building in UTM coordinates
-    (~1e6 m, float32 spacing 0.06 m). Centre the mesh and put the offset in the pose, which is
-    float64 and renders it correctly. Only the actual rounding counts: float32 input, or integers
-    below 2**24, are stored exactly and never warn.
+    Raises
+    ------
+    TypeError, ValueError
+        Naming the argument (and the vertex or face) for a wrong dtype or shape, NaN or inf, a
+        finite value beyond float32's range (|x| > 3.4028235e38, e.g. 1e39, which float32 would
+        store as inf), colours outside [0, 1] or an index outside [0, n); ValueError if the
+        stored arrays (4 bytes per value) exceed ``softrast.get_memory_budget()``, checked from
+        the shapes before anything is converted. Validation works in chunks of 65,536 rows, so
+        it needs about 2 MiB beyond the stored arrays whatever the input's size or dtype.
+
+    Warns
+    -----
+    PrecisionWarning
+        When storing positions as float32 moves a vertex by more than
+        ``PRECISION_WARNING_FRACTION`` (1e-4) of the mesh's bounding-box diagonal: a tenth of a
+        pixel when the mesh spans 1,000 pixels, one pixel at 10,000. float32 keeps 24 bits, so
+        this happens once coordinates are about 2**24 * 1e-4 ~ 1,700 times (or more) farther
+        from the mesh's origin than its size, e.g. a 1 m object at 10 km, or a 20 m building in
+        UTM coordinates (~1e6 m, float32 spacing 0.06 m). Centre the mesh and put the offset in
+        the pose (float64: rendered correctly). Only the actual rounding counts: float32 input,
+        or integers below 2**24, are stored exactly and never warn.
     """
 
     __slots__ = ("_positions", "_faces", "_normals", "_uvs", "_colors", "_color", "_material", "_core")
@@ -383,10 +395,12 @@ class Mesh:
 
     @property
     def num_vertices(self) -> int:
+        """Number of vertices, n."""
         return int(self._positions.shape[0])
 
     @property
     def num_faces(self) -> int:
+        """Number of triangles, m."""
         return int(self._faces.shape[0])
 
     @property
@@ -394,11 +408,9 @@ class Mesh:
         """(2, 3) float64: row 0 = per-axis minimum, row 1 = maximum, object space."""
         return np.stack([self._positions.min(axis=0), self._positions.max(axis=0)]).astype(np.float64)
 
-    # -- copy and pickle ----------------------------------------------------------------------
-    # A Mesh is immutable, so a copy is the mesh itself (as for tuples); it also keeps the cached
-    # core upload. Pickling stores the arrays and rebuilds through the validating constructor, so an
-    # unpickled mesh is read-only, checked and bit-identical (float32 values round-trip exactly, and
-    # warn no more than the original). The core upload is not pickled: it is rebuilt on first use.
+    # -- copy and pickle: immutable, so a copy is the mesh itself (as for tuples), keeping the core
+    # upload. Pickles hold the arrays, rebuilt by the validating constructor (float32 round-trips
+    # exactly, warning no more than the original); the core upload is rebuilt on first use.
     def __copy__(self) -> "Mesh":
         return self
 
@@ -425,34 +437,44 @@ class Mesh:
                      srgb_colors: bool = False) -> "Mesh":
         """Build a Mesh from a ``trimesh.Trimesh`` (or a ``trimesh.Scene``, concatenated).
 
-        smooth : per-vertex normals: the file's own where it carries them, else True or "area"
+        Parameters
+        ----------
+        tm : trimesh.Trimesh or trimesh.Scene
+            Its uvs (``TextureVisuals``), per-vertex and per-face colours are kept: a Mesh
+            colours vertices, so each face with a colour of its own gets three vertices of its
+            own (faces keep their order; smooth normals are the original vertex's). A Scene whose
+            parts have different materials gets the first part's, with a UserWarning
+            (``softrast.load_scene`` keeps each part's).
+        smooth : bool or str, optional
+            Per-vertex normals: the file's own where it carries them, else True or "area"
             (default): each vertex's adjacent face normals weighted by face area (the course
             notes' rule), "angle": weighted by the face's corner angle (trimesh's
             ``vertex_normals``, recomputed in float64 where trimesh drops a face: a mesh below
             ~1e-5 units, a corner 1e19 away from unit ones); False: flat face normals (faceted
-            shading). Either weighting gives every vertex of a non-degenerate face a unit
-            normal for coordinates anywhere from 1e-30 to 3e38 (``softrast.normals.vertex_normals``).
-        color : base RGBA; None => the material's base colour, else the default grey. With a
+            shading). Either weighting gives every vertex of a non-degenerate face a unit normal
+            for coordinates anywhere from 1e-30 to 3e38 (``softrast.normals.vertex_normals``).
+        color : sequence of 3 or 4 floats, optional
+            Base RGBA; None => the material's base colour, else the default grey. With a
             material, ``color`` replaces its base colour.
-        srgb_colors : True => trimesh's 8-bit vertex / face colours are sRGB-encoded (as PLY,
-            OBJ and OFF files store them) and are decoded to linear with the exact IEC 61966-2-1
-            curve; False (default) => they are taken as linear (value / 255). Alpha is linear.
+        srgb_colors : bool, optional
+            True => trimesh's 8-bit vertex / face colours are sRGB-encoded (as PLY, OBJ and OFF
+            files store them) and are decoded to linear with the exact IEC 61966-2-1 curve;
+            False (default) => they are taken as linear (value / 255). Alpha is linear.
 
-        Keeps uvs (``TextureVisuals``), per-vertex colours and per-face colours: a Mesh colours
-        vertices, so each face with a colour of its own gets three vertices of its own (faces keep
-        their order; smooth normals are the original vertex's). A trimesh material becomes a
-        ``softrast.Material``: a ``SimpleMaterial`` (MTL) -> ka/kd/ks/shininess and model "pbr",
-        metallic 0, roughness from ks and shininess (the MTL rule of docs/file_formats.md); a
-        ``PBRMaterial`` (glTF) -> base colour, metallic, roughness (trimesh's
-        None: glTF's defaults 1 and 1), emissive, double_sided, model "pbr". trimesh holds their
-        colours as 8 bits; ``softrast.load_mesh`` reads the exact values from the file instead.
-        Its images become ``softrast.Texture`` objects (a SimpleMaterial's image: the base colour
-        texture; a PBRMaterial's base colour, metallic-roughness, normal, occlusion and emissive
-        textures, with default samplers: trimesh keeps none), and its alpha mode (a
-        PBRMaterial's MASK -> "mask", BLEND -> "blend"; a SimpleMaterial whose diffuse alpha
-        is below 255 -> "blend", as MTL's ``d`` < 1).
-        A Scene whose parts have different materials gets the first part's, with a UserWarning
-        (``softrast.load_scene`` keeps each part's).
+        Returns
+        -------
+        Mesh
+            A trimesh material becomes a ``softrast.Material``: a ``SimpleMaterial`` (MTL) ->
+            ka/kd/ks/shininess and model "pbr", metallic 0, roughness from ks and shininess (the
+            MTL rule of docs/file_formats.md); a ``PBRMaterial`` (glTF) -> base colour,
+            metallic, roughness (trimesh's None: glTF's defaults 1 and 1), emissive,
+            double_sided, model "pbr". trimesh holds their colours as 8 bits;
+            ``softrast.load_mesh`` reads the exact values from the file instead. Its images
+            become ``softrast.Texture`` objects (a SimpleMaterial's image: the base colour
+            texture; a PBRMaterial's base colour, metallic-roughness, normal, occlusion and
+            emissive textures, with default samplers: trimesh keeps none), and its alpha mode (a
+            PBRMaterial's MASK -> "mask", BLEND -> "blend"; a SimpleMaterial whose diffuse alpha
+            is below 255 -> "blend", as MTL's ``d`` < 1).
         """
         return _mesh_of(mesh_part(tm, smooth, FileInfo(None, srgb=bool(srgb_colors))), color)
 

@@ -23,9 +23,23 @@ __all__ = ["to_bgr", "depth_to_mm_uint16", "draw_outline"]
 def to_bgr(color: npt.ArrayLike) -> np.ndarray:
     """RGB (h, w, 3) -> BGR, or RGBA (h, w, 4) -> BGRA, any dtype (``frame.color`` is uint8).
 
-    Returns a new C-contiguous COPY (never a view of ``color``): OpenCV's drawing functions
-    write in place and refuse the negative-stride view ``color[..., ::-1]`` would be, and a
-    copy cannot change the frame. Applying it twice gives the RGB back.
+    Applying it twice gives the RGB back.
+
+    Parameters
+    ----------
+    color : array_like, shape (h, w, 3) or (h, w, 4)
+
+    Returns
+    -------
+    ndarray
+        A new C-contiguous COPY (never a view of ``color``): OpenCV's drawing functions write in
+        place and refuse the negative-stride view ``color[..., ::-1]`` would be, and a copy cannot
+        change the frame.
+
+    Raises
+    ------
+    ValueError
+        For another shape.
     """
     arr = np.asarray(color)
     if arr.ndim != 3 or arr.shape[2] not in (3, 4):
@@ -37,11 +51,26 @@ def to_bgr(color: npt.ArrayLike) -> np.ndarray:
 def depth_to_mm_uint16(depth: npt.ArrayLike, scale: float = 1000.0) -> np.ndarray:
     """Depth in scene units (0 = nothing hit, as softrast's ``depth``) -> uint16 millimetres.
 
-    scale : millimetres per scene unit (1000.0: the scene is in metres; 1.0: already in mm).
-    Each value ``d > 0`` becomes ``floor(d * scale + 0.5)`` (round to nearest, halves up),
-    clamped to [1, 65535]: a hit never reads as 0 (OpenCV's and depth cameras' "no reading"),
-    and a depth beyond 65.535 m (at scale 1000) saturates at 65535. 0 stays 0. Negative,
-    NaN or infinite depths raise ValueError.
+    Parameters
+    ----------
+    depth : array_like
+        Real depths, finite and >= 0.
+    scale : float, optional
+        Millimetres per scene unit (1000.0: the scene is in metres; 1.0: already in mm).
+
+    Returns
+    -------
+    ndarray, uint16
+        Each value ``d > 0`` becomes ``floor(d * scale + 0.5)`` (round to nearest, halves up),
+        clamped to [1, 65535]: a hit never reads as 0 (OpenCV's and depth cameras' "no reading"),
+        and a depth beyond 65.535 m (at scale 1000) saturates at 65535. 0 stays 0.
+
+    Raises
+    ------
+    TypeError
+        For a depth that is not real numbers.
+    ValueError
+        For negative, NaN or infinite depths.
     """
     s = positive_real(scale, "scale")
     d = np.asarray(depth)
@@ -59,13 +88,33 @@ def depth_to_mm_uint16(depth: npt.ArrayLike, scale: float = 1000.0) -> np.ndarra
 
 def draw_outline(image: np.ndarray, mask: npt.ArrayLike, color: Sequence[int] = (0, 255, 0),
                  thickness: int = 1) -> np.ndarray:
-    """Draw the outline of ``mask`` (h, w) on ``image`` (h, w, 3) uint8 IN PLACE; returns ``image``.
+    """Draw the outline of ``mask`` on ``image`` IN PLACE.
 
     The contours are ``cv2.findContours(mask, cv2.RETR_LIST, cv2.CHAIN_APPROX_NONE)`` (every
     boundary, holes included, pixel by pixel) drawn with ``cv2.drawContours``: with
-    ``thickness=1`` exactly the mask's boundary pixels (mask pixels with a 4-neighbour outside
-    the mask) are set to ``color``, which is in the image's own channel order (BGR for an
-    image from ``cv2.imread`` or ``to_bgr``). ``image`` must be C-contiguous uint8.
+    ``thickness=1`` exactly the mask's boundary pixels (mask pixels with a 4-neighbour outside the
+    mask) are set to ``color``.
+
+    Parameters
+    ----------
+    image : ndarray, shape (h, w, 3), uint8
+        C-contiguous and writeable.
+    mask : array_like, shape (h, w)
+    color : sequence of 3 int, optional
+        In [0, 255], in the image's own channel order (BGR for an image from ``cv2.imread`` or
+        ``to_bgr``); default green.
+    thickness : int, optional
+        >= 1 (default 1).
+
+    Returns
+    -------
+    ndarray
+        ``image``.
+
+    Raises
+    ------
+    ValueError
+        For a bad argument, naming it.
     """
     import cv2
 

@@ -37,8 +37,27 @@ def _count(n: Any) -> int:
 
 def look_at_pose(eye: npt.ArrayLike, target: npt.ArrayLike, up: npt.ArrayLike = (0.0, 1.0, 0.0),
                  convention: str = "opengl") -> npt.NDArray[np.float64]:
-    """(4, 4) camera-to-world pose at ``eye`` looking at ``target`` with ``up`` up in the image
-    (as ``Camera.look_at``)."""
+    """The camera-to-world pose at ``eye`` looking at ``target`` (as ``Camera.look_at``).
+
+    Parameters
+    ----------
+    eye, target : array_like, shape (3,)
+        World-space points.
+    up : array_like, shape (3,), optional
+        Up in the image (default +y).
+    convention : str, optional
+        "opengl" (default: x right, y up, looking down -z, as ``PerspectiveCamera`` and pyrender)
+        or "opencv" (x right, y down, looking down +z, as ``IntrinsicsCamera``'s default).
+
+    Returns
+    -------
+    ndarray, shape (4, 4), float64
+
+    Raises
+    ------
+    ValueError
+        As ``Camera.look_at``.
+    """
     choice(convention, "convention", ("opengl", "opencv"))
     cam = PerspectiveCamera() if convention == "opengl" else IntrinsicsCamera(1.0, 1.0, 0.0, 0.0, 1, 1)
     return cam.look_at(eye, target, up).pose.copy()
@@ -77,10 +96,37 @@ def _common(target, radius, n, up, convention):
 def orbit(target: npt.ArrayLike, radius: float, n: int, elevation: float = 20.0,
           up: npt.ArrayLike = (0.0, 1.0, 0.0), start: float = 0.0,
           convention: str = "opengl") -> npt.NDArray[np.float64]:
-    """``n`` poses on a turntable around ``target``: distance ``radius``, ``elevation`` degrees
-    above the plane normal to ``up`` (in [-90, 90]), azimuths start + 360 k / n degrees
-    (k = 0 .. n-1; azimuth 0 is the +z side of ``target`` for up = +y, increasing
-    counter-clockwise seen from above)."""
+    """``n`` poses on a turntable around ``target``.
+
+    Parameters
+    ----------
+    target : array_like, shape (3,)
+        What every pose looks at.
+    radius : float
+        Distance from ``target`` (> 0).
+    n : int
+        Number of poses (>= 1).
+    elevation : float, optional
+        Degrees above the plane normal to ``up``, in [-90, 90] (default 20).
+    up : array_like, shape (3,), optional
+        Non-zero (default +y).
+    start : float, optional
+        Azimuths are start + 360 k / n degrees (k = 0 .. n-1; azimuth 0 is the +z side of
+        ``target`` for up = +y, increasing counter-clockwise seen from above).
+    convention : str, optional
+        "opengl" (default: x right, y up, looking down -z, as ``PerspectiveCamera`` and pyrender)
+        or "opencv" (x right, y down, looking down +z, as ``IntrinsicsCamera``'s default).
+
+    Returns
+    -------
+    ndarray, shape (n, 4, 4), float64
+        Camera-to-world poses looking at ``target``: assign one to ``camera.pose``.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a bad argument, naming it.
+    """
     t, r, count, up_v, (a, b, u) = _common(target, radius, n, up, convention)
     el = finite_real(elevation, "elevation")
     if not -90.0 <= el <= 90.0:
@@ -94,9 +140,35 @@ def orbit(target: npt.ArrayLike, radius: float, n: int, elevation: float = 20.0,
 
 def sphere_poses(target: npt.ArrayLike, radius: float, n: int, up: npt.ArrayLike = (0.0, 1.0, 0.0),
                  convention: str = "opengl") -> npt.NDArray[np.float64]:
-    """``n`` poses spread evenly over the sphere of ``radius`` around ``target`` (a Fibonacci
-    lattice: equal-area bands, golden-angle azimuths), from the top (along ``up``) down;
-    ``up`` stays up in each image (at the poles the roll follows the next axis)."""
+    """``n`` poses spread evenly over the sphere of ``radius`` around ``target``.
+
+    A Fibonacci lattice: equal-area bands, golden-angle azimuths, from the top (along ``up``)
+    down; ``up`` stays up in each image (at the poles the roll follows the next axis).
+
+    Parameters
+    ----------
+    target : array_like, shape (3,)
+        What every pose looks at.
+    radius : float
+        Distance from ``target`` (> 0).
+    n : int
+        Number of poses (>= 1).
+    up : array_like, shape (3,), optional
+        Non-zero (default +y).
+    convention : str, optional
+        "opengl" (default: x right, y up, looking down -z, as ``PerspectiveCamera`` and pyrender)
+        or "opencv" (x right, y down, looking down +z, as ``IntrinsicsCamera``'s default).
+
+    Returns
+    -------
+    ndarray, shape (n, 4, 4), float64
+        Camera-to-world poses looking at ``target``: assign one to ``camera.pose``.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a bad argument, naming it.
+    """
     t, r, count, up_v, (a, b, u) = _common(target, radius, n, up, convention)
     k = np.arange(count) + 0.5
     height = 1.0 - 2.0 * k / count  # equal-area bands

@@ -5,7 +5,7 @@ Both are drawn unlit in their own linear colour, as whole pixels (aliased; alpha
 msaa/ssaa, drawn over the resolved pixels). Their pixels get ``triangle_id`` -1, the instance id
 given to ``Scene.add``, ``mask`` True, ``normal`` 0, ``barycentric`` and ``uv`` 0, and
 ``position`` / ``ray_depth`` of the point drawn. The pixel rules (Bresenham, DDA, thick lines,
-point squares) are in ``Renderer.render``'s docstring (``line_algorithm``) and the README.
+point squares) are in ``RenderOptions``' docstring (``line_algorithm``) and the README.
 """
 from __future__ import annotations
 
@@ -107,22 +107,35 @@ class _Primitive:
 
     @property
     def color(self) -> tuple[float, float, float]:
+        """The RGB colour used without ``colors`` (linear, in [0, 1])."""
         return self._color
 
 
 class Lines(_Primitive):
     """Line segments between points, drawn ``width`` pixels wide.
 
-    positions : (n, 3) real, model space (stored as float32).
-    segments : (m, 2) integer indices into positions: segment k joins positions[segments[k, 0]]
-        and positions[segments[k, 1]] (both endpoints are drawn).
-    colors : None, or (n, 3) / (n, 4) uint8 (0-255) or float in [0, 1], linear, per position;
-        interpolated perspective-correctly along each segment. None => ``color``.
-    color : 3 or 4 floats in [0, 1] (alpha ignored), the colour without ``colors``; default white.
-    width : > 0 pixels; <= 1 draws one pixel per step (``render(line_algorithm=)``), above 1 every
-        pixel whose centre lies within width / 2 of the segment (round caps).
+    Immutable: the arrays are read-only copies. Picklable.
 
-    Immutable: the arrays are read-only copies. Pickleable.
+    Parameters
+    ----------
+    positions : array_like, shape (n, 3)
+        Real, model space (stored as float32).
+    segments : array_like, shape (m, 2)
+        Integer indices into positions: segment k joins positions[segments[k, 0]] and
+        positions[segments[k, 1]] (both endpoints are drawn).
+    colors : array_like, shape (n, 3) or (n, 4), optional
+        uint8 (0-255) or float in [0, 1], linear, per position;
+        interpolated perspective-correctly along each segment. None => ``color``.
+    width : float, optional
+        > 0 pixels (default 1); <= 1 draws one pixel per step (``render(line_algorithm=)``), above
+        1 every pixel whose centre lies within width / 2 of the segment (round caps).
+    color : sequence of 3 or 4 floats, optional
+        In [0, 1] (alpha ignored), the colour without ``colors``; default white.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a bad argument, naming it (and the row).
     """
 
     __slots__ = ("_segments", "_width")
@@ -149,6 +162,7 @@ class Lines(_Primitive):
 
     @property
     def width(self) -> float:
+        """Line width in pixels."""
         return self._width
 
     def _core_record(self, pose: np.ndarray, instance_id: int, depth_bias: float = 0.0) -> Any:
@@ -166,14 +180,25 @@ class Lines(_Primitive):
 class Points(_Primitive):
     """Points drawn as squares of ``size`` x ``size`` pixels.
 
-    positions : (n, 3) real, model space (stored as float32).
-    colors : None, or (n, 3) / (n, 4) uint8 (0-255) or float in [0, 1], linear, per point.
-    color : 3 or 4 floats in [0, 1] (alpha ignored), the colour without ``colors``; default white.
-    size : > 0 pixels: a point at window position (x, y) covers the pixels whose centre (cx, cy)
-        has x - size/2 < cx <= x + size/2 and the same in y; sizes below 1 draw as 1 (the pixel
-        holding the point).
+    Immutable: the arrays are read-only copies. Picklable.
 
-    Immutable: the arrays are read-only copies. Pickleable.
+    Parameters
+    ----------
+    positions : array_like, shape (n, 3)
+        Real, model space (stored as float32).
+    colors : array_like, shape (n, 3) or (n, 4), optional
+        uint8 (0-255) or float in [0, 1], linear, per position, per point. None => ``color``.
+    size : float, optional
+        > 0 pixels (default 1): a point at window position (x, y) covers the pixels whose centre
+        (cx, cy) has x - size/2 < cx <= x + size/2 and the same in y; sizes below 1 draw as 1 (the
+        pixel holding the point).
+    color : sequence of 3 or 4 floats, optional
+        In [0, 1] (alpha ignored), the colour without ``colors``; default white.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a bad argument, naming it (and the row).
     """
 
     __slots__ = ("_size",)
@@ -185,6 +210,7 @@ class Points(_Primitive):
 
     @property
     def size(self) -> float:
+        """Point size in pixels."""
         return self._size
 
     def _core_record(self, pose: np.ndarray, instance_id: int) -> Any:

@@ -24,12 +24,31 @@ _SHADING = SHADING
 
 
 def sample_positions(msaa: int = 1, ssaa: int = 1) -> npt.NDArray[np.float64]:
-    """Where an anti-aliasing mode samples each pixel: an (n, 2) float64 array of (x, y) offsets
-    from the pixel's top-left corner in pixels (x right, y down), in sample order. msaa: the
-    Direct3D / Vulkan standard positions (multiples of 1/16 px); ssaa=k: a k x k grid at
-    ((i + 1/2) / k, (j + 1/2) / k), row by row, rounded to the rasterizer's 1/256 px. The
+    """Where an anti-aliasing mode samples each pixel.
+
+    msaa: the Direct3D / Vulkan standard positions (multiples of 1/16 px); ssaa=k: a k x k grid
+    at ((i + 1/2) / k, (j + 1/2) / k), row by row, rounded to the rasterizer's 1/256 px. The
     representative sample of a pixel (``Renderer.render``) is its covered sample nearest the
-    centre (0.5, 0.5), ties to the lower index."""
+    centre (0.5, 0.5), ties to the lower index.
+
+    Parameters
+    ----------
+    msaa : int, optional
+        1 (default), 2, 4, 8 or 16.
+    ssaa : int, optional
+        In [1, 8] (default 1); not with msaa > 1.
+
+    Returns
+    -------
+    ndarray, shape (n, 2), float64
+        (x, y) offsets from the pixel's top-left corner in pixels (x right, y down), in sample
+        order.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For counts outside those, or both msaa and ssaa.
+    """
     msaa, ssaa = _antialiasing(msaa, ssaa)
     return np.array(_core._sample_pattern(msaa, ssaa), dtype=np.float64) / (1 << _core.SUBPIXEL_BITS)
 
@@ -39,18 +58,6 @@ _END = object()  # render_many's end of the cameras (None is a camera to refuse,
 
 class Renderer:
     """An offscreen renderer of a fixed image size (like pyrender's OffscreenRenderer).
-
-    Parameters
-    ----------
-    width, height : image size in pixels, each in [1, softrast.MAX_IMAGE_SIDE].
-    threads : worker threads, the calling thread included, in [0, softrast.MAX_THREADS] (0 = one
-        per core, at most MAX_THREADS). The images are bit-identical for any count. Raises
-        ``ValueError`` for a count outside that range and ``RuntimeError`` (naming ``threads``)
-        when the system refuses to start a worker thread (``ulimit -u``, ``ulimit -v``, memory);
-        the workers already started are stopped first, so none is left behind.
-    simd : use the widest instruction set the CPU has for the per-pixel kernels (AVX2 where
-        available; see ``isa``). False forces the generic x86-64 kernels. The images are
-        bit-identical either way.
 
     The GIL is released while rendering, so Python threads may render concurrently (calls on one
     Renderer are serialised; use one Renderer per thread for parallelism).
@@ -62,6 +69,27 @@ class Renderer:
     in progress on other threads to end; in the child an inherited Renderer starts its own worker
     threads at its first render, renders the same bits and can be destroyed. A daemon thread
     still rendering when the interpreter exits is left asleep (the process exits normally).
+
+    Parameters
+    ----------
+    width, height : int
+        Image size in pixels, each in [1, softrast.MAX_IMAGE_SIDE].
+    threads : int, optional
+        Worker threads, the calling thread included, in [0, softrast.MAX_THREADS] (0, the
+        default = one per core, at most MAX_THREADS). The images are bit-identical for any count.
+    simd : bool, optional
+        Use the widest instruction set the CPU has for the per-pixel kernels (AVX2 where
+        available; see ``isa``). False forces the generic x86-64 kernels. The images are
+        bit-identical either way.
+
+    Raises
+    ------
+    ValueError
+        For a size or thread count outside those ranges, or a non-bool ``simd``.
+    RuntimeError
+        Naming ``threads``, when the system refuses to start a worker thread (``ulimit -u``,
+        ``ulimit -v``, memory); the workers already started are stopped first, so none is left
+        behind.
     """
 
     def __init__(self, width: int, height: int, threads: int = 0, simd: bool = True) -> None:
@@ -89,14 +117,17 @@ class Renderer:
 
     @property
     def width(self) -> int:
+        """Image width in pixels."""
         return self._core.width
 
     @property
     def height(self) -> int:
+        """Image height in pixels."""
         return self._core.height
 
     @property
     def threads(self) -> int:
+        """Worker threads in use, the calling thread included."""
         return self._core.threads
 
     @property
@@ -196,19 +227,41 @@ class Renderer:
     def render_many(self, scene: Scene, cameras: Iterable[Camera], outputs: str | Sequence[str] = ("color", "depth"),
                     progress: bool = False, callback: Callable[[int, Frame], Any] | None = None,
                     workers: int | None = None, **options: Any) -> Iterator[Frame]:
-        """Render ``scene`` from each of ``cameras`` in turn: a generator of Frames, in the
-        cameras' order, equal byte for byte to ``render(scene, camera, outputs, **options)`` in a
-        loop (any option of ``render`` but ``out``).
+        """Render ``scene`` from each of ``cameras`` in turn: a generator of Frames, in the cameras' order.
 
-        Views render concurrently, each on its own single-threaded renderer (``workers`` of them,
-        default: this renderer's thread count), with the GIL released, while the caller consumes
-        earlier frames: small frames, whose own passes cannot keep every core busy, then use
-        them all. At most 2 x workers frames are in flight, so 10,000 views never sit in memory.
-        The scene is uploaded once (its meshes' arrays are shared, its draw records cached);
-        ``cameras`` may be any iterable (a generator of posed cameras, say), read as needed.
+        Each Frame equals, byte for byte, ``render(scene, camera, outputs, **options)`` in a loop.
+        Views render concurrently, each on its own single-threaded renderer (``workers`` of them),
+        with the GIL released, while the caller consumes earlier frames: small frames, whose own
+        passes cannot keep every core busy, then use them all. At most 2 x workers frames are in
+        flight, so 10,000 views never sit in memory. The scene is uploaded once (its meshes' arrays
+        are shared, its draw records cached).
 
-        progress : show a tqdm progress bar (total = len(cameras) when it has one).
-        callback : called as callback(i, frame) for each frame, before it is yielded.
+        Parameters
+        ----------
+        scene : Scene
+            What is drawn, uploaded once.
+        cameras : iterable of Camera
+            Any iterable (a generator of posed cameras, say), read as needed.
+        outputs : str or sequence of str, optional
+            As for ``render``.
+        progress : bool, optional
+            Show a tqdm progress bar (total = len(cameras) when it has one).
+        callback : callable, optional
+            Called as callback(i, frame) for each frame, before it is yielded.
+        workers : int, optional
+            In [1, softrast.MAX_THREADS]; default: this renderer's thread count.
+        **options
+            Any option of ``render`` but ``out``.
+
+        Yields
+        ------
+        Frame
+
+        Raises
+        ------
+        TypeError, ValueError
+            For ``out=``, a bad scene, callback, ``workers`` or ``progress``; TypeError for a
+            camera that is not a softrast Camera (raised when it is reached).
         """
         if "out" in options:
             raise ValueError("render_many: out= is not supported (each view gets new arrays)")

@@ -31,12 +31,19 @@ _T = TypeVar("_T")
 class Instance:
     """One placement of a mesh in a scene.
 
-    mesh : the shared Mesh (its C++ upload is shared by every instance too).
-    pose : (4, 4) float64 model-to-world transform, read-only; may scale, last row [0, 0, 0, 1].
-    instance_id : int in [0, 2**31), written to the "instance_id" output.
-    color : RGBA floats in [0, 1]: the ``color`` given to ``Scene.add``, else ``mesh.color``.
-    material : the ``material`` given to ``Scene.add``, else ``mesh.material`` (may be None). A
-        ``color`` given to ``Scene.add`` replaces its base colour.
+    Attributes
+    ----------
+    mesh : Mesh
+        The shared Mesh (its C++ upload is shared by every instance too).
+    pose : ndarray, shape (4, 4), float64
+        Model-to-world transform, read-only; may scale, last row [0, 0, 0, 1].
+    instance_id : int
+        In [0, 2**31), written to the "instance_id" output.
+    color : tuple of 4 floats
+        RGBA in [0, 1]: the ``color`` given to ``Scene.add``, else ``mesh.color``.
+    material : Material or None
+        The ``material`` given to ``Scene.add``, else ``mesh.material`` (may be None). A ``color``
+        given to ``Scene.add`` replaces its base colour.
     """
 
     mesh: Mesh
@@ -48,8 +55,16 @@ class Instance:
 
 @dataclass(frozen=True)
 class PrimitiveInstance:
-    """One placement of a ``Lines`` or ``Points`` object in a scene: ``pose`` (4, 4) float64
-    model-to-world, read-only; ``instance_id`` written to the "instance_id" output."""
+    """One placement of a ``Lines`` or ``Points`` object in a scene.
+
+    Attributes
+    ----------
+    item : Lines or Points
+    pose : ndarray, shape (4, 4), float64
+        Model-to-world, read-only.
+    instance_id : int
+        Written to the "instance_id" output.
+    """
 
     item: Lines | Points
     pose: npt.NDArray[np.float64]
@@ -58,8 +73,16 @@ class PrimitiveInstance:
 
 @dataclass(frozen=True)
 class LightInstance:
-    """One light placed in a scene: ``pose`` is light-to-world, or light-to-camera when
-    ``camera_space`` (the light moves with the camera)."""
+    """One light placed in a scene.
+
+    Attributes
+    ----------
+    light : Light
+    pose : ndarray, shape (4, 4), float64
+        Light-to-world, or light-to-camera when ``camera_space``.
+    camera_space : bool
+        The light moves with the camera.
+    """
 
     light: Light
     pose: npt.NDArray[np.float64]
@@ -71,11 +94,21 @@ def _check_model_pose(pose: Any) -> npt.NDArray[np.float64]:
 
 
 class Scene:
-    """An ordered collection of mesh instances and lights (the camera is a render argument).
+    """An ordered collection of mesh instances, lines and points, and lights.
 
-    ambient_light : RGB >= 0 (linear, at most float32's 3.4e38), the ambient light ``Ia`` every
-        lit model multiplies by ``ka``; None (default) => the render's ``ambient`` in a scene
-        without lights (the headlight's ambient term) and 0 in a scene with lights.
+    The camera is a render argument, not part of the scene.
+
+    Parameters
+    ----------
+    ambient_light : sequence of 3 floats, optional
+        RGB >= 0 (linear, at most float32's 3.4e38), the ambient light ``Ia`` every lit model
+        multiplies by ``ka``; None (default) => the render's ``ambient`` in a scene without lights
+        (the headlight's ambient term) and 0 in a scene with lights.
+
+    Raises
+    ------
+    ValueError
+        For an ``ambient_light`` that is not 3 numbers in that range.
     """
 
     def __init__(self, ambient_light: Sequence[float] | None = None) -> None:
@@ -115,7 +148,7 @@ class Scene:
 
     @property
     def ambient_light(self) -> tuple[float, float, float] | None:
-        """RGB ambient light (linear, >= 0), or None (see Scene)."""
+        """RGB ambient light (linear, >= 0), or None (see Scene); settable, checked as the constructor's."""
         return self._ambient_light
 
     @ambient_light.setter
@@ -136,21 +169,39 @@ class Scene:
     def add(self, item: Mesh | Light | Lines | Points, pose: npt.ArrayLike | None = None,
             instance_id: int | None = None, color: Sequence[float] | None = None,
             material: Material | None = None, camera_space: bool = False) -> int:
-        """Add a mesh, a light, or lines or points (``softrast.Lines``, ``softrast.Points``)
-        placed by ``pose``; returns the instance id (for a light, its index among the scene's
-        lights). Lines and points are drawn after the triangles, depth-tested against them, in
-        the order added; they take ``pose`` and ``instance_id`` only.
+        """Add a mesh, a light, or lines or points placed by ``pose``.
 
-        pose : (4, 4) model-to-world (light-to-world) transform (finite, last row [0, 0, 0, 1]);
-            None => identity.
-        instance_id : int in [0, 2**31); None => the number of instances (meshes, lines and
-            points) already in the scene. Ids need not be unique (several parts can share one
-            object id). Not for lights.
-        color : 3 or 4 floats in [0, 1] overriding ``mesh.color`` (and the material's base
-            colour); None => ``mesh.color``. Meshes only.
-        material : a ``softrast.Material`` for this instance, overriding ``mesh.material``.
-        camera_space : lights only: ``pose`` is light-to-camera, so the light moves with the
-            camera (a headlight, a flash).
+        Lines and points (``softrast.Lines``, ``softrast.Points``) are drawn after the triangles,
+        depth-tested against them, in the order added; they take ``pose`` and ``instance_id`` only.
+
+        Parameters
+        ----------
+        item : Mesh, Light, Lines or Points
+            What to add.
+        pose : array_like, shape (4, 4), optional
+            Model-to-world (light-to-world) transform (finite, last row [0, 0, 0, 1]); None =>
+            identity. A light's pose must keep its z axis (the way it shines).
+        instance_id : int, optional
+            In [0, 2**31); None => the number of instances (meshes, lines and points) already in the
+            scene. Ids need not be unique (several parts can share one object id). Not for lights.
+        color : sequence of 3 or 4 floats, optional
+            In [0, 1], overriding ``mesh.color`` (and the material's base colour); None =>
+            ``mesh.color``. Meshes only.
+        material : Material, optional
+            A material for this instance, overriding ``mesh.material``. Meshes only.
+        camera_space : bool, optional
+            Lights only: ``pose`` is light-to-camera, so the light moves with the camera (a headlight,
+            a flash).
+
+        Returns
+        -------
+        int
+            The instance id; for a light, its index among the scene's lights.
+
+        Raises
+        ------
+        TypeError, ValueError
+            For an item that is none of these, a bad pose or id, or an argument its item does not take.
         """
         if isinstance(item, Light):
             if instance_id is not None or color is not None or material is not None:
@@ -202,14 +253,32 @@ class Scene:
 
     @classmethod
     def from_trimesh(cls, tm: Any, smooth: bool | str = True, srgb_colors: bool = False) -> "Scene":
-        """A Scene from a ``trimesh.Scene`` (or a ``trimesh.Trimesh``: one instance), keeping its
-        parts: one instance per placement of each triangle geometry, in trimesh's graph order
-        (``graph.nodes_geometry``), posed by the node's world transform, each with its own Mesh
-        and Material (a geometry placed by several nodes is one shared Mesh). Instance ids are
-        0, 1, 2, ... Exactly what ``softrast.load_scene`` does with a loaded file, but with
-        trimesh's values: its materials hold colours as 8 bits (``load_scene`` reads the file's
-        exact values). ``smooth`` and ``srgb_colors`` as for ``Mesh.from_trimesh``. Raises
-        ValueError if there is no triangle geometry."""
+        """A Scene from a ``trimesh.Scene`` (or a ``trimesh.Trimesh``: one instance), keeping its parts.
+
+        One instance per placement of each triangle geometry, in trimesh's graph order
+        (``graph.nodes_geometry``), posed by the node's world transform, each with its own Mesh and
+        Material (a geometry placed by several nodes is one shared Mesh). Instance ids are 0, 1, 2, ...
+        Exactly what ``softrast.load_scene`` does with a loaded file, but with trimesh's values: its
+        materials hold colours as 8 bits (``load_scene`` reads the file's exact values).
+
+        Parameters
+        ----------
+        tm : trimesh.Scene or trimesh.Trimesh
+            The geometry.
+        smooth : bool or str, optional
+            As for ``Mesh.from_trimesh``.
+        srgb_colors : bool, optional
+            As for ``Mesh.from_trimesh``.
+
+        Returns
+        -------
+        Scene
+
+        Raises
+        ------
+        ValueError
+            If there is no triangle geometry.
+        """
         _check_smooth(smooth)
         scene = _scene_of(tm, smooth, FileInfo(None, srgb=bool(srgb_colors)))
         if not len(scene):
@@ -268,10 +337,28 @@ class Scene:
 
     def set_pose(self, instance: Instance | PrimitiveInstance | int,
                  pose: npt.ArrayLike) -> Instance | PrimitiveInstance:
-        """Move one instance (an ``Instance`` of ``scene.instances``, a ``PrimitiveInstance`` of
-        ``scene.primitives``, or a unique instance id) to ``pose`` (checked as ``add``'s);
-        returns its new instance (the scene keeps its place in the drawing order). Editing a
-        scene between views costs less than rebuilding it."""
+        """Move one instance to ``pose``.
+
+        Editing a scene between views costs less than rebuilding it.
+
+        Parameters
+        ----------
+        instance : Instance, PrimitiveInstance or int
+            An ``Instance`` of ``scene.instances``, a ``PrimitiveInstance`` of ``scene.primitives``, or
+            a unique instance id.
+        pose : array_like, shape (4, 4)
+            Checked as ``add``'s.
+
+        Returns
+        -------
+        Instance or PrimitiveInstance
+            Its new instance (the scene keeps its place in the drawing order).
+
+        Raises
+        ------
+        ValueError
+            If the instance is not in the scene (or was replaced), or the id names none or several.
+        """
         where, k = self._find(instance)
         model = _check_model_pose(pose)
         old = where[k]
@@ -283,8 +370,23 @@ class Scene:
         return where[k]
 
     def remove(self, instance: Instance | PrimitiveInstance | int) -> Instance | PrimitiveInstance:
-        """Remove one instance (an ``Instance``, a ``PrimitiveInstance``, or a unique instance
-        id) and return it."""
+        """Remove one instance and return it.
+
+        Parameters
+        ----------
+        instance : Instance, PrimitiveInstance or int
+            An ``Instance``, a ``PrimitiveInstance``, or a unique instance id.
+
+        Returns
+        -------
+        Instance or PrimitiveInstance
+            The removed instance.
+
+        Raises
+        ------
+        ValueError
+            As ``set_pose``.
+        """
         where, k = self._find(instance)
         removed = where.pop(k)
         self._changed()
@@ -299,8 +401,18 @@ class Scene:
 
     @property
     def bounds(self) -> npt.NDArray[np.float64]:
-        """(2, 3) float64 world-space AABB (row 0 min, row 1 max) of every transformed vertex,
-        of meshes, lines and points."""
+        """World-space AABB of every transformed vertex, of meshes, lines and points.
+
+        Returns
+        -------
+        ndarray, shape (2, 3), float64
+            Row 0 min, row 1 max.
+
+        Raises
+        ------
+        ValueError
+            For an empty scene.
+        """
         posed = [(inst.mesh.positions, inst.pose) for inst in self._instances]
         posed += [(inst.item.positions, inst.pose) for inst in getattr(self, "_primitives", ())]
         if not posed:

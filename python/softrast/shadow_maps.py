@@ -31,8 +31,17 @@ _WIDEST_SPOT = math.radians(150.0)
 
 
 def occluder_bounds(instances: Iterable[Any]) -> np.ndarray | None:
-    """The world-space corners (8 per instance, (n, 3)) of the boxes of the instances that cast
-    shadows (not blended), or None if there are none."""
+    """The world-space corners of the boxes of the instances that cast shadows (not blended).
+
+    Parameters
+    ----------
+    instances : iterable of Instance
+
+    Returns
+    -------
+    ndarray, shape (8 * n, 3), or None
+        8 corners per instance; None if there are none.
+    """
     corners = []
     for inst in instances:
         material = inst.material
@@ -61,9 +70,29 @@ def _looking(origin: np.ndarray, direction: np.ndarray) -> np.ndarray:
 
 def map_cameras(kind: str, position: np.ndarray, direction: np.ndarray, outer_cone: float,
                 corners: np.ndarray, resolution: int) -> list[Camera]:
-    """The cameras of a light's maps (see the module's docstring): ``kind`` "directional",
-    "spot" or "point", its world ``position`` and unit travel ``direction``, the occluders'
-    ``corners`` (occluder_bounds), ``resolution`` texels square."""
+    """The cameras of a light's maps (their fitting is stated in this module's header).
+
+    Parameters
+    ----------
+    kind : str
+        "directional", "spot" or "point".
+    position : ndarray, shape (3,)
+        The light's world position.
+    direction : ndarray, shape (3,)
+        Its unit travel direction.
+    outer_cone : float
+        A spot light's outer half-angle in radians.
+    corners : ndarray, shape (k, 3)
+        The occluders' corners (``occluder_bounds``).
+    resolution : int
+        Texels square.
+
+    Returns
+    -------
+    list of Camera
+        One orthographic camera (directional), one perspective camera (spot up to 150 degrees),
+        six (a cube), or none when the occluders sit at the light.
+    """
     margin = _MARGIN_TEXELS / resolution
     span = float(np.max(np.ptp(corners, axis=0))) if len(corners) else 0.0
     if kind == "directional":

@@ -1,53 +1,10 @@
 """Textures: images a material samples per pixel (``Material(base_color_texture=...)`` and the
-other texture slots), filtered in the C++ core.
+other texture slots), filtered in the C++ core: ``Texture``, ``load_texture``.
 
-Conventions (``softrast.reference.texture`` implements every rule below independently):
-
-* **uv origin.** ``uv_origin="bottom_left"`` (default; OpenGL, and glTF files as trimesh loads
-  them): v points up, the image's row 0 (its top) is at v = 1::
-
-        v = 1  +---------+  image row 0
-               |  image  |
-        v = 0  +---------+  image row h - 1
-             u = 0     u = 1
-
-  Texel corners are at multiples of 1/w and 1/h: texel (row r, column j) covers
-  u in [j/w, (j+1)/w], v in [1 - (r+1)/h, 1 - r/h]; its centre is at ((j + 0.5)/w,
-  1 - (r + 0.5)/h). ``uv_origin="top_left"`` (DirectX, and raw glTF uvs): row 0 at v = 0.
-* **Decoding.** uint8 and uint16 texels are scaled to [0, 1]; float32 texels are taken as they
-  are, 1 being full intensity (a material warns of values above 1 in a colour slot, since a
-  float image holding 0..255 draws white, and refuses negative ones there). 8- and 16-bit
-  colour textures are sRGB-encoded (IEC 61966-2-1) and decoded to linear; data textures
-  (normal, height, metallic-roughness, occlusion) are linear. ``srgb=None`` (default) lets the
-  slot decide for 8- and 16-bit images: ``base_color_texture`` and ``emissive_texture`` decode
-  sRGB, every other slot reads linear values. Float images are linear wherever they are used
-  (the EXR / HDR convention) unless the texture says ``srgb=True``; ``Texture.sample`` reads
-  them the same way. Decoding a float image whose values overflow float32 once decoded raises
-  a ValueError. Alpha is never sRGB-encoded. 1 channel is grey (L, L, L, 1); 2 are grey and
-  alpha; 3 are RGB (alpha 1); 4 are RGBA.
-* **Wrap** (per axis): ``"repeat"``, ``"clamp"`` (to the edge texel) or ``"mirror"`` (OpenGL's
-  mirrored repeat). uvs are reduced to one period exactly before scaling, so uvs of 1e6 keep
-  their fraction.
-* **Filters.** ``"nearest"`` (the texel containing the point), ``"bilinear"`` (the four nearest
-  texel centres), ``"trilinear"`` (bilinear on the two mip levels around the level of detail,
-  blended) and ``"anisotropic"`` (up to ``max_anisotropy`` trilinear probes along the major axis
-  of the pixel's footprint, at the level of its minor axis: EXT_texture_filter_anisotropic).
-  The level of detail is log2 of the longer footprint axis in texels, from the exact screen
-  derivatives of the uvs (the triangle's plane equations, not finite differences between
-  pixels).
-* **Mip chains** are built once per texture, on the first render (or ``sample``) that needs
-  them, in linear space with straight alpha: each level halves each side (floor, at least 1)
-  with an exact area-weighted box filter (an odd side's texels are split between neighbours by
-  overlap), down to 1 x 1. Levels are float32 RGBA: a chain costs about 21 bytes per texel of
-  level 0 (16/3 x 4), built in C++ at about 10 ns per texel; the build peaks near 28 bytes per
-  texel (a float32 RGBA copy of level 0, a half-width pass and level 1), and that peak is checked
-  against ``softrast.set_memory_budget`` first, naming the texture, as is the float32 copy a
-  texture other than uint8 (or float32 read as linear) is converted to.
-* **NaN uvs** (and infinite ones with repeat or mirror) sample as (0, 0, 0, 0): black and
-  transparent, never an out-of-bounds read. With clamp an infinite uv reads the edge texel.
-
-The image is viewed, not copied, where its layout allows (a C-contiguous uint8 array, or a
-float32 one read as linear): do not modify it after the first render, whose mip chain stays.
+The rules (uv origin, decoding and sRGB, channels, wrap modes, filters and the level of detail,
+mip chains and their memory, NaN uvs, when the image is viewed rather than copied) are in
+docs/file_formats.md, "Textures"; ``softrast.reference.texture`` implements every one
+of them independently.
 """
 from __future__ import annotations
 
@@ -128,18 +85,35 @@ def _check_image(image: Any) -> np.ndarray:
 
 
 class Texture:
-    """An image that a material samples, with its sampling options.
+    """An image that a material samples, with its sampling options; immutable.
+
+    The sampling rules are in docs/file_formats.md, "Textures".
 
     Parameters
     ----------
-    image : (h, w, c) or (h, w) array, uint8, uint16 or float32 (float64 is converted), c in 1..4.
-    srgb : True (sRGB-encoded colour), False (linear data) or None (8- and 16-bit images: the
-        material slot decides; float images: linear. See the module docstring).
-    filter : "nearest", "bilinear", "trilinear" (default) or "anisotropic";
+    image : array_like, shape (h, w, c) or (h, w)
+        uint8, uint16 or float32 (float64 is converted), c in 1..4. Viewed, not copied, where its
+        layout allows: do not modify it after the first render.
+    srgb : bool or None, optional
+        True (sRGB-encoded colour), False (linear data) or None (8- and 16-bit images: the
+        material slot decides; float images: linear. See docs/file_formats.md, "Textures").
+    filter : str, optional
+        "nearest", "bilinear", "trilinear" (default) or "anisotropic";
         ``render(texture_filter=)`` overrides it for one render.
-    wrap : "repeat" (default), "clamp" or "mirror", or a pair (wrap_u, wrap_v).
-    max_anisotropy : probes of the anisotropic filter at most, an int >= 1 (default 16).
-    uv_origin : "bottom_left" (OpenGL, default) or "top_left" (DirectX, raw glTF).
+    wrap : str or pair of str, optional
+        "repeat" (default), "clamp" or "mirror", or a pair (wrap_u, wrap_v).
+    max_anisotropy : int, optional
+        Probes of the anisotropic filter at most, in [1, 64] (default 16).
+    uv_origin : str, optional
+        "bottom_left" (OpenGL, default) or "top_left" (DirectX, raw glTF).
+    name : str or None, optional
+        A label (the file's name for ``load_texture``), used in error messages.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a bad argument, naming it: a dtype other than those above, a shape other than (h, w)
+        or (h, w, 1..4), an empty image, a side over 2 x ``MAX_IMAGE_SIDE``, a non-finite texel.
     """
 
     __slots__ = ("image", "srgb", "filter", "wrap", "max_anisotropy", "uv_origin", "name",
@@ -184,7 +158,18 @@ class Texture:
                              "texture.replace(...))")
 
     def replace(self, **changes: Any) -> "Texture":
-        """A copy with some options changed (the image is shared, not copied)."""
+        """A copy with some options changed (the image is shared, not copied).
+
+        Parameters
+        ----------
+        **changes
+            Any of the constructor's arguments by name.
+
+        Returns
+        -------
+        Texture
+            The new texture, checked like the constructor's.
+        """
         args = {k: getattr(self, k) for k in ("image", "srgb", "filter", "wrap", "max_anisotropy",
                                                "uv_origin", "name")}
         args.update(changes)
@@ -192,14 +177,17 @@ class Texture:
 
     @property
     def height(self) -> int:
+        """Image height in texels."""
         return int(self.image.shape[0])
 
     @property
     def width(self) -> int:
+        """Image width in texels."""
         return int(self.image.shape[1])
 
     @property
     def channels(self) -> int:
+        """Channels of the image, 1 to 4."""
         return int(self.image.shape[2])
 
     def _decodes_srgb(self, slot_srgb: bool | None = None) -> bool:
@@ -290,13 +278,36 @@ class Texture:
 
     @property
     def levels(self) -> list[tuple[int, int]]:
-        """The (height, width) of each mip level, level 0 first, the last 1 x 1."""
+        """The (height, width) of each mip level, level 0 first, the last 1 x 1.
+
+        Returns
+        -------
+        list of tuple of int
+        """
         core = self._core()
         return [tuple(core.level_size(level)) for level in range(core.num_levels)]
 
     def mip(self, level: int) -> np.ndarray:
-        """Mip level ``level`` as (h, w, 4) float32 linear RGBA (the chain built on first use;
-        it and the array are checked against the memory budget first)."""
+        """One mip level as linear RGBA.
+
+        The chain is built on first use; it and the array are checked against the memory budget
+        first.
+
+        Parameters
+        ----------
+        level : int
+            In [0, len(levels)).
+
+        Returns
+        -------
+        ndarray, shape (h, w, 4), float32
+            Linear RGBA.
+
+        Raises
+        ------
+        ValueError
+            For a level outside that range, or beyond ``softrast.get_memory_budget()``.
+        """
         core = self._core()
         level = integer(level, "level")
         if not 0 <= level < core.num_levels:
@@ -309,9 +320,28 @@ class Texture:
 
     def sample(self, uv: npt.ArrayLike, duv: npt.ArrayLike | None = None,
                filter: str | None = None) -> np.ndarray:
-        """Samples at n points exactly as a render does: ``uv`` (n, 2), ``duv`` (n, 4) the
-        screen derivatives (du/dx, dv/dx, du/dy, dv/dy) in uv units per pixel (None: zeros,
-        level 0); ``filter`` None = the texture's. Returns (n, 4) float32 linear RGBA."""
+        """Sample at n points exactly as a render does.
+
+        Parameters
+        ----------
+        uv : array_like, shape (n, 2)
+            Texture coordinates.
+        duv : array_like, shape (n, 4), optional
+            The screen derivatives (du/dx, dv/dx, du/dy, dv/dy) in uv units per pixel; None: zeros
+            (level 0).
+        filter : str, optional
+            None: the texture's own filter.
+
+        Returns
+        -------
+        ndarray, shape (n, 4), float32
+            Linear RGBA.
+
+        Raises
+        ------
+        ValueError
+            For a uv or duv of the wrong shape or dtype, or a mip chain beyond the memory budget.
+        """
         uv_arr = np.asarray(uv)
         if uv_arr.dtype.kind not in "fiu" or uv_arr.ndim != 2 or uv_arr.shape[1] != 2:
             raise ValueError(f"uv must be a real (n, 2) array, got shape {uv_arr.shape} dtype {uv_arr.dtype}")
@@ -340,9 +370,30 @@ class Texture:
 
 
 def load_texture(path: str | os.PathLike[str], srgb: bool | None = None, **options: Any) -> Texture:
-    """Reads an image file (PNG, JPEG, TGA, EXR, TIFF, ... through OpenImageIO) as a Texture;
-    ``options`` are Texture's (filter, wrap, max_anisotropy, uv_origin). 8-bit files stay uint8
-    (viewed), 16-bit ones uint16, floating-point ones float32."""
+    """Read an image file as a Texture.
+
+    PNG, JPEG, TGA, EXR, TIFF, ... through OpenImageIO: 8-bit files stay uint8 (viewed), 16-bit
+    ones uint16, floating-point ones float32.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The image file.
+    srgb : bool or None, optional
+        As for ``Texture``.
+    **options
+        Texture's other arguments (filter, wrap, max_anisotropy, uv_origin; ``name`` defaults to
+        the file's name).
+
+    Returns
+    -------
+    Texture
+
+    Raises
+    ------
+    FileNotFoundError, ValueError
+        As ``softrast.imread``; ValueError naming the file for an image Texture refuses.
+    """
     image = imread(path)
     if image.dtype == np.float16 or image.dtype == np.float64:
         image = image.astype(np.float32)

@@ -83,7 +83,7 @@ def _trimesh_material(mat: Any, info: FileInfo) -> tuple[Material | None, list[s
             if texture is None:
                 dropped.append(f"its texture image {why}: not drawn")
         # a texture multiplies the diffuse colour: kd is the base colour then
-        # the MTL rule (see the module docstring): pbr, metallic 0, roughness from Ks and Ns
+        # the MTL rule (docs/file_formats.md, "OBJ and MTL"): pbr, metallic 0, roughness from Ks and Ns
         ns = min(max(float(mat.glossiness), 0.0), FLOAT32_MAX)  # Material's (float32) range
         # a diffuse alpha below 1 blends, as MTL's d < 1 (pyrender's from_trimesh: BLEND)
         m = Material(base_color=(*rgb[1], alpha), ka=rgb[0], kd=None if texture is not None else rgb[1],

@@ -158,21 +158,9 @@ def load_mesh(path: str | os.PathLike[str], smooth: bool | str = True, color: Se
               up_axis: str = "y") -> Mesh:
     """Load a triangle mesh file (OBJ, PLY, STL, GLB, OFF, ...) with trimesh, keeping vertex order.
 
-    A multi-object file is concatenated into one Mesh (with its node transforms applied). If its
-    parts have different materials, the mesh gets the first part's, with a UserWarning:
-    ``softrast.load_scene`` keeps each part's material. See ``Mesh.from_trimesh`` for
-    ``smooth`` and ``color``. STL files store no shared vertices: with ``smooth`` other than
-    False, vertices at exactly the same position are merged first (as trimesh's
-    ``merge_vertices``, without its rounding; faces keep their order, vertices are in order of
-    first use), so the normals are smooth; ``smooth=False`` keeps the file's vertices.
-
-    up_axis : "y" (default): the file's axes are used as stored (softrast and glTF are y-up);
-        "z": a z-up file (most CAD and STL exports, Blender's own axes) is turned y-up by mapping
-        (x, y, z) -> (x, z, -y), positions and normals (a rotation about x, as Blender's glTF
-        exporter does).
-
+    A multi-object file is concatenated into one Mesh (with its node transforms applied).
     Keeps the file's per-vertex and per-face colours and its materials (OBJ + MTL, glTF), exactly
-    as written in the file (see docs/file_formats.md for the conventions). Colour spaces: 8-bit
+    as written in the file (docs/file_formats.md states the conventions). Colour spaces: 8-bit
     colours in PLY, OBJ, OFF and STL files are sRGB and are decoded to linear (exact IEC
     61966-2-1 curve), so an ``unlit`` render with the default sRGB output gives back the file's
     bytes; glTF ``COLOR_0`` and factors, and MTL colours, are linear. A per-face colour gives each
@@ -183,23 +171,54 @@ def load_mesh(path: str | os.PathLike[str], smooth: bool | str = True, color: Se
     ``metallicRoughnessTexture`` and ``occlusionTexture`` (its ``strength``), each with its
     sampler's filter and wraps; MTL ``map_Kd``, ``map_Ke``, ``map_Ks`` (read by "phong" and
     "blinn_phong"), ``norm`` (``-bm``: normal scale) and ``map_Bump`` / ``bump`` height maps
-    (``-bm``: bump scale; an RGB one that looks like a normal map is drawn as the normal map,
-    with a warning; next to a ``norm`` map a height map is kept but the normal map is drawn,
-    with a warning). Transparency is drawn: glTF ``alphaMode`` MASK -> ``alpha_mode="mask"``
-    and BLEND -> ``alpha_mode="blend"``; MTL ``d`` < 1 (or, without ``d``, ``Tr`` strictly
-    between 0 and 1, read as d = 1 - Tr; ``Tr 1``, Meshlab's opaque, stays opaque) ->
-    ``alpha_mode="blend"`` with base colour alpha d. Whatever softrast cannot draw yet is
-    dropped with a UserWarning naming the file, the material and what: textures read through
-    ``texCoord`` other than 0, ``KHR_texture_transform`` and other unknown extensions; MTL's
-    other maps (``map_Ka``, ``map_Ns``, ``map_d``, ``disp``, ``decal``, ``refl``, the PBR maps)
-    and map options other than ``-clamp`` and ``-bm``; textures that cannot be read, and every
-    texture of a mesh without uvs.
+    (``-bm``: bump scale; an RGB one that looks like a normal map is drawn as the normal map, with
+    a warning; next to a ``norm`` map a height map is kept but the normal map is drawn, with a
+    warning). Transparency is drawn: glTF ``alphaMode`` MASK -> ``alpha_mode="mask"`` and BLEND
+    -> ``alpha_mode="blend"``; MTL ``d`` < 1 (or, without ``d``, ``Tr`` strictly between 0 and 1,
+    read as d = 1 - Tr; ``Tr 1``, Meshlab's opaque, stays opaque) -> ``alpha_mode="blend"`` with
+    base colour alpha d.
 
-    Raises FileNotFoundError if ``path`` (or a buffer or texture file a glTF references) does not
-    exist, ValueError (naming the file) for every other failure: it cannot be parsed, holds no
-    triangles, is truncated or disagrees with its own counts (PLY, OFF, STL, glTF; an OBJ or
-    ASCII STL cut mid-line), has a face index out of range, or its header declares more data
-    than ``softrast.get_memory_budget()`` (checked before parsing).
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The mesh file.
+    smooth : bool or str, optional
+        As for ``Mesh.from_trimesh``. STL files store no shared vertices: with ``smooth`` other
+        than False, vertices at exactly the same position are merged first (as trimesh's
+        ``merge_vertices``, without its rounding; faces keep their order, vertices are in order of
+        first use), so the normals are smooth; ``smooth=False`` keeps the file's vertices.
+    color : sequence of 3 or 4 floats, optional
+        As for ``Mesh.from_trimesh``.
+    up_axis : str, optional
+        "y" (default): the file's axes are used as stored (softrast and glTF are y-up); "z": a
+        z-up file (most CAD and STL exports, Blender's own axes) is turned y-up by mapping
+        (x, y, z) -> (x, z, -y), positions and normals (a rotation about x, as Blender's glTF
+        exporter does).
+
+    Returns
+    -------
+    Mesh
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` (or a buffer or texture file a glTF references) does not exist.
+    ValueError
+        Naming the file, for every other failure: it cannot be parsed, holds no triangles, is
+        truncated or disagrees with its own counts (PLY, OFF, STL, glTF; an OBJ or ASCII STL cut
+        mid-line), has a face index out of range, or its header declares more data than
+        ``softrast.get_memory_budget()`` (checked before parsing).
+
+    Warns
+    -----
+    UserWarning
+        If the parts have different materials: the mesh gets the first part's
+        (``softrast.load_scene`` keeps each part's material). And naming the file, the material
+        and what, for whatever softrast cannot draw yet, which is dropped: textures read through
+        ``texCoord`` other than 0, ``KHR_texture_transform`` and other unknown extensions; MTL's
+        other maps (``map_Ka``, ``map_Ns``, ``map_d``, ``disp``, ``decal``, ``refl``, the PBR maps)
+        and map options other than ``-clamp`` and ``-bm``; textures that cannot be read, and every
+        texture of a mesh without uvs.
     """
     path_str = os.fspath(path)
     if color is not None:
@@ -221,16 +240,33 @@ def load_mesh(path: str | os.PathLike[str], smooth: bool | str = True, color: Se
 
 
 def load_scene(path: str | os.PathLike[str], smooth: bool | str = True, up_axis: str = "y") -> Scene:
-    """Load a mesh file as a ``softrast.Scene``: one instance per part, each with its own Mesh
-    and Material, placed by the file's node transforms (glTF nodes; identity for formats without
-    a scene graph). Geometry that several nodes instance is one shared Mesh. Instance ids are
-    0, 1, 2, ... in the order of trimesh's scene graph (``graph.nodes_geometry``).
+    """Load a mesh file as a ``softrast.Scene``: one instance per part.
 
-    Colours, materials and what is dropped (with a warning) are as described in
-    docs/file_formats.md; ``smooth`` and ``up_axis`` as for ``load_mesh`` (``up_axis="z"``
-    rotates every instance's pose, the meshes stay as stored). Raises like ``load_mesh``:
-    FileNotFoundError for a missing file (or a buffer or texture a glTF references), ValueError
-    naming the file for every other failure.
+    Each part has its own Mesh and Material, placed by the file's node transforms (glTF nodes;
+    identity for formats without a scene graph). Geometry that several nodes instance is one
+    shared Mesh. Instance ids are 0, 1, 2, ... in the order of trimesh's scene graph
+    (``graph.nodes_geometry``). Colours, materials and what is dropped (with a warning) are as
+    described in docs/file_formats.md and ``load_mesh``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The mesh file.
+    smooth : bool or str, optional
+        As for ``load_mesh``.
+    up_axis : str, optional
+        As for ``load_mesh``; "z" rotates every instance's pose, the meshes stay as stored.
+
+    Returns
+    -------
+    Scene
+
+    Raises
+    ------
+    FileNotFoundError
+        For a missing file (or a buffer or texture a glTF references).
+    ValueError
+        Naming the file, for every other failure (as ``load_mesh``).
     """
     path_str = os.fspath(path)
     _check_smooth(smooth)

@@ -225,18 +225,32 @@ def _camera(cam: Any, width: int, height: int, scene: Scene, pose: np.ndarray) -
 
 
 class PyrenderConversion(tuple):
-    """What ``from_pyrender`` returns: the pair ``(scene, camera)`` -- a tuple, so ``scene,
-    camera = sr.from_pyrender(...)`` works as it always has -- that also carries the pyrender
-    scene's background colour, which softrast takes as a render argument.
+    """What ``from_pyrender`` returns: the pair ``(scene, camera)``, with pyrender's background.
 
-    scene : the ``softrast.Scene`` (also ``conversion[0]``).
-    camera : the main camera converted, or None (also ``conversion[1]``).
-    background : ``bg_color``'s RGB clipped to [0, 1] (as OpenGL clears pyrender's 8-bit
-        framebuffer), for ``render(..., background=conversion.background)``. Both libraries write
-        it to the colour image as it is (not sRGB-encoded, whatever ``srgb=``), so the background
-        pixels are pyrender's bytes (its default white: 255).
-    background_alpha : ``bg_color``'s alpha (1 if it has none), which softrast does not render:
-        its ``alpha`` output is coverage, 0 on the background, where pyrender's RGBA render
+    A tuple, so ``scene, camera = sr.from_pyrender(...)`` works as it always has, that also
+    carries the pyrender scene's background colour, which softrast takes as a render argument.
+
+    Parameters
+    ----------
+    scene : Scene
+    camera : Camera or None
+    background : sequence of 3 floats, optional
+    background_alpha : float, optional
+
+    Attributes
+    ----------
+    scene : Scene
+        The ``softrast.Scene`` (also ``conversion[0]``).
+    camera : Camera or None
+        The main camera converted, or None (also ``conversion[1]``).
+    background : tuple of 3 floats
+        ``bg_color``'s RGB clipped to [0, 1] (as OpenGL clears pyrender's 8-bit framebuffer), for
+        ``render(..., background=conversion.background)``. Both libraries write it to the colour
+        image as it is (not sRGB-encoded, whatever ``srgb=``), so the background pixels are
+        pyrender's bytes (its default white: 255).
+    background_alpha : float
+        ``bg_color``'s alpha (1 if it has none), which softrast does not render: its ``alpha``
+        output is coverage, 0 on the background, where pyrender's RGBA render
         (``RenderFlags.RGBA``) has this value: ``alpha + (1 - alpha) * background_alpha`` is
         pyrender's.
     """
@@ -253,10 +267,12 @@ class PyrenderConversion(tuple):
 
     @property
     def scene(self) -> Scene:
+        """The ``softrast.Scene`` (``conversion[0]``)."""
         return self[0]  # type: ignore[no-any-return]
 
     @property
     def camera(self) -> Camera | None:
+        """The main camera converted, or None (``conversion[1]``)."""
         return self[1]  # type: ignore[no-any-return]
 
     def __reduce__(self) -> tuple[Any, ...]:
@@ -280,17 +296,32 @@ def _background(pyrender_scene: Any) -> tuple[tuple[float, float, float], float]
 def from_pyrender(pyrender_scene: Any, width: int, height: int) -> PyrenderConversion:
     """Convert a ``pyrender.Scene`` to ``(softrast.Scene, camera)`` (see docs/interop.md).
 
-    width, height : the image size (pyrender cameras carry none; ``OffscreenRenderer`` takes it).
-    Returns a ``PyrenderConversion``: the tuple ``(scene, camera)``, where the camera is the
-    scene's main camera converted, or None if the scene has no camera, with the scene's
-    ``bg_color`` as ``.background`` (RGB) and ``.background_alpha``. softrast renders a black
-    background unless told otherwise: render as pyrender does with
-    ``renderer.render(conv.scene, conv.camera, background=conv.background)``.
-    Instance ids are 0, 1, 2, ... in the order of ``pyrender_scene.mesh_nodes`` (sorted by node
-    name, then primitive, then instancing pose, for a stable order: pyrender keeps them in a set).
-    A primitive whose material has alphaMode "BLEND" gets ``alpha_mode="blend"`` where an
-    alpha it reads is below 1, else it is opaque (``pyrender.Mesh.from_trimesh`` marks its
-    materials "BLEND", and pyrender draws them opaque then).
+    softrast renders a black background unless told otherwise: render as pyrender does with
+    ``renderer.render(conv.scene, conv.camera, background=conv.background)``. Instance ids are
+    0, 1, 2, ... in the order of ``pyrender_scene.mesh_nodes`` (sorted by node name, then
+    primitive, then instancing pose, for a stable order: pyrender keeps them in a set). A
+    primitive whose material has alphaMode "BLEND" gets ``alpha_mode="blend"`` where an alpha it
+    reads is below 1, else it is opaque (``pyrender.Mesh.from_trimesh`` marks its materials
+    "BLEND", and pyrender draws them opaque then).
+
+    Parameters
+    ----------
+    pyrender_scene : pyrender.Scene
+        The scene to convert (pyrender itself is not imported).
+    width, height : int
+        The image size (pyrender cameras carry none; ``OffscreenRenderer`` takes it).
+
+    Returns
+    -------
+    PyrenderConversion
+        The tuple ``(scene, camera)``, where the camera is the scene's main camera converted, or
+        None if the scene has no camera, with the scene's ``bg_color`` as ``.background`` (RGB)
+        and ``.background_alpha``.
+
+    Warns
+    -----
+    UserWarning
+        For what does not convert exactly (docs/interop.md lists it).
     """
     ambient = getattr(pyrender_scene, "ambient_light", None)
     scene = Scene(ambient_light=None if ambient is None else

@@ -255,14 +255,35 @@ def _pr_camera(pyrender: Any, camera: Camera, notes: list[str]) -> tuple[Any, np
 
 
 def to_pyrender(scene: Scene, camera: Camera | None = None) -> Any:
-    """Convert a ``softrast.Scene`` (and optionally its camera) to a ``pyrender.Scene``: the
-    reverse of ``from_pyrender`` (what converts and what warns: docs/interop.md).
+    """Convert a ``softrast.Scene`` (and optionally its camera) to a ``pyrender.Scene``.
 
-    Imports pyrender (and so PyOpenGL: set ``PYOPENGL_PLATFORM`` first for headless rendering);
-    needs no display or OpenGL context. ``camera`` becomes the scene's main camera; render an
-    ``IntrinsicsCamera`` at its own width x height. The scene's background is black, as
-    softrast's default. Everything that does not convert exactly warns (UserWarning, once per
-    cause), naming the instance, material, texture slot, light or camera.
+    The reverse of ``from_pyrender`` (what converts and what warns: docs/interop.md). Imports
+    pyrender (and so PyOpenGL: set ``PYOPENGL_PLATFORM`` first for headless rendering); needs no
+    display or OpenGL context. The scene's background is black, as softrast's default.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene to convert.
+    camera : Camera, optional
+        Becomes the scene's main camera; render an ``IntrinsicsCamera`` at its own width x height.
+
+    Returns
+    -------
+    pyrender.Scene
+
+    Raises
+    ------
+    TypeError
+        For a scene or camera of another type.
+    ImportError
+        Without pyrender, or a PyOpenGL platform it can load.
+
+    Warns
+    -----
+    UserWarning
+        Everything that does not convert exactly warns (once per cause), naming the instance,
+        material, texture slot, light or camera.
     """
     if not isinstance(scene, Scene):
         raise TypeError(f"scene must be a softrast.Scene, got {type(scene).__name__}")
