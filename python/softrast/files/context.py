@@ -11,15 +11,12 @@ from typing import Any
 import numpy as np
 
 from ..material import Material
-from ..texture import Texture
+from ..texture import Texture, srgb_decode
 
 __all__ = ["FileInfo", "srgb_to_linear"]
 
 
-def srgb_to_linear(c: Any) -> np.ndarray:
-    """Exact IEC 61966-2-1 sRGB decoding of values in [0, 1] (float64)."""
-    c = np.asarray(c, dtype=np.float64)
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+srgb_to_linear = srgb_decode  # exact IEC 61966-2-1 sRGB decoding (float64), the texture's
 
 
 _SRGB8 = srgb_to_linear(np.arange(256) / 255.0)  # 8-bit code -> linear
