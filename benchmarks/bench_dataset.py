@@ -1,4 +1,4 @@
-"""Dataset rendering rates (issue 22): N views of Spot (assets/meshes/spot.obj, 640x480, colour
+"""Dataset rendering rates: N views of Spot (assets/meshes/spot.obj, 640x480, colour
 + depth + instance_id, an orbit of cameras) as
 
   * a Python loop over Renderer.render (threads 2),

@@ -1,4 +1,4 @@
-"""Every candidate encoder for each output kind of a dataset (issue 37, part 1).
+"""Every candidate encoder for each output kind of a dataset.
 
 Renders real frames (Spot, as bench_dataset.py, and a row of three textured Fuze bottles with
 instance ids 1-3, each on an orbit of cameras, 640x480) and, for each output kind
@@ -377,7 +377,7 @@ def register_candidates() -> None:
 
     # colour: (h, w, 3) uint8
     c = "color"
-    candidate(c, "OIIO PNG zlib 1 (softrast before issue 37)", oiio("png", 1), png_any, "png")
+    candidate(c, "OIIO PNG zlib 1 (softrast's former default)", oiio("png", 1), png_any, "png")
     candidate(c, "cv2 PNG level 1", cv2_enc(".png", lambda cv2: [cv2.IMWRITE_PNG_COMPRESSION, 1]), cv2_dec,
               "png", needs=("cv2",))
     candidate(c, "imagecodecs png (libpng) level 1", codec("png", level=1), codec_dec("png"), "png",
@@ -397,7 +397,7 @@ def register_candidates() -> None:
 
     # ids: PNG16 of id + 1, or int32 TIFF of the id itself
     c, u16 = "instance_id", "id+1 uint16"
-    candidate(c, "OIIO PNG16 zlib 1 (softrast before issue 37)", oiio("png", 1), png_any, "png",
+    candidate(c, "OIIO PNG16 zlib 1 (softrast's former default)", oiio("png", 1), png_any, "png",
               stored=u16)
     candidate(c, "cv2 PNG16 level 1", cv2_enc(".png", lambda cv2: [cv2.IMWRITE_PNG_COMPRESSION, 1]), cv2_dec,
               "png", needs=("cv2",), stored=u16)
@@ -434,7 +434,7 @@ def register_candidates() -> None:
                   needs=("cv2",))
         exr_any = _via_file(read_oiio, "exr")
         for comp in ("none", "zip", "zips", "piz", "rle"):
-            candidate(c, f"OIIO EXR {comp}" + (" (softrast before issue 37)" if comp == "zip" else ""),
+            candidate(c, f"OIIO EXR {comp}" + (" (softrast's former default)" if comp == "zip" else ""),
                       oiio("exr", comp), exr_any, "exr")
         for comp in ("NO", "ZIP"):
             candidate(c, f"OpenEXR bindings {comp.lower() if comp == 'ZIP' else 'none'}",

@@ -327,7 +327,7 @@ class LitJob(Job):
 
 def section_lit(opts):
     sub, size = 6, 1024
-    print(f"\n## Lit shading (issue 16): ns per covered pixel by model and point lights; ico{sub} "
+    print(f"\n## Lit shading: ns per covered pixel by model and point lights; ico{sub} "
           f"{size}x{size}, colour+depth, frequency=pixel, srgb=False, threads 2, out=")
     counts = LIT_COUNTS if not opts.quick else (1, 4)
     jobs = [Job("depth", sub, size, size, outputs=("depth",)),
@@ -377,7 +377,7 @@ class TexturedJob(Job):
 
 def section_textures(opts):
     sub, size = 6, 1024
-    print(f"\n## Textures (issue 17): ns per covered pixel by filter over the same untextured unlit "
+    print(f"\n## Textures: ns per covered pixel by filter over the same untextured unlit "
           f"render; ico{sub} {size}x{size} with spherical uvs (4x2 repeats of the 1024x1024 Spot "
           f"texture: ~1-2 texels per pixel), colour+depth, threads 2, out=")
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -549,7 +549,7 @@ DISTORTION_CAMERAS = [("pinhole", None, 1), ("dist s=1", DISTORTION_BARREL, 1), 
 
 
 def section_distortion(opts):
-    print("\n## Lens distortion (issue 19): ico6 640x480, strong barrel (k1 -0.3, k2 0.1), 2 threads, out=")
+    print("\n## Lens distortion: ico6 640x480, strong barrel (k1 -0.3, k2 0.1), 2 threads, out=")
     outs = DISTORTION_OUTPUTS
     cams = DISTORTION_CAMERAS
     if opts.ab_old:
@@ -623,7 +623,7 @@ def _spot_scene(width, height):
 
 
 def section_antialiasing(opts):
-    print("\n## Anti-aliasing (issue 18): cost of each msaa / ssaa level, 640x480, 2 threads, out=;"
+    print("\n## Anti-aliasing: cost of each msaa / ssaa level, 640x480, 2 threads, out=;"
           "\n   ico6 (81,920 faces of ~4 px: most pixels meet an edge) and Spot (5,856 faces)")
     modes = [("off", {}), ("msaa2", dict(msaa=2)), ("msaa4", dict(msaa=4)), ("msaa8", dict(msaa=8)),
              ("msaa16", dict(msaa=16)), ("ssaa2", dict(ssaa=2)), ("ssaa3", dict(ssaa=3)),

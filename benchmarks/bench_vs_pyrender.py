@@ -1,4 +1,4 @@
-"""softrast vs pyrender (OSMesa) vs a bare moderngl pipeline (EGL), all on the CPU: issue 3's table.
+"""softrast vs pyrender (OSMesa) vs a bare moderngl pipeline (EGL), all on the CPU: the headline table.
 
 Run ``bash benchmarks/setup_baselines.sh`` once first, then::
 
@@ -536,7 +536,7 @@ def run_lit(rows, pyrender, pyrender_error, target_s, n_min, n_max, rounds, png_
 
 def report_lit(results: list[dict]) -> None:
     get = lambda r, k: r["ms"].get(k, float("nan"))  # noqa: E731
-    print("\nLit rows (issue 16): median ms per colour+depth frame (steady state, out=, readback included);"
+    print("\nLit rows: median ms per colour+depth frame (steady state, out=, readback included);"
           "\npyrender runs its standard metallic-roughness shader for both models (it has no Blinn-Phong);"
           "\nsr = softrast (sRGB-encoded colour unless 'lin'), t2/t1 = threads")
     head = (f"{'model':<12}{'scene':<7}{'faces':>8}{'size':>10}{'cover':>6}{'pyrender':>9}{'sr t2':>8}"
@@ -684,7 +684,7 @@ def run_textured(pyrender, target_s, n_min, n_max, rounds, png_dir, quick) -> li
 
 def report_textured(results: list[dict]) -> None:
     get = lambda r, k: r["ms"].get(k, float("nan"))  # noqa: E731
-    print("\nTextured rows (issue 17): median ms per colour+depth frame; pyrender's standard shader with"
+    print("\nTextured rows: median ms per colour+depth frame; pyrender's standard shader with"
           "\nthe base colour texture vs softrast pbr + texture (trilinear unless named), t2/t1 = threads")
     head = (f"{'row':<18}{'cover':>6}{'pyrender':>9}{'sr t2':>8}{'sr t1':>8}{'nearest':>8}{'bilin':>8}"
             f"{'aniso':>8}{'untex':>8}{'xpyr t2':>9}{'untex x':>9}  goal >= {TEXTURED_GOAL:.0f}x")
@@ -747,7 +747,7 @@ def run_aa(pyrender, target_s, n_min, n_max, rounds, png_dir, quick) -> list[dic
 
 def report_aa(results: list[dict]) -> None:
     get = lambda r, k: r["ms"].get(k, float("nan"))  # noqa: E731
-    print("\nAnti-aliasing rows (issue 18): median ms per colour+depth frame, softrast t2 out=;"
+    print("\nAnti-aliasing rows: median ms per colour+depth frame, softrast t2 out=;"
           "\npyrender under OSMesa is aliased (1 sample per pixel; its 4x MSAA is EGL / on-screen only)")
     head = (f"{'row':<16}{'pyrender':>9}" + "".join(f"{label:>8}" for label, _ in AA_MODES)
             + f"{'x pyr m4':>9}{'m4/m1':>7}  goal >= {AA_GOAL:.0f}x")
@@ -819,7 +819,7 @@ def run_points(pyrender, target_s, n_min, n_max, rounds, png_dir) -> list[dict]:
 
 
 def report_points(results: list[dict]) -> None:
-    print("\nPoint cloud rows (issue 18): median ms per colour+depth frame, out=")
+    print("\nPoint cloud rows: median ms per colour+depth frame, out=")
     head = f"{'row':<26}{'pyrender':>9}{'sr t2':>8}{'sr t1':>8}{'x pyr t2':>9}  goal >= {POINTS_GOAL:.0f}x"
     print(head)
     print("-" * len(head))
@@ -1196,12 +1196,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-moderngl", action="store_true")
     ap.add_argument("--json", help="also write every median to this JSON file")
     ap.add_argument("--from-json", help="print the tables of an earlier --json file and exit")
-    ap.add_argument("--lit", action="store_true", help="also run issue 16's lit rows (blinn_phong, pbr)")
+    ap.add_argument("--lit", action="store_true", help="also run the lit rows (blinn_phong, pbr)")
     ap.add_argument("--lit-only", action="store_true", help="run only the lit rows")
     ap.add_argument("--textured", action="store_true",
-                    help="only issue 17's textured rows (textured Spot, BoxTextured)")
-    ap.add_argument("--aa", action="store_true", help="only issue 18's anti-aliasing rows")
-    ap.add_argument("--points", action="store_true", help="only issue 18's point cloud row")
+                    help="only the textured rows (textured Spot, BoxTextured)")
+    ap.add_argument("--aa", action="store_true", help="only the anti-aliasing rows")
+    ap.add_argument("--points", action="store_true", help="only the point cloud row")
     ap.add_argument("--png", help="write each lit row's colour image from each renderer into this directory")
     ab = ap.add_argument_group("A/B (old build vs new build, one run; no pyrender needed)")
     ab.add_argument("--ab-python", metavar="OLD_PY",
@@ -1368,7 +1368,7 @@ def report(results: list[dict], pyrender_error: str | None, moderngl_error: str 
                   f"{fmt(r['faces'] / t1 / 1e3, 10, 2)}{fmt(r['faces'] / t2 / 2e3, 10, 2)}"
                   f"{fmt(pix / t1 / 1e3, 10)}{fmt(pix / t2 / 2e3, 10)}{fmt(ratio(t1, t2), 7, 2)}")
 
-    print(f"\nGoals (issue 3): colour+depth >= {GOALS['color+depth']:.0f}x pyrender, depth-only >= "
+    print(f"\nGoals: colour+depth >= {GOALS['color+depth']:.0f}x pyrender, depth-only >= "
           f"{GOALS['depth']:.0f}x pyrender, colour+depth >= {GOALS['moderngl']:.0f}x moderngl, "
           f"first frame <= {GOALS['first_over_steady']:.0f} steady frames (softrast t2; ratios vs t2 out=, "
           f"first frame vs steady frames into new arrays)")

@@ -16,7 +16,7 @@ colour where nothing is hit, the requested outputs with their shapes and dtypes)
 The examples run in a child process under a timeout, so a crash fails the test with its signal
 and a hang fails it at the timeout instead of stalling CI. derandomize=True: the same examples
 every run. SOFTRAST_HYPOTHESIS_EXAMPLES sets their number (default 200, about 15 s with the
-textures, anti-aliasing and primitives; 1,500 passed on 2026-11-28, about 2 min).
+textures, anti-aliasing and primitives; 1,500 pass in about 2 min).
 """
 from __future__ import annotations
 
