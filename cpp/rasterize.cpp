@@ -23,7 +23,7 @@ template <bool kCoverage, bool kScanline>
 struct RasterizeAllSamples {
   SR_INLINE static void run(const TileRect& rect, int tile, const std::vector<SetupChunk>& chunks,
                             std::size_t num_chunks, TileScratch* const* samples, int count) {
-    for (int s = 0; s < count; ++s) samples[s]->clear(kCoverage);
+    for (int s = 0; s < count; ++s) samples[s]->clear(kCoverage, rect.y1 - rect.y0);
     raster::rasterize_all_samples<kCoverage, kScanline>(rect, tile, chunks, num_chunks, samples, count);
   }
 };
@@ -52,14 +52,15 @@ void rasterize_tile(RasterizeFn kernel, const Viewport& viewport, int tile,
                     const std::vector<SetupChunk>& chunks, std::size_t num_chunks,
                     bool want_coverage, TileScratch& s) {
   const TileRect rect = tile_rect(viewport, tile);
-  s.clear(want_coverage);
+  s.clear(want_coverage, rect.y1 - rect.y0);
   kernel(rect, tile, chunks, num_chunks, s);
 }
 
-void TileScratch::clear(bool want_coverage) {
-  std::fill(std::begin(key), std::end(key), -std::numeric_limits<float>::infinity());
-  std::fill(std::begin(visible), std::end(visible), kNoTriangle);
-  if (want_coverage) std::fill(std::begin(coverage), std::end(coverage), 0u);
+void TileScratch::clear(bool want_coverage, int rows) {
+  const int n = std::min(kTileScratchPixels, (rows + 1) * kTileSizePx + simd::kLanes);
+  std::fill(key, key + n, -std::numeric_limits<float>::infinity());
+  std::fill(visible, visible + n, kNoTriangle);
+  if (want_coverage) std::fill(coverage, coverage + n, 0u);
   triangles.clear();
   flags = 0;
 }

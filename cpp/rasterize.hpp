@@ -47,7 +47,10 @@ struct TileScratch {
   // or one sample of a multisample pattern (viewport.hpp, multisample.cpp).
   int32_t sample_x = kSubpixelHalf, sample_y = kSubpixelHalf;
 
-  void clear(bool want_coverage);  // before a tile: nothing drawn
+  // Before a tile of `rows` rows: nothing drawn. Only the rows the tile's kernels can touch are
+  // written (its rows, the one past the last, and the lanes' spill), so a small frame (a 1x1
+  // render, the bottom tiles of a 480-row image) does not clear a whole 64x64 tile.
+  void clear(bool want_coverage, int rows);
 };
 
 // Rasterizes every triangle binned to `tile`, chunks in order, records in order: ties in depth

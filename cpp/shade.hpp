@@ -128,7 +128,7 @@ inline void shade_deferred(const TileKernels& kernels, const ShadeParams& params
 inline void shade_forward(const TileKernels& kernels, const ShadeParams& params,
                           const TileRect& rect, int tile, const std::vector<SetupChunk>& chunks,
                           std::size_t num_chunks, TileScratch& raster, ShadeScratch& out) {
-  raster.clear(kernels.coverage);
+  raster.clear(kernels.coverage, rect.y1 - rect.y0);
   kernels.forward(params, rect, tile, chunks, num_chunks, raster, out);
 }
 
