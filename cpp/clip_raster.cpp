@@ -108,14 +108,7 @@ void clip_and_setup(const float* pos, const int32_t* face, uint8_t mask, const C
     snap(poly[i].p_clip, poly[i].p_clip_d, planes, params.viewport, projected[i]);
     if (projected[i].outcode & kInvalidVertex) return;  // Unrepresentable after clipping => drop.
   }
-  for (int i = 1; i + 1 < n; ++i) {  // fan: watertight inside, as all sub-triangles share snaps
-    const ProjectedVertex* const tri[3] = {&projected[0], &projected[i], &projected[i + 1]};
-    TriangleSetup t;
-    TriangleShading a;
-    ExactWeights e;
-    int64_t area2;
-    if (setup_triangle(tri, params, prim, nullptr, t, a, e, area2)) append(t, area2, params.viewport, out);
-  }
+  setup_fan(projected, poly, n, params, prim, out);  // params.shade is false: records only
 }
 
 // Triangles [begin, end) of tri, set up and binned into `out` (cleared first). Each record's prim

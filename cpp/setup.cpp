@@ -199,6 +199,13 @@ void clip_and_setup(const ivec3& face, uint8_t planes_mask, const SetupParams& p
             params.orthographic, /*snap_outside=*/true, projected[i]);
     if (projected[i].outcode & kInvalidVertex) return;  // Unrepresentable after clipping => drop.
   }
+  setup_fan(projected, poly, n, params, prim, out);
+}
+
+}  // namespace
+
+void setup_fan(const ProjectedVertex* projected, const ClipPoint* poly, int n, const SetupParams& params,
+               uint32_t prim, SetupChunk& out) {
   for (int i = 1; i + 1 < n; ++i) {  // fan: watertight inside, as all sub-triangles share snaps
     const ProjectedVertex* const tri[3] = {&projected[0], &projected[i], &projected[i + 1]};
     TriangleSetup t;
@@ -217,8 +224,6 @@ void clip_and_setup(const ivec3& face, uint8_t planes_mask, const SetupParams& p
     emit(t.x0, t.y0, t.x1, t.y1, double(area2), params.viewport, out);
   }
 }
-
-}  // namespace
 
 // One face on its own: what the eight-lane path leaves over (the last faces of a chunk, and any
 // face with a vertex outside a plane or not finite).

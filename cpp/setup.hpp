@@ -39,6 +39,12 @@ bool setup_triangle(const ProjectedVertex* const v[3], const SetupParams& params
                     const int32_t* vertex, TriangleSetup& t, TriangleShading& a, ExactWeights& e,
                     int64_t& positive_area2);
 
+// A clipped face's polygon (n corners `poly`, snapped as `projected`) set up and binned as a fan
+// from its first corner; with params.shade, each piece's shading records and clip-space weights.
+// (setup.cpp's clipped faces, and clip_raster.cpp's triangles given in clip space.)
+void setup_fan(const ProjectedVertex* projected, const ClipPoint* poly, int n, const SetupParams& params,
+               uint32_t prim, SetupChunk& out);
+
 // Sets up faces [begin, end) of one draw and bins them (out is cleared first).
 void setup_chunk(const SetupParams& params, std::size_t begin, std::size_t end, SetupChunk& out);
 
