@@ -97,6 +97,13 @@ def image_side(value: Any, name: str) -> int:
     return side
 
 
+def flag(value: Any, name: str) -> bool:
+    """True or False (a NumPy bool too) as a Python bool; not 1 or 0."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be True or False, got {value!r:.80}")
+    return bool(value)
+
+
 def choice(value: Any, name: str, options: Sequence[str]) -> str:
     """One of the strings ``options``."""
     if not isinstance(value, str):

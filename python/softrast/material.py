@@ -12,7 +12,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from . import _core
-from ._checks import float32_real, real, real_array
+from ._checks import flag, float32_real, real, real_array
 from .texture import Texture
 
 __all__ = ["Material", "MODELS", "ALPHA_MODES"]
@@ -178,9 +178,7 @@ class Material:
         s(self, "metallic", _unit_real(metallic, "metallic"))
         s(self, "roughness", _unit_real(roughness, "roughness"))
         s(self, "emissive", _color(emissive, "emissive", 3))
-        if not isinstance(double_sided, (bool, np.bool_)):
-            raise TypeError(f"double_sided must be True or False, got {double_sided!r:.80}")
-        s(self, "double_sided", bool(double_sided))
+        s(self, "double_sided", flag(double_sided, "double_sided"))
         if model is not None:
             if not isinstance(model, str):
                 raise TypeError(f"model must be one of {MODELS} or None, got {type(model).__name__}")

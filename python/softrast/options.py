@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from . import _core
-from ._checks import choice, real, unit_rgb
+from ._checks import choice, flag, real, unit_rgb
 from .light import shadow_method
 from .texture import check_filter
 
@@ -25,12 +25,6 @@ MSAA_COUNTS = (1, 2, 4, 8, 16)
 # from them and the scene (cpp/renderer.cpp, the plan).
 SHADING = _core.SHADING_MODELS
 NORMAL_SPACES = ("world", "camera")
-
-
-def _flag(value: Any, name: str) -> bool:
-    if not isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{name} must be True or False, got {value!r:.80}")
-    return bool(value)
 
 
 def _antialiasing(msaa: Any, ssaa: Any) -> tuple[int, int]:
@@ -165,12 +159,12 @@ class RenderOptions:
         set_ = object.__setattr__
         choice(self.cull, "cull", _core.CULL_MODES)
         choice(self.normal_kind, "normal_kind", _core.NORMAL_KINDS)
-        set_(self, "cull_double_sided", _flag(self.cull_double_sided, "cull_double_sided"))
+        set_(self, "cull_double_sided", flag(self.cull_double_sided, "cull_double_sided"))
         choice(self.shading, "shading", SHADING)
         choice(self.shading_path, "shading_path", _core.SHADING_PATHS)
         choice(self.raster, "raster", _core.RASTER_ALGORITHMS)
         choice(self.line_algorithm, "line_algorithm", _core.LINE_ALGORITHMS)
-        set_(self, "wireframe", _flag(self.wireframe, "wireframe"))
+        set_(self, "wireframe", flag(self.wireframe, "wireframe"))
         set_(self, "line_color", unit_rgb(self.line_color, "line_color"))
         width = real(self.line_width, "line_width")
         if not (np.isfinite(width) and 0.0 < width <= 1e6):
@@ -178,7 +172,7 @@ class RenderOptions:
         set_(self, "line_width", width)
         choice(self.frequency, "frequency", _core.FREQUENCIES)
         choice(self.normal_space, "normal_space", NORMAL_SPACES)
-        set_(self, "srgb", _flag(self.srgb, "srgb"))
+        set_(self, "srgb", flag(self.srgb, "srgb"))
         if self.texture_filter is not None:
             check_filter(self.texture_filter, "texture_filter")
         set_(self, "background", unit_rgb(self.background, "background"))

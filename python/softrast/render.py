@@ -8,7 +8,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._checks import image_side, integer
+from ._checks import flag, image_side, integer
 from .camera import Camera
 from .distortion import render_distorted
 from .draws import _check_mip_budgets, _draws, _lights, _primitive_draws, _wireframe_draws
@@ -272,8 +272,7 @@ class Renderer:
         n_workers = self.threads if workers is None else integer(workers, "workers")
         if not 1 <= n_workers <= _core.MAX_THREADS:
             raise ValueError(f"workers must be in [1, {_core.MAX_THREADS}], got {n_workers}")
-        if not isinstance(progress, (bool, np.bool_)):
-            raise TypeError(f"progress must be True or False, got {progress!r:.80}")
+        flag(progress, "progress")
         return self._render_many(scene, cameras, outputs, bool(progress), callback, n_workers,
                                  self._args[3], options)
 

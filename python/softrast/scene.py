@@ -9,7 +9,7 @@ from typing import Any, Callable, Iterator, Sequence, TypeVar
 import numpy as np
 import numpy.typing as npt
 
-from ._checks import FLOAT32_MAX, affine_pose, integer, real_array, unit_vector
+from ._checks import FLOAT32_MAX, affine_pose, flag, integer, real_array, unit_vector
 from .files.context import FileInfo
 from .files.convert import placements
 from .light import Light
@@ -206,8 +206,7 @@ class Scene:
         if isinstance(item, Light):
             if instance_id is not None or color is not None or material is not None:
                 raise ValueError("instance_id, color and material are for meshes, not lights")
-            if not isinstance(camera_space, (bool, np.bool_)):
-                raise TypeError(f"camera_space must be True or False, got {camera_space!r:.80}")
+            flag(camera_space, "camera_space")
             light_pose = _check_model_pose(pose)
             if unit_vector(light_pose[:3, 2]) is None:  # scaled: 1e-200 is a direction
                 raise ValueError("pose: a light's pose must keep its z axis (the way it shines): "
